@@ -1,0 +1,12 @@
+#pragma once
+
+// Umbrella header of the autograd layer.
+#include "autograd/dtype.h"
+#include "autograd/engine.h"
+#include "autograd/generator.h"
+#include "autograd/grad_mode.h"
+#include "autograd/gradcheck.h"
+#include "autograd/node.h"
+#include "autograd/ops.h"
+#include "autograd/shape.h"
+#include "autograd/tensor.h"

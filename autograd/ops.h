@@ -1,0 +1,101 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "autograd/tensor.h"
+
+// Every op records its backward rule (written in these same ops) when grad mode is on and an
+// input requires grad. Binary ops broadcast like NumPy; a shape or dtype mismatch throws an
+// error naming the op and both shapes. Dims may be negative (counted from the end).
+namespace maps::ag {
+
+// ----- elementwise binary (broadcasting) -----
+Tensor add(const Tensor& a, const Tensor& b);
+Tensor sub(const Tensor& a, const Tensor& b);
+Tensor mul(const Tensor& a, const Tensor& b);
+Tensor div(const Tensor& a, const Tensor& b);
+Tensor minimum(const Tensor& a, const Tensor& b);  // ties split the gradient evenly, like PyTorch
+Tensor maximum(const Tensor& a, const Tensor& b);
+Tensor pow(const Tensor& base, const Tensor& exponent);  // tensor exponent
+
+// ----- with a scalar -----
+Tensor add(const Tensor& a, double b);
+Tensor mul(const Tensor& a, double b);
+Tensor pow(const Tensor& base, double exponent);
+Tensor rsub(double a, const Tensor& b);  // a - b
+Tensor rdiv(double a, const Tensor& b);  // a / b
+
+// ----- elementwise unary -----
+Tensor neg(const Tensor& x);
+Tensor exp(const Tensor& x);
+Tensor log(const Tensor& x);
+Tensor sqrt(const Tensor& x);
+Tensor abs(const Tensor& x);                            // gradient sign(x), 0 at 0 like PyTorch
+Tensor clamp(const Tensor& x, double min, double max);  // gradient passes where min <= x <= max
+Tensor clamp_min(const Tensor& x, double min);
+Tensor clamp_max(const Tensor& x, double max);
+Tensor relu(const Tensor& x);
+Tensor tanh(const Tensor& x);
+Tensor sigmoid(const Tensor& x);
+Tensor square(const Tensor& x);
+
+// ----- linear algebra -----
+// [n,k]@[k,m] -> [n,m]; [b,n,k]@[b,k,m] -> [b,n,m]; [b,n,k]@[k,m] -> [b,n,m].
+Tensor matmul(const Tensor& a, const Tensor& b);
+
+// ----- shape -----
+Tensor reshape(const Tensor& x, const Shape& shape);  // one dim may be -1
+Tensor transpose(const Tensor& x, std::int64_t dim0, std::int64_t dim1);
+Tensor expand(const Tensor& x, const Shape& shape);  // broadcast to shape (copying)
+// Sums a broadcast gradient back down to `shape` (the reverse of expand).
+Tensor sum_to(const Tensor& x, const Shape& shape);
+Tensor concat(const std::vector<Tensor>& tensors, std::int64_t dim);
+Tensor stack(const std::vector<Tensor>& tensors, std::int64_t dim);
+Tensor narrow(const Tensor& x, std::int64_t dim, std::int64_t start, std::int64_t length);
+inline Tensor slice(const Tensor& x, std::int64_t dim, std::int64_t start, std::int64_t end) {
+  return narrow(x, dim, start, end - start);
+}
+// Rows (dim 0) picked by index; indices are checked against x.size(0).
+Tensor index_select(const Tensor& x, const std::vector<std::int64_t>& indices);
+// The adjoint of index_select: a [rows, ...] tensor of zeros with each source row added at its index.
+Tensor index_add(const Tensor& source, const std::vector<std::int64_t>& indices, std::int64_t rows);
+
+// ----- reductions -----
+Tensor sum(const Tensor& x);  // shape {}
+Tensor sum(const Tensor& x, const std::vector<std::int64_t>& dims, bool keepdim = false);
+Tensor mean(const Tensor& x);
+Tensor mean(const Tensor& x, const std::vector<std::int64_t>& dims, bool keepdim = false);
+// Largest value; ties share the gradient evenly, like torch.amax.
+Tensor amax(const Tensor& x);
+Tensor amax(const Tensor& x, const std::vector<std::int64_t>& dims, bool keepdim = false);
+
+// ----- softmax family -----
+Tensor softmax(const Tensor& x, std::int64_t dim);
+Tensor log_softmax(const Tensor& x, std::int64_t dim);
+
+// ----- losses and encodings -----
+Tensor mse_loss(const Tensor& prediction, const Tensor& target);  // mean of squared differences
+// [n] indices -> [n, classes] of 0/1; indices must lie in [0, classes). Records no graph.
+Tensor one_hot(const std::vector<std::int64_t>& indices, std::int64_t classes, Dtype dtype = Dtype::Float32);
+
+// ----- comparisons (record no graph; 1 where true, 0 elsewhere) -----
+Tensor gt(const Tensor& a, const Tensor& b);
+Tensor eq(const Tensor& a, const Tensor& b);
+
+// ----- operators -----
+inline Tensor operator+(const Tensor& a, const Tensor& b) { return add(a, b); }
+inline Tensor operator-(const Tensor& a, const Tensor& b) { return sub(a, b); }
+inline Tensor operator*(const Tensor& a, const Tensor& b) { return mul(a, b); }
+inline Tensor operator/(const Tensor& a, const Tensor& b) { return div(a, b); }
+inline Tensor operator-(const Tensor& a) { return neg(a); }
+inline Tensor operator+(const Tensor& a, double b) { return add(a, b); }
+inline Tensor operator+(double a, const Tensor& b) { return add(b, a); }
+inline Tensor operator-(const Tensor& a, double b) { return add(a, -b); }
+inline Tensor operator-(double a, const Tensor& b) { return rsub(a, b); }
+inline Tensor operator*(const Tensor& a, double b) { return mul(a, b); }
+inline Tensor operator*(double a, const Tensor& b) { return mul(b, a); }
+inline Tensor operator/(const Tensor& a, double b) { return mul(a, 1.0 / b); }
+inline Tensor operator/(double a, const Tensor& b) { return rdiv(a, b); }
+
+}  // namespace maps::ag

@@ -1,0 +1,119 @@
+// Elementwise unary ops. Rules that need the output use Node::output() (saved without a cycle).
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "autograd/grad_mode.h"
+#include "autograd/kernels.h"
+#include "autograd/node.h"
+#include "autograd/ops.h"
+
+namespace maps::ag {
+
+using detail::scalar_of;
+using detail::unary_kernel;
+using Grads = std::vector<Tensor>;
+using Needs = std::vector<bool>;
+
+namespace {
+// A constant (graph-free) 0/1 mask of where pred(x) holds, as x's dtype.
+template <typename Pred>
+Tensor mask_of(const Tensor& x, Pred pred) {
+  NoGradGuard no_grad;
+  return unary_kernel(x, "mask", [pred](const auto& a) {
+    using T = scalar_of<decltype(a)>;
+    return a.unaryExpr([pred](T v) { return pred(v) ? T(1) : T(0); });
+  });
+}
+}  // namespace
+
+Tensor neg(const Tensor& x) {
+  Tensor out = unary_kernel(x, "neg", [](const auto& a) { return -a; });
+  return record("neg", out, {x}, [](const Tensor& g, const Needs&, Node&) { return Grads{neg(g)}; });
+}
+
+Tensor exp(const Tensor& x) {
+  Tensor out = unary_kernel(x, "exp", [](const auto& a) { return a.exp(); });
+  return record(
+      "exp", out, {x}, [](const Tensor& g, const Needs&, Node& self) { return Grads{mul(g, self.output())}; }, true);
+}
+
+Tensor log(const Tensor& x) {
+  Tensor out = unary_kernel(x, "log", [](const auto& a) { return a.log(); });
+  return record("log", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{div(g, x)}; });
+}
+
+Tensor sqrt(const Tensor& x) {
+  Tensor out = unary_kernel(x, "sqrt", [](const auto& a) { return a.sqrt(); });
+  return record(
+      "sqrt", out, {x},
+      [](const Tensor& g, const Needs&, Node& self) { return Grads{div(mul(g, 0.5), self.output())}; }, true);
+}
+
+Tensor abs(const Tensor& x) {
+  Tensor out = unary_kernel(x, "abs", [](const auto& a) { return a.abs(); });
+  return record("abs", out, {x}, [x](const Tensor& g, const Needs&, Node&) {
+    Tensor sign;
+    {
+      NoGradGuard no_grad;
+      sign = unary_kernel(x, "sign", [](const auto& a) { return a.sign(); });
+    }
+    return Grads{mul(g, sign)};
+  });
+}
+
+Tensor clamp(const Tensor& x, double min, double max) {
+  if (!(min <= max)) {
+    throw std::invalid_argument("clamp: min (" + std::to_string(min) + ") must not exceed max (" + std::to_string(max) +
+                                ")");
+  }
+  Tensor out = unary_kernel(x, "clamp", [min, max](const auto& a) {
+    using T = scalar_of<decltype(a)>;
+    return a.max(static_cast<T>(min)).min(static_cast<T>(max));
+  });
+  return record("clamp", out, {x}, [x, min, max](const Tensor& g, const Needs&, Node&) {
+    return Grads{mul(g, mask_of(x, [min, max](auto v) { return v >= min && v <= max; }))};
+  });
+}
+
+Tensor clamp_min(const Tensor& x, double min) { return clamp(x, min, std::numeric_limits<double>::infinity()); }
+Tensor clamp_max(const Tensor& x, double max) { return clamp(x, -std::numeric_limits<double>::infinity(), max); }
+
+Tensor relu(const Tensor& x) {
+  Tensor out = unary_kernel(x, "relu", [](const auto& a) { return a.max(scalar_of<decltype(a)>(0)); });
+  return record("relu", out, {x}, [x](const Tensor& g, const Needs&, Node&) {
+    return Grads{mul(g, mask_of(x, [](auto v) { return v > 0; }))};
+  });
+}
+
+Tensor tanh(const Tensor& x) {
+  Tensor out = unary_kernel(x, "tanh", [](const auto& a) { return a.tanh(); });
+  return record(
+      "tanh", out, {x},
+      [](const Tensor& g, const Needs&, Node& self) {
+        const Tensor y = self.output();
+        return Grads{mul(g, rsub(1.0, mul(y, y)))};
+      },
+      true);
+}
+
+Tensor sigmoid(const Tensor& x) {
+  Tensor out = unary_kernel(x, "sigmoid", [](const auto& a) {
+    using T = scalar_of<decltype(a)>;
+    return T(1) / (T(1) + (-a).exp());
+  });
+  return record(
+      "sigmoid", out, {x},
+      [](const Tensor& g, const Needs&, Node& self) {
+        const Tensor y = self.output();
+        return Grads{mul(g, mul(y, rsub(1.0, y)))};
+      },
+      true);
+}
+
+Tensor square(const Tensor& x) {
+  Tensor out = unary_kernel(x, "square", [](const auto& a) { return a.square(); });
+  return record("square", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{mul(g, mul(x, 2.0))}; });
+}
+
+}  // namespace maps::ag
