@@ -43,6 +43,12 @@ Tensor square(const Tensor& x);
 // ----- linear algebra -----
 // [n,k]@[k,m] -> [n,m]; [b,n,k]@[b,k,m] -> [b,n,m]; [b,n,k]@[k,m] -> [b,n,m].
 Tensor matmul(const Tensor& a, const Tensor& b);
+// op(a) @ op(b), where op transposes the last two dims when asked; same ranks as matmul (a 3-d
+// left operand against a 2-d right one cannot be transposed). No transposed copy is made.
+Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b);
+// x @ weight^T + bias, like torch::nn::functional::linear: x [..., in], weight [out, in],
+// bias [out] or undefined. One GEMM with the bias added in place.
+Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor());
 
 // ----- shape -----
 Tensor reshape(const Tensor& x, const Shape& shape);  // one dim may be -1
