@@ -133,13 +133,11 @@ GradcheckResult gradcheck(const std::string& op, const SingleFunction& f, const 
 GradcheckResult gradgradcheck(const std::string& op, const MultiFunction& f, const std::vector<Tensor>& inputs,
                               const GradcheckOptions& options, unsigned seed) {
   const std::vector<std::size_t> diff = differentiable_inputs(op, inputs);
+  // f runs with grad mode on: it may itself call grad() (a MAML meta-loss does).
+  const std::vector<Tensor> outputs = f(inputs);
   std::vector<Tensor> grad_outputs;
-  {
-    Generator gen(seed);
-    NoGradGuard no_grad;
-    for (const Tensor& out : f(inputs))
-      grad_outputs.push_back(randn(out.shape(), gen, Dtype::Float64).requires_grad_());
-  }
+  Generator gen(seed);
+  for (const Tensor& out : outputs) grad_outputs.push_back(randn(out.shape(), gen, Dtype::Float64).requires_grad_());
   const std::size_t n_inputs = inputs.size();
   // The first-order gradient as a function of (inputs, grad_outputs), built with create_graph.
   MultiFunction first_order = [&f, &diff, n_inputs](const std::vector<Tensor>& all) {

@@ -49,8 +49,10 @@ void gemm_one(const T* a, std::int64_t ar, std::int64_t ac, bool ta, const T* b,
 
 }  // namespace
 
-Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b) {
-  const char* op = "matmul";
+namespace {
+
+// matmul and gemm share this; `op` names the public entry point in errors and in the graph.
+Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b) {
   detail::check_defined(a, op, "first operand");
   detail::check_defined(b, op, "second operand");
   detail::check_same_dtype(a, b, op);
@@ -84,27 +86,32 @@ Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b
                   out.data<T>() + i * n * m);
     }
   });
-  return record("matmul", out, {a, b},
-                [a, b, transpose_a, transpose_b, tall](const Tensor& g, const Needs& need, Node&) {
-                  Grads grads(2);
-                  // C = op(A) op(B): dop(A) = G op(B)^T and dop(B) = op(A)^T G, transposed back where op transposed.
-                  if (need[0]) grads[0] = transpose_a ? gemm(b, g, transpose_b, true) : gemm(g, b, false, !transpose_b);
-                  if (need[1]) {
-                    if (tall) {
-                      // B is shared by every batch entry: its gradient sums over them, one GEMM over the flattened
-                      // rows.
-                      const Tensor a2 = reshape(a, {-1, a.size(-1)});
-                      const Tensor g2 = reshape(g, {-1, g.size(-1)});
-                      grads[1] = transpose_b ? gemm(g2, a2, true, false) : gemm(a2, g2, true, false);
-                    } else {
-                      grads[1] = transpose_b ? gemm(g, a, true, transpose_a) : gemm(a, g, !transpose_a, false);
-                    }
-                  }
-                  return grads;
-                });
+  return record(op, out, {a, b}, [a, b, transpose_a, transpose_b, tall](const Tensor& g, const Needs& need, Node&) {
+    Grads grads(2);
+    // C = op(A) op(B): dop(A) = G op(B)^T and dop(B) = op(A)^T G, transposed back where op transposed.
+    if (need[0]) grads[0] = transpose_a ? gemm(b, g, transpose_b, true) : gemm(g, b, false, !transpose_b);
+    if (need[1]) {
+      if (tall) {
+        // B is shared by every batch entry: its gradient sums over them, one GEMM over the flattened
+        // rows.
+        const Tensor a2 = reshape(a, {-1, a.size(-1)});
+        const Tensor g2 = reshape(g, {-1, g.size(-1)});
+        grads[1] = transpose_b ? gemm(g2, a2, true, false) : gemm(a2, g2, true, false);
+      } else {
+        grads[1] = transpose_b ? gemm(g, a, true, transpose_a) : gemm(a, g, !transpose_a, false);
+      }
+    }
+    return grads;
+  });
 }
 
-Tensor matmul(const Tensor& a, const Tensor& b) { return gemm(a, b, false, false); }
+}  // namespace
+
+Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b) {
+  return product("gemm", a, b, transpose_a, transpose_b);
+}
+
+Tensor matmul(const Tensor& a, const Tensor& b) { return product("matmul", a, b, false, false); }
 
 Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias) {
   detail::check_defined(x, "linear", "input");
