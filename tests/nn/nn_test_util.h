@@ -1,0 +1,54 @@
+#pragma once
+
+// Shared helpers of the nn tests.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "nn/nn.h"
+
+namespace nntest {
+
+namespace ag = maps::ag;
+namespace nn = maps::nn;
+namespace optim = maps::optim;
+using ag::Dtype;
+using ag::Shape;
+using ag::Tensor;
+using ::testing::HasSubstr;
+
+// The message of what fn throws, or "<no exception>".
+template <typename Fn>
+std::string error_of(Fn&& fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "<no exception>";
+}
+
+inline Tensor tensor(const std::vector<double>& values, const Shape& shape, Dtype dtype = Dtype::Float64) {
+  return ag::from_vector(values, shape, dtype);
+}
+
+// Largest absolute elementwise difference; shapes must match.
+inline double max_abs_diff(const Tensor& a, const Tensor& b) {
+  EXPECT_EQ(a.shape(), b.shape());
+  const std::vector<double> x = a.to_vector(), y = b.to_vector();
+  double worst = 0.0;
+  for (std::size_t i = 0; i < x.size() && i < y.size(); ++i) worst = std::max(worst, std::abs(x[i] - y[i]));
+  return worst;
+}
+
+inline std::vector<std::string> names_of(const nn::NamedTensors& tensors) {
+  std::vector<std::string> names;
+  for (const auto& t : tensors) names.push_back(t.name);
+  return names;
+}
+
+}  // namespace nntest

@@ -1,0 +1,86 @@
+#include "optim_test_util.h"
+
+namespace nntest {
+namespace {
+
+// Reference values from PyTorch 1.13 (Debian's python3-torch), produced by:
+//
+//   import torch
+//   def run(opt_cls, dtype, **kw):
+//       p = torch.tensor([[0.5, -1.0], [2.0, 0.0]], dtype=dtype, requires_grad=True)
+//       q = torch.tensor([1.5, -0.25, 0.75], dtype=dtype, requires_grad=True)
+//       opt = opt_cls([p, q], **kw)
+//       for t in range(1, 6):
+//           p.grad = torch.tensor([[0.1 * t, -0.2], [0.3 / t, -0.05 * t * t]], dtype=dtype)
+//           q.grad = None if t == 3 else torch.tensor([0.01, -1.0 * t, 2.0], dtype=dtype)
+//           opt.step()
+//       return [repr(x) for x in p.detach().flatten().tolist() + q.detach().tolist()]
+//   print(run(torch.optim.Adam, torch.float64, lr=0.01, betas=(0.8, 0.99), eps=1e-6, weight_decay=0.1))
+//   print(run(torch.optim.Adam, torch.float32))
+
+TEST(Adam, MatchesPyTorchWithWeightDecayAndEpsFloat64) {
+  const std::vector<double> expected = {0.4494197677506977,  -0.9500296574133197, 1.9527142790834409,
+                                        0.04741393911120505, 1.460029418227668,   -0.21057548973886328,
+                                        0.7100022225302908};
+  const auto got = run_reference_problem(Dtype::Float64, [](std::vector<Tensor> params) {
+    return optim::Adam(std::move(params), {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.99, .eps = 1e-6, .weight_decay = 0.1});
+  });
+  expect_all_near(got, expected, 1e-12);
+}
+
+TEST(Adam, MatchesPyTorchDefaultsFloat32) {
+  const std::vector<double> expected = {0.4951491951942444,   -0.9950000643730164, 1.9955984354019165,
+                                        0.004493376240134239, 1.495999813079834,   -0.24617484211921692,
+                                        0.7460000514984131};
+  const auto got =
+      run_reference_problem(Dtype::Float32, [](std::vector<Tensor> params) { return optim::Adam(std::move(params)); });
+  expect_all_near(got, expected, 1e-6);
+}
+
+TEST(Adam, SkipsParametersWithoutGrad) {
+  Tensor p = ag::ones({2}).requires_grad_(), q = ag::ones({2}).requires_grad_();
+  optim::Adam adam({p, q});
+  p.set_grad(ag::ones({2}));
+  adam.step();
+  EXPECT_EQ(adam.step_count(0), 1);
+  EXPECT_EQ(adam.step_count(1), 0);
+  EXPECT_EQ(q.to_vector(), (std::vector<double>{1.0, 1.0}));
+  EXPECT_NEAR(p.at(0), 1.0 - 1e-3, 1e-7);  // the first Adam step moves by lr * sign(g)
+  adam.zero_grad();
+  EXPECT_FALSE(p.grad().defined());
+}
+
+TEST(Adam, RejectsInvalidOptions) {
+  Tensor p = ag::ones({1}).requires_grad_();
+  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.lr = -1.0}); }), HasSubstr("invalid learning rate"));
+  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.beta1 = 1.0}); }), HasSubstr("invalid beta1"));
+  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.beta2 = -0.1}); }), HasSubstr("invalid beta2"));
+  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.eps = -1e-8}); }), HasSubstr("invalid epsilon"));
+  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.weight_decay = -1.0}); }), HasSubstr("invalid weight_decay"));
+  optim::Adam adam({p});
+  adam.set_lr(0.5);
+  EXPECT_EQ(adam.lr(), 0.5);
+  EXPECT_THAT(error_of([&] { adam.set_lr(-0.5); }), HasSubstr("invalid learning rate"));
+  EXPECT_EQ(adam.lr(), 0.5);
+}
+
+TEST(Adam, RejectsBadParameters) {
+  Tensor p = ag::ones({2}).requires_grad_();
+  EXPECT_THAT(error_of([&] { optim::Adam({p * 2.0}); }), HasSubstr("not a leaf"));
+  EXPECT_THAT(error_of([&] { optim::Adam({p, p}); }), HasSubstr("same tensor"));
+}
+
+TEST(Adam, StepRecordsNoGraph) {
+  ag::Generator gen(71);
+  nn::Linear lin(3, 2, gen);
+  optim::Adam adam(lin.parameters());
+  ag::sum(lin.forward(ag::ones({4, 3}))).backward();
+  adam.step();
+  for (const auto& p : lin.parameters()) {
+    EXPECT_TRUE(p.is_leaf());
+    EXPECT_TRUE(p.requires_grad());
+  }
+}
+
+}  // namespace
+}  // namespace nntest
