@@ -1,0 +1,52 @@
+# Helpers shared by the layer folders and tests/.
+
+# maps_add_layer(<target> [PUBLIC_DEPS <targets>...])
+#
+# Builds the layer library of the calling folder from every *.cpp under it (recursively, with
+# CONFIGURE_DEPENDS, so adding a file needs no CMake edit: the next build re-globs).
+# A folder with no .cpp yet gives an INTERFACE library with the same name, include directory
+# and dependencies; it becomes a STATIC library by itself once the first .cpp appears.
+# The repository root is the public include directory ("autograd/tensor.h", "nn/linear.h").
+function(maps_add_layer target)
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "PUBLIC_DEPS")
+  file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
+  if(sources)
+    add_library(${target} STATIC ${sources})
+    target_include_directories(${target} PUBLIC "${PROJECT_SOURCE_DIR}")
+    target_link_libraries(${target} PUBLIC ${arg_PUBLIC_DEPS} PRIVATE maps_warnings)
+    list(LENGTH sources count)
+    message(STATUS "${target}: static library from ${count} source file(s)")
+  else()
+    add_library(${target} INTERFACE)
+    target_include_directories(${target} INTERFACE "${PROJECT_SOURCE_DIR}")
+    target_link_libraries(${target} INTERFACE ${arg_PUBLIC_DEPS})
+    message(STATUS "${target}: no .cpp yet, interface library (headers and dependencies only)")
+  endif()
+endfunction()
+
+# maps_add_test_suite(<layer> <libraries>... [TARGET <name>])
+#
+# tests/<layer>/**/*.cpp -> executable maps_<layer>_tests (or <name>) linked with <libraries> and GoogleTest
+# (gtest_main, plus gmock for matchers such as HasSubstr). Each TEST becomes a ctest test named
+# "<layer>.<Suite>.<Name>" with label <layer>. A folder with no .cpp yet is skipped.
+function(maps_add_test_suite layer)
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "TARGET" "")
+  set(dir "${CMAKE_CURRENT_SOURCE_DIR}/${layer}")
+  set(target maps_${layer}_tests)
+  if(arg_TARGET)
+    set(target ${arg_TARGET})
+  endif()
+  file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${dir}/*.cpp")
+  if(NOT sources)
+    message(STATUS "${target}: tests/${layer}/ has no .cpp yet, skipped")
+    return()
+  endif()
+  add_executable(${target} ${sources})
+  target_link_libraries(${target} PRIVATE ${arg_UNPARSED_ARGUMENTS} GTest::gmock GTest::gtest_main maps_warnings)
+  target_compile_definitions(${target} PRIVATE MAPS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  gtest_discover_tests(${target}
+    TEST_PREFIX "${layer}."
+    NO_PRETTY_VALUES                 # parameterized tests keep their own names, not dumps of GetParam()
+    DISCOVERY_TIMEOUT 300            # listing runs the binary; sanitized builds start slowly
+    PROPERTIES LABELS ${layer} TIMEOUT 900)
+endfunction()

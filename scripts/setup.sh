@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Installs every Debian package the project needs (apt-get only). Idempotent: packages already
+# installed are skipped, and apt-get runs only when something is missing.
+set -euo pipefail
+
+# Later issues append here (HDF5, MuJoCo, gnuplot, ...).
+PACKAGES=(
+  build-essential
+  cmake
+  libeigen3-dev
+  libgtest-dev
+  googletest
+  libbenchmark-dev
+  nlohmann-json3-dev
+  libcli11-dev
+  clang-format
+)
+
+export DEBIAN_FRONTEND=noninteractive
+
+is_installed() {
+  [[ "$(dpkg-query -W -f='${Status}' "$1" 2>/dev/null || true)" == "install ok installed" ]]
+}
+
+missing=()
+for pkg in "${PACKAGES[@]}"; do
+  is_installed "$pkg" || missing+=("$pkg")
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "setup: all ${#PACKAGES[@]} packages already installed"
+  exit 0
+fi
+
+if ((EUID == 0)); then
+  as_root=()
+elif command -v sudo >/dev/null 2>&1; then
+  as_root=(sudo env DEBIAN_FRONTEND=noninteractive)
+else
+  echo "setup: missing packages: ${missing[*]}" >&2
+  echo "setup: installing them needs root, and this is not root and has no sudo; run as root:" >&2
+  echo "  apt-get update && apt-get install -y --no-install-recommends ${missing[*]}" >&2
+  exit 1
+fi
+
+echo "setup: installing ${missing[*]}"
+"${as_root[@]}" apt-get update
+"${as_root[@]}" apt-get install -y --no-install-recommends "${missing[@]}"
+
+still_missing=()
+for pkg in "${missing[@]}"; do
+  is_installed "$pkg" || still_missing+=("$pkg")
+done
+if ((${#still_missing[@]} > 0)); then
+  echo "setup: still not installed after apt-get: ${still_missing[*]}" >&2
+  exit 1
+fi
+echo "setup: done"
