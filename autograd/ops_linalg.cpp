@@ -25,17 +25,14 @@ std::pair<std::int64_t, std::int64_t> op_dims(const Tensor& x, bool transposed) 
   return transposed ? std::pair{c, r} : std::pair{r, c};
 }
 
-template <typename T>
-using RowMat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
 // C = op(A) op(B) for one matrix pair; A is ar x ac and B is br x bc as stored.
 template <typename T>
 void gemm_one(const T* a, std::int64_t ar, std::int64_t ac, bool ta, const T* b, std::int64_t br, std::int64_t bc,
               bool tb, T* c) {
-  Eigen::Map<const RowMat<T>> ma(a, ar, ac);
-  Eigen::Map<const RowMat<T>> mb(b, br, bc);
+  Eigen::Map<const RowMatrix<T>> ma(a, ar, ac);
+  Eigen::Map<const RowMatrix<T>> mb(b, br, bc);
   const std::int64_t n = ta ? ac : ar, m = tb ? br : bc;
-  Eigen::Map<RowMat<T>> mc(c, n, m);
+  Eigen::Map<RowMatrix<T>> mc(c, n, m);
   if (!ta && !tb) {
     mc.noalias() = ma * mb;
   } else if (!ta && tb) {
@@ -135,7 +132,7 @@ Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias) {
   Tensor out = empty(out_shape, x.dtype());
   dispatch_dtype(x.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
-    Eigen::Map<RowMat<T>> o(out.data<T>(), x2.size(0), weight.size(0));
+    Eigen::Map<RowMatrix<T>> o(out.data<T>(), x2.size(0), weight.size(0));
     o.noalias() = x2.detach().matrix<T>() * weight.matrix<T>().transpose();
     if (bias.defined())
       o.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(bias.data<T>(), bias.numel());

@@ -58,7 +58,7 @@ Tensor reduce_one_dim(const Tensor& x, std::int64_t d, Reduce kind, const char* 
   Tensor out = empty(out_shape, x.dtype());
   dispatch_dtype(x.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
-    using Mat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    using Mat = RowMatrix<T>;
     const T* src = x.data<T>();
     T* dst = out.data<T>();
     if (s.inner == 1) {

@@ -66,7 +66,7 @@ Tensor transpose(const Tensor& x, std::int64_t dim0, std::int64_t dim1) {
   Tensor out = empty(out_shape, x.dtype());
   dispatch_dtype(x.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
-    using Mat = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    using Mat = RowMatrix<T>;
     const T* src = x.data<T>();
     T* dst = out.data<T>();
     if (std::min(d0, d1) == rank - 2 && std::max(d0, d1) == rank - 1) {

@@ -113,13 +113,13 @@ std::pair<std::int64_t, std::int64_t> matrix_dims(const Tensor& t) {
 }  // namespace
 
 template <typename T>
-Eigen::Map<Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Tensor::matrix() {
+Eigen::Map<RowMatrix<T>> Tensor::matrix() {
   auto [r, c] = matrix_dims(*this);
   return {data<T>(), r, c};
 }
 
 template <typename T>
-Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> Tensor::matrix() const {
+Eigen::Map<const RowMatrix<T>> Tensor::matrix() const {
   auto [r, c] = matrix_dims(*this);
   return {data<T>(), r, c};
 }

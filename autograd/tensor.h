@@ -39,8 +39,11 @@ struct TensorImpl {
   std::shared_ptr<TensorImpl> grad;  // accumulated by backward() on leaves
 };
 
-using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-using RowMatrixD = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+// Tensors are row-major, so their Eigen views are too.
+template <typename T>
+using RowMatrix = Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMatrixF = RowMatrix<float>;
+using RowMatrixD = RowMatrix<double>;
 
 // A cheap handle with shared ownership, like torch::Tensor: copying a Tensor aliases it.
 // Storage is always contiguous and row-major. A default-constructed Tensor is "undefined".
@@ -69,9 +72,9 @@ class Tensor {
 
   // Eigen views of a 1-d or 2-d tensor ([n] is seen as a 1 x n row); no copy.
   template <typename T>
-  Eigen::Map<Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> matrix();
+  Eigen::Map<RowMatrix<T>> matrix();
   template <typename T>
-  Eigen::Map<const Eigen::Matrix<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> matrix() const;
+  Eigen::Map<const RowMatrix<T>> matrix() const;
   // Flat array view of every element; no copy.
   template <typename T>
   Eigen::Map<Eigen::Array<T, Eigen::Dynamic, 1>> array();

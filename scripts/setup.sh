@@ -9,6 +9,7 @@ PACKAGES=(
   cmake
   libeigen3-dev
   libgtest-dev
+  libgmock-dev
   googletest
   libbenchmark-dev
   nlohmann-json3-dev
