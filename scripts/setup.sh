@@ -3,7 +3,7 @@
 # installed are skipped, and apt-get runs only when something is missing.
 set -euo pipefail
 
-# Later issues append here (HDF5, MuJoCo, gnuplot, ...).
+# Later issues append here (gnuplot, ...).
 PACKAGES=(
   build-essential
   cmake
@@ -15,6 +15,8 @@ PACKAGES=(
   nlohmann-json3-dev
   libcli11-dev
   clang-format
+  libmujoco-dev
+  libhdf5-dev
 )
 
 export DEBIAN_FRONTEND=noninteractive

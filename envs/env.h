@@ -1,0 +1,42 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+// The interface every task implements. Policies reach an env as plain Eigen vectors; envs/
+// knows nothing of autograd.
+namespace maps::envs {
+
+struct EnvSpec {
+  std::string task;             // stable name, e.g. "gravity/0.5" or "modified/big_foot"
+  std::int64_t task_index = 0;  // index within its task set (the one-hot task id)
+  int observation_size = 0;
+  int action_size = 0;
+  Eigen::VectorXd action_low;  // per-dimension bounds; actions outside are clipped
+  Eigen::VectorXd action_high;
+  int horizon = 0;  // steps per episode (the time limit)
+};
+
+struct StepResult {
+  Eigen::VectorXd observation;
+  double reward = 0.0;
+  bool terminated = false;  // the task itself ended the episode (a real terminal state)
+  bool truncated = false;   // the time limit was reached: bootstrap from `observation`
+  bool success = false;     // the task's success test holds at this step
+  bool done() const { return terminated || truncated; }
+};
+
+class Env {
+ public:
+  virtual ~Env() = default;
+  virtual const EnvSpec& spec() const = 0;
+  // Starts an episode from the initial state drawn with `seed`; the same seed gives the same
+  // initial state and, with the same actions, the same trajectory.
+  virtual Eigen::VectorXd reset(std::uint64_t seed) = 0;
+  // An action of the wrong size or with a NaN is an error naming the task; values outside the
+  // bounds are clipped. Stepping before reset() or after done() is an error.
+  virtual StepResult step(const Eigen::VectorXd& action) = 0;
+};
+
+}  // namespace maps::envs
