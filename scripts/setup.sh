@@ -16,6 +16,7 @@ PACKAGES=(
   libcli11-dev
   clang-format
   libmujoco-dev
+  libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r
   libhdf5-dev
 )
 

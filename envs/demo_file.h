@@ -1,0 +1,83 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+// Demonstration files: HDF5 laid out like robomimic's, so h5py users can read them.
+//
+//   /data                      group; attributes format_version (int64, 1), task_set, task_names
+//                              (1-d variable-length UTF-8 string array), env_version,
+//                              creation_command, extra_json (a JSON object as a string), total
+//                              (sum of num_samples), num_demos
+//   /data/demo_<i>             group, i = 0 .. num_demos-1; attributes task, task_index (int64),
+//                              num_samples (int64), return (float64), success (uint8 0/1), seed (uint64)
+//   /data/demo_<i>/obs         float64 [T, obs_dim]   row t: the observation step t's action saw
+//   /data/demo_<i>/actions     float64 [T, act_dim]
+//   /data/demo_<i>/rewards     float64 [T]
+//   /data/demo_<i>/dones       uint8   [T]            1 where the episode ended after step t
+//   /mask/train, /mask/valid   1-d fixed-length (NUL-padded) strings naming demos ("demo_3")
+//
+// Writing is atomic (a temporary file in the same folder, then rename); reading validates every
+// group, dataset, attribute and shape and throws a message naming the file and the object path.
+namespace maps::envs {
+
+// One episode of one task; row t of every array is step t.
+struct Demonstration {
+  std::string task;                 // e.g. "gravity/0.5"; equals DemoFile::task_names[task_index]
+  std::int64_t task_index = 0;      // index within the file's task set (the one-hot task id)
+  std::uint64_t seed = 0;           // the seed the episode's initial state was drawn with
+  Eigen::MatrixXd obs;              // [T, obs_dim]
+  Eigen::MatrixXd actions;          // [T, act_dim]
+  Eigen::VectorXd rewards;          // [T]
+  std::vector<std::uint8_t> dones;  // [T], each 0 or 1
+  double episode_return = 0.0;      // stored as attribute "return"
+  bool success = false;
+
+  std::int64_t num_samples() const { return obs.rows(); }
+};
+
+struct DemoFile {
+  std::string task_set;                 // e.g. "gravity"
+  std::vector<std::string> task_names;  // the set's tasks, in task_index order
+  std::string env_version;
+  std::string creation_command;
+  std::string extra_json = "{}";     // any further metadata; must be valid JSON
+  std::vector<Demonstration> demos;  // demos[i] is stored as data/demo_<i>
+  std::vector<int> train;            // indices into demos (mask/train)
+  std::vector<int> valid;            // indices into demos (mask/valid)
+
+  std::int64_t total_samples() const;
+};
+
+// "demo_<i>", the group name of demos[i] (as robomimic names them).
+std::string demo_name(int i);
+
+// Throws std::invalid_argument naming the demo (as data/demo_<i>) and what is inconsistent:
+// empty demos, rows of actions/rewards/dones differing from obs, obs or action width differing
+// across demos, non-finite values, dones other than 0/1, task_index out of range or task not
+// matching task_names[task_index], duplicate task names, masks with out-of-range, repeated or
+// overlapping indices, extra_json that is not valid JSON.
+void validate_demo_file(const DemoFile& file);
+
+// Validates (std::invalid_argument, nothing written), then writes atomically: a temporary file
+// in the same folder, renamed over `path`; the temporary is removed on any error. HDF5 failures
+// throw std::runtime_error naming the file and the object path.
+void write_demo_file(const std::string& path, const DemoFile& file);
+
+// Reads and validates; throws std::runtime_error naming the file and what is wrong: missing
+// file, not an HDF5 file, truncated or damaged file, missing group/dataset/attribute (by path),
+// wrong type, rank or shape, a mask naming a demo that does not exist, NaN or infinite data.
+DemoFile read_demo_file(const std::string& path);
+
+// Split of n_demos demonstrations into (train, valid) index lists, each sorted ascending. Every
+// index is in exactly one list; valid gets floor((1 - train_fraction) * n) demos (as robomimic's
+// split_train_val_from_hdf5 does), clamped so that each list has at least one demo when
+// n_demos >= 2 (n_demos == 1 gives train = {0}). Deterministic for the seed on every platform.
+// train_fraction must be in (0, 1).
+std::pair<std::vector<int>, std::vector<int>> split_train_valid(int n_demos, double train_fraction = 0.7,
+                                                                std::uint64_t seed = 0);
+
+}  // namespace maps::envs

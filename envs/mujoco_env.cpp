@@ -1,0 +1,174 @@
+#include "envs/mujoco_env.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+namespace maps::envs {
+namespace {
+
+constexpr int kErrorSize = 1000;
+
+struct VfsDeleter {
+  void operator()(mjVFS* vfs) const {
+    mj_deleteVFS(vfs);
+    delete vfs;
+  }
+};
+
+std::string trimmed(const char* text) {
+  std::string s(text);
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+}  // namespace
+
+MjModelPtr load_model_from_string(const std::string& xml, const std::string& name) {
+  // mjVFS holds fixed arrays of a few MB: keep it off the stack.
+  std::unique_ptr<mjVFS, VfsDeleter> vfs(new mjVFS);
+  mj_defaultVFS(vfs.get());
+  const char* file_name = "model.xml";  // the name inside the in-memory file system
+  if (mj_makeEmptyFileVFS(vfs.get(), file_name, static_cast<int>(xml.size())) != 0) {
+    throw std::runtime_error("MuJoCo: cannot create an in-memory file for the model of '" + name + "'");
+  }
+  const int index = mj_findFileVFS(vfs.get(), file_name);
+  std::memcpy(vfs->filedata[index], xml.data(), xml.size());
+  char error[kErrorSize] = "";
+  mjModel* model = mj_loadXML(file_name, vfs.get(), error, kErrorSize);
+  if (model == nullptr) {
+    throw std::runtime_error("MuJoCo could not compile the model of '" + name + "': " + trimmed(error));
+  }
+  return MjModelPtr(model);
+}
+
+MjModelPtr load_model_from_file(const std::filesystem::path& path) {
+  if (!std::filesystem::is_regular_file(path)) {
+    throw std::runtime_error("MuJoCo model file '" + path.string() + "' does not exist");
+  }
+  char error[kErrorSize] = "";
+  mjModel* model = mj_loadXML(path.c_str(), nullptr, error, kErrorSize);
+  if (model == nullptr) {
+    throw std::runtime_error("MuJoCo could not compile '" + path.string() + "': " + trimmed(error));
+  }
+  return MjModelPtr(model);
+}
+
+std::filesystem::path assets_dir() {
+  namespace fs = std::filesystem;
+  if (const char* from_env = std::getenv("MAPS_ASSETS_DIR"); from_env != nullptr && *from_env != '\0') {
+    const fs::path dir(from_env);
+    if (!fs::is_directory(dir)) {
+      throw std::runtime_error("MAPS_ASSETS_DIR is set to '" + dir.string() + "', which is not a directory");
+    }
+    return dir;
+  }
+  std::vector<fs::path> tried;
+  // The source tree this file was compiled from (CMake passes absolute source paths).
+  const fs::path source_assets = fs::path(__FILE__).parent_path() / "assets";
+  tried.push_back(source_assets);
+  if (source_assets.is_absolute() && fs::is_directory(source_assets)) return source_assets;
+  // Walking up from the working directory, for a copied tree or a relocated build.
+  std::error_code ec;
+  for (fs::path dir = fs::current_path(ec); !ec && !dir.empty(); dir = dir.parent_path()) {
+    const fs::path candidate = dir / "envs" / "assets";
+    tried.push_back(candidate);
+    if (fs::is_directory(candidate)) return candidate;
+    if (dir == dir.root_path()) break;
+  }
+  std::string message = "cannot find the MJCF assets folder (envs/assets); set MAPS_ASSETS_DIR. Tried:";
+  for (const auto& path : tried) message += " '" + path.string() + "'";
+  throw std::runtime_error(message);
+}
+
+std::filesystem::path asset_path(const std::string& file_name) {
+  const auto path = assets_dir() / file_name;
+  if (!std::filesystem::is_regular_file(path)) {
+    throw std::runtime_error("asset '" + file_name + "' not found: '" + path.string() + "' does not exist");
+  }
+  return path;
+}
+
+std::string read_text_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open '" + path.string() + "' for reading");
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw std::runtime_error("error while reading '" + path.string() + "'");
+  return text.str();
+}
+
+MujocoEnv::MujocoEnv(EnvSpec spec, MjModelPtr model, int frame_skip)
+    : spec_(std::move(spec)), model_(std::move(model)), frame_skip_(frame_skip) {
+  if (!model_) throw std::invalid_argument("MujocoEnv '" + spec_.task + "': no model");
+  if (frame_skip_ < 1) {
+    throw std::invalid_argument("MujocoEnv '" + spec_.task + "': frame_skip must be >= 1, got " +
+                                std::to_string(frame_skip_));
+  }
+  if (spec_.action_size != model_->nu || spec_.action_low.size() != spec_.action_size ||
+      spec_.action_high.size() != spec_.action_size) {
+    throw std::invalid_argument("MujocoEnv '" + spec_.task + "': action size " + std::to_string(spec_.action_size) +
+                                " and bounds must match the model's " + std::to_string(model_->nu) + " actuators");
+  }
+  data_.reset(mj_makeData(model_.get()));
+  if (!data_) throw std::runtime_error("MujocoEnv '" + spec_.task + "': mj_makeData failed");
+  clipped_.resize(spec_.action_size);
+}
+
+Eigen::VectorXd MujocoEnv::reset(std::uint64_t seed) {
+  mj_resetData(model_.get(), data_.get());
+  std::mt19937_64 rng(seed);
+  Eigen::VectorXd observation = reset_model(rng);
+  elapsed_steps_ = 0;
+  needs_reset_ = false;
+  return observation;
+}
+
+StepResult MujocoEnv::step(const Eigen::VectorXd& action) {
+  if (action.size() != spec_.action_size) {
+    throw std::invalid_argument("task '" + spec_.task + "': action has " + std::to_string(action.size()) +
+                                " entries, expected " + std::to_string(spec_.action_size));
+  }
+  for (Eigen::Index i = 0; i < action.size(); ++i) {
+    if (std::isnan(action[i])) {
+      throw std::invalid_argument("task '" + spec_.task + "': action entry " + std::to_string(i) + " is NaN");
+    }
+  }
+  if (needs_reset_) {
+    throw std::logic_error("task '" + spec_.task + "': step() before reset() or after the episode ended (" +
+                           std::to_string(elapsed_steps_) + " steps); call reset()");
+  }
+  clipped_ = action.cwiseMax(spec_.action_low).cwiseMin(spec_.action_high);
+  StepResult result = step_clipped(clipped_);
+  ++elapsed_steps_;
+  if (spec_.horizon > 0 && elapsed_steps_ >= spec_.horizon) result.truncated = true;
+  if (result.done()) needs_reset_ = true;
+  return result;
+}
+
+void MujocoEnv::set_state(const Eigen::VectorXd& qpos, const Eigen::VectorXd& qvel) {
+  if (qpos.size() != model_->nq || qvel.size() != model_->nv) {
+    throw std::invalid_argument("task '" + spec_.task + "': set_state takes qpos of size " +
+                                std::to_string(model_->nq) + " and qvel of size " + std::to_string(model_->nv) +
+                                ", got " + std::to_string(qpos.size()) + " and " + std::to_string(qvel.size()));
+  }
+  std::copy(qpos.data(), qpos.data() + qpos.size(), data_->qpos);
+  std::copy(qvel.data(), qvel.data() + qvel.size(), data_->qvel);
+  mj_forward(model_.get(), data_.get());
+}
+
+void MujocoEnv::do_simulation(const Eigen::VectorXd& ctrl) {
+  if (ctrl.size() != model_->nu) {
+    throw std::invalid_argument("task '" + spec_.task + "': control has " + std::to_string(ctrl.size()) +
+                                " entries, the model has " + std::to_string(model_->nu) + " actuators");
+  }
+  std::copy(ctrl.data(), ctrl.data() + model_->nu, data_->ctrl);
+  for (int i = 0; i < frame_skip_; ++i) mj_step(model_.get(), data_.get());
+}
+
+}  // namespace maps::envs
