@@ -226,7 +226,10 @@ void backward(const std::vector<Tensor>& outputs, const std::vector<Tensor>& gra
     Tensor leaf = task.leaf_tensors().at(key);
     Tensor existing = leaf.grad();
     if (create_graph) {
-      leaf.set_grad(existing.defined() ? add(existing, grad) : grad);
+      // Recorded, so the stored gradient keeps its graph; cloned, because the engine may hand
+      // one tensor (or the caller's grad_output) to several leaves.
+      AutoGradMode recording(true);
+      leaf.set_grad(existing.defined() ? add(existing, grad) : grad.clone());
     } else if (existing.defined() && !existing.requires_grad()) {
       // In place: the stored gradient is ours (a copy), and optimisers read it every step.
       dispatch_dtype(existing.dtype(), [&](auto tag) {

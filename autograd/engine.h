@@ -10,7 +10,9 @@ namespace maps::ag {
 // Like torch::autograd::backward: accumulates d(outputs)/d(leaf) into each leaf's grad().
 // A missing grad_output is allowed only for a one-element output (it is taken as 1).
 // retain_graph defaults to create_graph; without it the graph's saved tensors are freed and a
-// second pass through the same graph is an error.
+// second pass through the same graph is an error. With create_graph a leaf's grad() holds a graph
+// that leads back to the leaf (a reference cycle, as in PyTorch): clear it with set_grad(Tensor())
+// or Module::zero_grad() when done. grad(..., create_graph) stores nothing and has no such cycle.
 void backward(const std::vector<Tensor>& outputs, const std::vector<Tensor>& grad_outputs = {},
               std::optional<bool> retain_graph = std::nullopt, bool create_graph = false);
 

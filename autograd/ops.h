@@ -85,6 +85,10 @@ Tensor mse_loss(const Tensor& prediction, const Tensor& target);  // mean of squ
 // [n] indices -> [n, classes] of 0/1; indices must lie in [0, classes). Records no graph.
 Tensor one_hot(const std::vector<std::int64_t>& indices, std::int64_t classes, Dtype dtype = Dtype::Float32);
 
+// condition ? a : b elementwise; condition (any nonzero is true), a and b must share one shape.
+// Differentiable in a and b; the unselected side gets a zero gradient (not NaN * 0).
+Tensor where(const Tensor& condition, const Tensor& a, const Tensor& b);
+
 // ----- comparisons (record no graph; 1 where true, 0 elsewhere) -----
 Tensor gt(const Tensor& a, const Tensor& b);
 Tensor eq(const Tensor& a, const Tensor& b);

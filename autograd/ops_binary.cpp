@@ -45,12 +45,16 @@ namespace {
 // The share of the gradient that goes to `a` in minimum/maximum: 1 where a wins, 1/2 on ties.
 template <typename Wins>
 Tensor winner_share(const Tensor& a, const Tensor& b, const char* op, Wins wins) {
-  return binary_kernel(a, b, op, [wins](auto x, auto y) { return wins(x, y) ? 1.0 : (x == y ? 0.5 : 0.0); });
+  return binary_kernel(a, b, op, [wins](auto x, auto y) {
+    if (std::isnan(x) || std::isnan(y)) return std::isnan(x) ? 1.0 : 0.0;
+    return wins(x, y) ? 1.0 : (x == y ? 0.5 : 0.0);
+  });
 }
 
 template <typename Wins>
 Tensor min_max(const Tensor& a, const Tensor& b, const char* op, Wins wins) {
-  Tensor out = binary_kernel(a, b, op, [wins](auto x, auto y) { return wins(x, y) ? x : y; });
+  // A NaN on either side wins, as in PyTorch, so a NaN is never hidden.
+  Tensor out = binary_kernel(a, b, op, [wins](auto x, auto y) { return wins(x, y) || std::isnan(x) ? x : y; });
   return record(op, out, {a, b}, [a, b, op, wins](const Tensor& g, const Needs& n, Node&) {
     Tensor share_a, share_b;
     {
@@ -77,12 +81,48 @@ Tensor pow(const Tensor& base, const Tensor& exponent) {
   return record(
       "pow", out, {base, exponent},
       [base, exponent](const Tensor& g, const Needs& n, Node& self) {
+        // As PyTorch: d/dbase is 0 where the exponent is 0 (not 0 * pow(0, -1) = NaN), and
+        // d/dexponent is 0 where the base is 0 and the exponent >= 0 (not pow * log(0)).
+        Tensor exponent_zero, base_zero;
+        {
+          NoGradGuard no_grad;
+          exponent_zero = binary_kernel(base, exponent, "pow", [](auto, auto y) { return y == 0 ? 1.0 : 0.0; });
+          base_zero = binary_kernel(base, exponent, "pow", [](auto x, auto y) { return x == 0 && y >= 0 ? 1.0 : 0.0; });
+        }
+        const Tensor zero = zeros_like(g);
         Grads grads(2);
-        if (n[0]) grads[0] = sum_to(mul(g, mul(exponent, pow(base, add(exponent, -1.0)))), base.shape());
-        if (n[1]) grads[1] = sum_to(mul(g, mul(self.output(), log(base))), exponent.shape());
+        if (n[0]) {
+          const Tensor d = mul(g, mul(exponent, pow(base, add(exponent, -1.0))));
+          grads[0] = sum_to(where(exponent_zero, zero, d), base.shape());
+        }
+        if (n[1]) {
+          const Tensor d = mul(g, mul(self.output(), log(base)));
+          grads[1] = sum_to(where(base_zero, zero, d), exponent.shape());
+        }
         return grads;
       },
       /*save_output=*/true);
+}
+
+Tensor where(const Tensor& condition, const Tensor& a, const Tensor& b) {
+  detail::check_defined(condition, "where", "condition");
+  detail::check_defined(a, "where", "first operand");
+  detail::check_defined(b, "where", "second operand");
+  if (condition.shape() != a.shape() || a.shape() != b.shape()) {
+    throw std::invalid_argument("where: condition " + to_string(condition.shape()) + ", a " + to_string(a.shape()) +
+                                " and b " + to_string(b.shape()) + " must share one shape");
+  }
+  detail::check_same_dtype(a, b, "where");
+  const Tensor picks_a = condition.dtype() == a.dtype() ? condition.detach() : condition.detach().to(a.dtype());
+  Tensor out = empty(a.shape(), a.dtype());
+  dispatch_dtype(a.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    out.array<T>() = (picks_a.array<T>() != T(0)).select(a.array<T>(), b.array<T>());
+  });
+  return record("where", out, {a, b}, [picks_a](const Tensor& g, const Needs& n, Node&) {
+    const Tensor zero = zeros_like(g);
+    return Grads{n[0] ? where(picks_a, g, zero) : Tensor(), n[1] ? where(picks_a, zero, g) : Tensor()};
+  });
 }
 
 Tensor add(const Tensor& a, double b) {

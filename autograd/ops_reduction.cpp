@@ -1,5 +1,6 @@
 // Reductions over all elements or over chosen dims: sum, mean, amax.
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -47,6 +48,25 @@ Shape reduced_shape(const Shape& shape, const std::vector<std::int64_t>& dims, b
   return out;
 }
 
+// Eigen's maxCoeff may skip a NaN depending on where it sits; torch.amax returns NaN for any
+// slice holding one, so such slices are set to NaN afterwards.
+void propagate_nan_max(const Tensor& x, const detail::DimSplit& s, Tensor& out) {
+  dispatch_dtype(x.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    if (!x.array<T>().isNaN().any()) return;
+    const T* src = x.data<T>();
+    T* dst = out.data<T>();
+    for (std::int64_t o = 0; o < s.outer; ++o) {
+      for (std::int64_t r = 0; r < s.size; ++r) {
+        for (std::int64_t i = 0; i < s.inner; ++i) {
+          if (std::isnan(src[(o * s.size + r) * s.inner + i]))
+            dst[o * s.inner + i] = src[(o * s.size + r) * s.inner + i];
+        }
+      }
+    }
+  });
+}
+
 // Reduces one dim, keeping it with size 1.
 Tensor reduce_one_dim(const Tensor& x, std::int64_t d, Reduce kind, const char* op) {
   const detail::DimSplit s = detail::split_at(x.shape(), d);
@@ -81,6 +101,7 @@ Tensor reduce_one_dim(const Tensor& x, std::int64_t d, Reduce kind, const char* 
       }
     }
   });
+  if (kind == Reduce::Max) propagate_nan_max(x, s, out);
   return out;
 }
 

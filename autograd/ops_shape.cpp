@@ -206,7 +206,7 @@ Tensor narrow(const Tensor& x, std::int64_t dim, std::int64_t start, std::int64_
   detail::check_defined(x, "narrow", "input");
   const std::int64_t d = normalize_dim(dim, x.dim(), "narrow");
   const std::int64_t size = x.shape()[d];
-  if (start < 0 || length < 0 || start + length > size) {
+  if (start < 0 || length < 0 || start > size || length > size - start) {
     throw std::invalid_argument("narrow: start " + std::to_string(start) + " and length " + std::to_string(length) +
                                 " do not fit dim " + std::to_string(d) + " of size " + std::to_string(size) +
                                 " in shape " + to_string(x.shape()));
@@ -272,6 +272,7 @@ Tensor index_add(const Tensor& source, const std::vector<std::int64_t>& indices,
     throw std::invalid_argument("index_add: source of shape " + to_string(source.shape()) +
                                 " needs one row per index (" + std::to_string(indices.size()) + " indices)");
   }
+  if (rows < 0) throw std::invalid_argument("index_add: rows must not be negative, got " + std::to_string(rows));
   check_indices(indices, rows, "index_add");
   Shape out_shape = source.shape();
   out_shape[0] = rows;

@@ -7,7 +7,13 @@ namespace maps::ag {
 
 std::int64_t numel_of(const Shape& shape) {
   std::int64_t n = 1;
-  for (std::int64_t d : shape) n *= d;
+  for (std::int64_t d : shape) {
+    // Checked: a wrapped count would allocate too little storage and every kernel would overrun it.
+    if (d < 0 || __builtin_mul_overflow(n, d, &n) || n > (std::int64_t{1} << 50)) {
+      throw std::length_error("shape " + to_string(shape) +
+                              (d < 0 ? " has a negative size" : " has more elements than a tensor can hold"));
+    }
+  }
   return n;
 }
 

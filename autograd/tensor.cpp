@@ -1,5 +1,6 @@
 #include "autograd/tensor.h"
 
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <new>
@@ -235,6 +236,7 @@ void Tensor::copy_(const Tensor& source) {
 }
 
 void Tensor::fill_(double value) {
+  check_defined("fill_");
   dispatch_dtype(dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     array<T>().setConstant(static_cast<T>(value));
@@ -277,6 +279,9 @@ Tensor ones_like(const Tensor& t) { return ones(t.shape(), t.dtype()); }
 Tensor full_like(const Tensor& t, double value) { return full(t.shape(), value, t.dtype()); }
 
 Tensor arange(double start, double end, double step, Dtype dtype) {
+  if (!std::isfinite(start) || !std::isfinite(end) || !std::isfinite(step)) {
+    throw std::invalid_argument("arange: start, end and step must be finite");
+  }
   if (step == 0.0) throw std::invalid_argument("arange: step must not be 0");
   const double count = std::ceil((end - start) / step);
   const auto n = static_cast<std::int64_t>(std::max(0.0, count));

@@ -59,13 +59,15 @@ void Adam::step() {
       auto v = s.exp_avg_sq.array<T>();
       const T b1 = static_cast<T>(o.beta1), one_minus_b1 = static_cast<T>(1.0 - o.beta1);
       const T b2 = static_cast<T>(o.beta2), one_minus_b2 = static_cast<T>(1.0 - o.beta2);
+      // PyTorch's order of operations (addcmul is (value * g) * g), so float32 results match bit for bit.
+      auto update_moments = [&](const auto& gd) {
+        m = b1 * m + one_minus_b1 * gd;
+        v = b2 * v + (one_minus_b2 * gd) * gd;
+      };
       if (o.weight_decay != 0.0) {
-        const T wd = static_cast<T>(o.weight_decay);
-        m = b1 * m + one_minus_b1 * (g + wd * p);
-        v = b2 * v + one_minus_b2 * (g + wd * p).square();
+        update_moments(g + static_cast<T>(o.weight_decay) * p);
       } else {
-        m = b1 * m + one_minus_b1 * g;
-        v = b2 * v + one_minus_b2 * g.square();
+        update_moments(g);
       }
       p -= static_cast<T>(step_size) * m / (v.sqrt() / static_cast<T>(bias_correction2_sqrt) + static_cast<T>(o.eps));
     });

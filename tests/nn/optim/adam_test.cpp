@@ -37,6 +37,33 @@ TEST(Adam, MatchesPyTorchDefaultsFloat32) {
   expect_all_near(got, expected, 1e-6);
 }
 
+// Bit-exact in float32 against PyTorch 1.13's single-tensor Adam (foreach=False), produced by:
+//
+//   import torch
+//   p = torch.tensor([0.5, -1.25, 3.0, 1e-3, -7.0, 0.1], dtype=torch.float32, requires_grad=True)
+//   opt = torch.optim.Adam([p], lr=0.01, betas=(0.8, 0.95), eps=1e-5, weight_decay=0.1, foreach=False)
+//   for g in [[0.1, -0.2, 0.3, 1e-4, 5., -0.01], [0.3, 0.1, -0.3, 2e-4, -5., 0.02], [-0.1, 0.25, 0., 0., 1., 0.5],
+//             [1., 1., 1., 1., 1., 1.], [0.01, -0.02, 0.03, 0.04, 0.05, 0.06]]:
+//       p.grad = torch.tensor(g, dtype=torch.float32); opt.step()
+//   print(" ".join("%.9g" % v for v in p.detach().tolist()))
+TEST(Adam, MatchesPyTorchBitForBitInFloat32WithWeightDecay) {
+  Tensor p = ag::from_vector(std::vector<float>{0.5f, -1.25f, 3.0f, 1e-3f, -7.0f, 0.1f}, {6});
+  p.requires_grad_();
+  optim::Adam adam({p}, {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.95, .eps = 1e-5, .weight_decay = 0.1});
+  const std::vector<std::vector<float>> grads = {{0.1f, -0.2f, 0.3f, 1e-4f, 5.f, -0.01f},
+                                                 {0.3f, 0.1f, -0.3f, 2e-4f, -5.f, 0.02f},
+                                                 {-0.1f, 0.25f, 0.f, 0.f, 1.f, 0.5f},
+                                                 {1.f, 1.f, 1.f, 1.f, 1.f, 1.f},
+                                                 {0.01f, -0.02f, 0.03f, 0.04f, 0.05f, 0.06f}};
+  for (const auto& g : grads) {
+    p.set_grad(ag::from_vector(g, {6}));
+    adam.step();
+  }
+  const std::vector<float> expected = {0.460249841f,    -1.23992348f, 2.96006846f,
+                                       -0.00853041001f, -7.00380659f, 0.0696757883f};
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(p.data<float>()[i], expected[i]) << "element " << i;
+}
+
 TEST(Adam, SkipsParametersWithoutGrad) {
   Tensor p = ag::ones({2}).requires_grad_(), q = ag::ones({2}).requires_grad_();
   optim::Adam adam({p, q});
