@@ -7,6 +7,7 @@
 #include <string>
 
 #include "experiments/demo.h"
+#include "experiments/train_expert.h"
 
 namespace {
 
@@ -45,10 +46,34 @@ int main(int argc, char** argv) {
       ->check(positive)
       ->capture_default_str();
 
+  maps::experiments::TrainExpertOptions train_expert;
+  CLI::App* train_expert_cmd = app.add_subcommand(
+      "train-expert", "Train a HalfCheetah expert with PPO, resuming from DIR's checkpoint; writes DIR/expert.json");
+  train_expert_cmd->add_option("--task", train_expert.task, "Task name, e.g. gravity/0.5")->required();
+  train_expert_cmd->add_option("--out", train_expert.out, "Run folder (checkpoint, expert.json)")->required();
+  train_expert_cmd->add_option("--steps", train_expert.steps, "Total env steps")
+      ->check(positive)
+      ->capture_default_str();
+  train_expert_cmd->add_option("--seed", train_expert.seed, "Seed")->check(non_negative)->capture_default_str();
+  train_expert_cmd->add_option("--checkpoint-every", train_expert.checkpoint_every, "Iterations between checkpoints")
+      ->check(positive)
+      ->capture_default_str();
+  train_expert_cmd->add_option("--eval-episodes", train_expert.eval_episodes, "Deterministic episodes at the end")
+      ->check(positive)
+      ->capture_default_str();
+  train_expert_cmd->add_option("--init", train_expert.init,
+                               "Warm start from another run's checkpoint.ckpt (when DIR has none)");
+  train_expert_cmd
+      ->add_option("--abandon-flipped", train_expert.abandon_flipped,
+                   "Past this many steps, stop (exit 3) once the last 5 rollouts ran on the back; 0: never")
+      ->check(non_negative)
+      ->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
 
   try {
     if (*demo_cmd) return maps::experiments::run_demo(demo);
+    if (*train_expert_cmd) return maps::experiments::run_train_expert(train_expert);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

@@ -1,0 +1,143 @@
+#include "maps/rl/ppo.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <numeric>
+#include <sstream>
+
+#include "rl_test_util.h"
+
+namespace rltest {
+namespace {
+
+namespace rl = maps::rl;
+
+double mean_of(const std::vector<double>& v) { return std::accumulate(v.begin(), v.end(), 0.0) / v.size(); }
+
+rl::PPOConfig toy_config(std::int64_t total_steps) {
+  rl::PPOConfig c;
+  c.total_steps = total_steps;
+  c.steps_per_rollout = 512;
+  c.seed = 11;
+  return c;
+}
+
+std::string fresh_dir(const std::string& name) {
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("maps_ppo_test_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  return dir.string();
+}
+
+TEST(PPO, ImprovesTheReturnOnAToyTask) {
+  PointEnv env, eval_env;
+  rl::PPOTrainer trainer(env, toy_config(8192));
+  const double before = mean_of(rl::evaluate_policy(eval_env, trainer.model(), trainer.observation_stats(), 20, 1000));
+  const auto start = std::chrono::steady_clock::now();
+  trainer.train();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double after = mean_of(rl::evaluate_policy(eval_env, trainer.model(), trainer.observation_stats(), 20, 1000));
+  RecordProperty("env_steps_per_second", std::to_string(static_cast<int>(trainer.steps_done() / seconds)));
+  std::printf("toy PPO: deterministic return %.2f -> %.2f in %lld steps, %.0f env steps/s\n", before, after,
+              static_cast<long long>(trainer.steps_done()), trainer.steps_done() / seconds);
+  EXPECT_EQ(trainer.steps_done(), 8192);
+  EXPECT_EQ(trainer.iterations_done(), 16);
+  EXPECT_GT(after, before + 10.0);
+  EXPECT_GT(after, 35.0);  // moving straight to the target and staying scores about 47
+}
+
+TEST(PPO, ResumedRunMatchesAnUninterruptedOne) {
+  const std::string dir_a = fresh_dir("a"), dir_b = fresh_dir("b");
+  rl::PPOConfig config = toy_config(4 * 512);
+  config.steps_per_rollout = 512;
+  config.checkpoint_every = 1;
+  // The rollouts straddle episodes (512 is not a multiple of 50), so the resume must rebuild one in progress.
+  PointEnv env_a;
+  rl::PPOTrainer a(env_a, config, dir_a);
+  EXPECT_EQ(a.train(), 4);
+
+  {
+    PointEnv env_b1;
+    rl::PPOTrainer b1(env_b1, config, dir_b);
+    EXPECT_EQ(b1.train(3), 3);
+  }
+  PointEnv env_b2;
+  std::ostringstream log;
+  rl::PPOTrainer b2(env_b2, config, dir_b, &log);
+  EXPECT_EQ(b2.train(), 1);
+  EXPECT_THAT(log.str(), ::testing::HasSubstr("resumed from"));
+  EXPECT_EQ(b2.steps_done(), a.steps_done());
+
+  const auto sa = a.model().state_dict(), sb = b2.model().state_dict();
+  ASSERT_EQ(sa.size(), sb.size());
+  for (std::size_t i = 0; i < sa.size(); ++i)
+    EXPECT_EQ(sa[i].tensor.to_vector(), sb[i].tensor.to_vector()) << sa[i].name;
+  EXPECT_EQ(a.observation_stats().mean(), b2.observation_stats().mean());
+  EXPECT_EQ(a.observation_stats().var(), b2.observation_stats().var());
+  EXPECT_EQ(a.recent_mean_return(), b2.recent_mean_return());
+
+  // A finished run resumes to nothing left to do.
+  PointEnv env_c;
+  rl::PPOTrainer c(env_c, config, dir_a);
+  EXPECT_EQ(c.train(), 0);
+  EXPECT_EQ(c.iterations_done(), 4);
+  std::filesystem::remove_all(dir_a);
+  std::filesystem::remove_all(dir_b);
+}
+
+TEST(PPO, CheckpointOfAnotherTaskIsRefused) {
+  const std::string dir = fresh_dir("other");
+  rl::PPOConfig config = toy_config(512);
+  {
+    PointEnv env;
+    rl::PPOTrainer t(env, config, dir);
+    t.train();
+  }
+  class OtherEnv : public PointEnv {
+   public:
+    OtherEnv() { spec_copy_ = PointEnv::spec(), spec_copy_.task = "toy/other"; }
+    const maps::envs::EnvSpec& spec() const override { return spec_copy_; }
+    maps::envs::EnvSpec spec_copy_;
+  } other;
+  rl::PPOTrainer t(other, config, dir);
+  EXPECT_THROW(t.train(), std::runtime_error);
+  std::filesystem::remove_all(dir);
+}
+
+// Rewards turn NaN after 700 steps: the second iteration's loss is not finite, which must stop training with a
+// clear error and leave the checkpoint of the first iteration in place.
+TEST(PPO, NonFiniteLossStopsAndKeepsTheLastGoodCheckpoint) {
+  class NanEnv : public PointEnv {
+   public:
+    maps::envs::StepResult step(const Eigen::VectorXd& action) override {
+      maps::envs::StepResult r = PointEnv::step(action);
+      if (++steps_ > 700) r.reward = std::nan("");
+      return r;
+    }
+    int steps_ = 0;
+  } env;
+  const std::string dir = fresh_dir("nan");
+  rl::PPOConfig config = toy_config(4 * 512);
+  config.checkpoint_every = 1;
+  rl::PPOTrainer t(env, config, dir);
+  std::string message;
+  try {
+    t.train();
+  } catch (const std::runtime_error& e) {
+    message = e.what();
+  }
+  EXPECT_THAT(message, ::testing::HasSubstr("not finite"));
+  EXPECT_THAT(message, ::testing::HasSubstr("iteration 2"));
+  PointEnv fresh;
+  rl::PPOTrainer resumed(fresh, config, dir);
+  EXPECT_TRUE(resumed.resume());
+  EXPECT_EQ(resumed.iterations_done(), 1);
+  for (const auto& p : resumed.model().parameters())
+    for (double v : p.to_vector()) ASSERT_TRUE(std::isfinite(v));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace rltest

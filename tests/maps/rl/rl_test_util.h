@@ -1,0 +1,63 @@
+#pragma once
+
+// Shared helpers of the rl tests: a tiny deterministic env.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+#include "envs/env.h"
+
+namespace rltest {
+
+// A point on a line that should move to a target. obs = (x, target), action a in [-1, 1] moves x by 0.1 a;
+// reward 1 - |x - target|; the episode is truncated after 50 steps and terminated when |x| > 1.5. x and target
+// start uniform in [-1, 1] from the reset seed.
+class PointEnv : public maps::envs::Env {
+ public:
+  PointEnv() {
+    spec_.task = "toy/point";
+    spec_.observation_size = 2;
+    spec_.action_size = 1;
+    spec_.action_low = Eigen::VectorXd::Constant(1, -1.0);
+    spec_.action_high = Eigen::VectorXd::Constant(1, 1.0);
+    spec_.horizon = 50;
+  }
+  const maps::envs::EnvSpec& spec() const override { return spec_; }
+  Eigen::VectorXd reset(std::uint64_t seed) override {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    x_ = u(rng);
+    target_ = u(rng);
+    t_ = 0;
+    active_ = true;
+    return obs();
+  }
+  maps::envs::StepResult step(const Eigen::VectorXd& action) override {
+    if (!active_) throw std::logic_error("PointEnv: step without reset");
+    if (action.size() != 1 || std::isnan(action(0))) throw std::invalid_argument("PointEnv: bad action");
+    x_ += 0.1 * std::clamp(action(0), -1.0, 1.0);
+    ++t_;
+    maps::envs::StepResult r;
+    r.observation = obs();
+    r.reward = 1.0 - std::abs(x_ - target_);
+    r.terminated = std::abs(x_) > 1.5;
+    r.truncated = !r.terminated && t_ >= spec_.horizon;
+    if (r.done()) active_ = false;
+    return r;
+  }
+
+ private:
+  Eigen::VectorXd obs() const { return Eigen::Vector2d(x_, target_); }
+  maps::envs::EnvSpec spec_;
+  double x_ = 0.0, target_ = 0.0;
+  int t_ = 0;
+  bool active_ = false;
+};
+
+}  // namespace rltest
