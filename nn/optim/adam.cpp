@@ -59,7 +59,7 @@ void Adam::step() {
       auto v = s.exp_avg_sq.array<T>();
       const T b1 = static_cast<T>(o.beta1), one_minus_b1 = static_cast<T>(1.0 - o.beta1);
       const T b2 = static_cast<T>(o.beta2), one_minus_b2 = static_cast<T>(1.0 - o.beta2);
-      // PyTorch's order of operations (addcmul is (value * g) * g), so float32 results match bit for bit.
+      // PyTorch's order of operations (addcmul is (value * g) * g): the Release build matches it bit for bit.
       auto update_moments = [&](const auto& gd) {
         m = b1 * m + one_minus_b1 * gd;
         v = b2 * v + (one_minus_b2 * gd) * gd;

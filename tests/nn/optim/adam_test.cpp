@@ -37,7 +37,9 @@ TEST(Adam, MatchesPyTorchDefaultsFloat32) {
   expect_all_near(got, expected, 1e-6);
 }
 
-// Bit-exact in float32 against PyTorch 1.13's single-tensor Adam (foreach=False), produced by:
+// Float32 against PyTorch 1.13's single-tensor Adam (foreach=False). The Release build (-O3)
+// matches these bit for bit; the -O2 sanitizer build differs by up to 4e-7 (the compiler contracts
+// the update's multiply-adds differently), so the test holds the bound of 1e-6. From:
 //
 //   import torch
 //   p = torch.tensor([0.5, -1.25, 3.0, 1e-3, -7.0, 0.1], dtype=torch.float32, requires_grad=True)
@@ -46,7 +48,7 @@ TEST(Adam, MatchesPyTorchDefaultsFloat32) {
 //             [1., 1., 1., 1., 1., 1.], [0.01, -0.02, 0.03, 0.04, 0.05, 0.06]]:
 //       p.grad = torch.tensor(g, dtype=torch.float32); opt.step()
 //   print(" ".join("%.9g" % v for v in p.detach().tolist()))
-TEST(Adam, MatchesPyTorchBitForBitInFloat32WithWeightDecay) {
+TEST(Adam, MatchesPyTorchInFloat32WithWeightDecay) {
   Tensor p = ag::from_vector(std::vector<float>{0.5f, -1.25f, 3.0f, 1e-3f, -7.0f, 0.1f}, {6});
   p.requires_grad_();
   optim::Adam adam({p}, {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.95, .eps = 1e-5, .weight_decay = 0.1});
@@ -61,7 +63,7 @@ TEST(Adam, MatchesPyTorchBitForBitInFloat32WithWeightDecay) {
   }
   const std::vector<float> expected = {0.460249841f,    -1.23992348f, 2.96006846f,
                                        -0.00853041001f, -7.00380659f, 0.0696757883f};
-  for (int i = 0; i < 6; ++i) EXPECT_EQ(p.data<float>()[i], expected[i]) << "element " << i;
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(p.data<float>()[i], expected[i], 1e-6) << "element " << i;
 }
 
 TEST(Adam, SkipsParametersWithoutGrad) {
