@@ -73,9 +73,10 @@ Tensor binary_kernel(const Tensor& a, const Tensor& b, const char* op, F f) {
     const T* pb = b.data<T>();
     T* po = out.data<T>();
     if (b.numel() == 1) {
+      // A one-element b only pads a's shape with 1s, so the output has a's elements in a's order.
       const T y = pb[0];
       out.array<T>() = a.array<T>().unaryExpr([&](T x) { return scalar_f(x, y); });
-      if (a.numel() == out.numel()) return;
+      return;
     }
     const BroadcastPlan plan = plan_broadcast(out_shape, a.shape(), b.shape());
     for_each_broadcast_row(plan, [&](const BroadcastRow& row) {

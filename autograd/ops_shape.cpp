@@ -161,19 +161,18 @@ Tensor concat(const std::vector<Tensor>& tensors, std::int64_t dim) {
   }
   Tensor out = empty(out_shape, first.dtype());
   const detail::DimSplit split = detail::split_at(out_shape, d);
-  std::int64_t offset = 0;  // elements into each output block
-  std::vector<std::int64_t> starts;
+  std::vector<std::int64_t> starts, sizes;  // each input's place along dim d, for the backward rule
+  std::int64_t start = 0;
   for (const Tensor& t : tensors) {
-    const std::int64_t chunk = t.shape()[d] * split.inner;
+    const std::int64_t size = t.shape()[d], chunk = size * split.inner;
     for (std::int64_t o = 0; o < split.outer; ++o) {
-      std::memcpy(bytes_ptr(out) + bytes_of(out, o * split.size * split.inner + offset),
+      std::memcpy(bytes_ptr(out) + bytes_of(out, (o * split.size + start) * split.inner),
                   bytes_ptr(t) + bytes_of(t, o * chunk), bytes_of(t, chunk));
     }
-    starts.push_back(offset / std::max<std::int64_t>(1, split.inner));
-    offset += chunk;
+    starts.push_back(start);
+    sizes.push_back(size);
+    start += size;
   }
-  std::vector<std::int64_t> sizes;
-  for (const Tensor& t : tensors) sizes.push_back(t.shape()[d]);
   return record("concat", out, tensors, [d, starts, sizes](const Tensor& g, const Needs& need, Node&) {
     Grads grads(sizes.size());
     for (std::size_t i = 0; i < sizes.size(); ++i) {

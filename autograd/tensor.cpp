@@ -318,11 +318,17 @@ Tensor randn(const Shape& shape, Generator& gen, Dtype dtype) {
   return t;
 }
 
-Tensor from_vector(const std::vector<double>& values, const Shape& shape, Dtype dtype) {
-  if (static_cast<std::int64_t>(values.size()) != numel_of(shape)) {
-    throw std::invalid_argument("from_vector: " + std::to_string(values.size()) + " values do not fill shape " +
+namespace {
+void check_fills(std::size_t count, const Shape& shape) {
+  if (static_cast<std::int64_t>(count) != numel_of(shape)) {
+    throw std::invalid_argument("from_vector: " + std::to_string(count) + " values do not fill shape " +
                                 to_string(shape) + " (" + std::to_string(numel_of(shape)) + " elements)");
   }
+}
+}  // namespace
+
+Tensor from_vector(const std::vector<double>& values, const Shape& shape, Dtype dtype) {
+  check_fills(values.size(), shape);
   Tensor t = empty(shape, dtype);
   dispatch_dtype(dtype, [&](auto tag) {
     using T = typename decltype(tag)::type;
@@ -333,10 +339,7 @@ Tensor from_vector(const std::vector<double>& values, const Shape& shape, Dtype 
 }
 
 Tensor from_vector(const std::vector<float>& values, const Shape& shape) {
-  if (static_cast<std::int64_t>(values.size()) != numel_of(shape)) {
-    throw std::invalid_argument("from_vector: " + std::to_string(values.size()) + " values do not fill shape " +
-                                to_string(shape) + " (" + std::to_string(numel_of(shape)) + " elements)");
-  }
+  check_fills(values.size(), shape);
   Tensor t = empty(shape, Dtype::Float32);
   std::memcpy(t.data<float>(), values.data(), values.size() * sizeof(float));
   return t;
