@@ -37,6 +37,9 @@ class Env {
   // An action of the wrong size or with a NaN is an error naming the task; values outside the
   // bounds are clipped. Stepping before reset() or after done() is an error.
   virtual StepResult step(const Eigen::VectorXd& action) = 0;
+  // True when the body is in a state the task treats as failed whatever the reward says (HalfCheetah: turned
+  // over). Demonstration collection discards episodes that end in, or spend long in, such a state.
+  virtual bool in_failure_state() const { return false; }
 };
 
 }  // namespace maps::envs

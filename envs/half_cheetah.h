@@ -45,6 +45,7 @@ class HalfCheetahEnv : public MujocoEnv {
   // turns). A running gait pitches well within +-1 rad, while PPO's "running on its back" trap
   // sits near +-pi, so the quarter turn separates them with a wide margin on both sides.
   bool is_flipped() const;
+  bool in_failure_state() const override { return is_flipped(); }
 
  protected:
   Eigen::VectorXd reset_model(std::mt19937_64& rng) override;

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "envs/source_folders.h"
+
 namespace maps::envs {
 namespace {
 
@@ -59,32 +61,9 @@ MjModelPtr load_model_from_file(const std::filesystem::path& path) {
   return MjModelPtr(model);
 }
 
-std::filesystem::path assets_dir() {
-  namespace fs = std::filesystem;
-  if (const char* from_env = std::getenv("MAPS_ASSETS_DIR"); from_env != nullptr && *from_env != '\0') {
-    const fs::path dir(from_env);
-    if (!fs::is_directory(dir)) {
-      throw std::runtime_error("MAPS_ASSETS_DIR is set to '" + dir.string() + "', which is not a directory");
-    }
-    return dir;
-  }
-  std::vector<fs::path> tried;
-  // The source tree this file was compiled from (CMake passes absolute source paths).
-  const fs::path source_assets = fs::path(__FILE__).parent_path() / "assets";
-  tried.push_back(source_assets);
-  if (source_assets.is_absolute() && fs::is_directory(source_assets)) return source_assets;
-  // Walking up from the working directory, for a copied tree or a relocated build.
-  std::error_code ec;
-  for (fs::path dir = fs::current_path(ec); !ec && !dir.empty(); dir = dir.parent_path()) {
-    const fs::path candidate = dir / "envs" / "assets";
-    tried.push_back(candidate);
-    if (fs::is_directory(candidate)) return candidate;
-    if (dir == dir.root_path()) break;
-  }
-  std::string message = "cannot find the MJCF assets folder (envs/assets); set MAPS_ASSETS_DIR. Tried:";
-  for (const auto& path : tried) message += " '" + path.string() + "'";
-  throw std::runtime_error(message);
-}
+std::filesystem::path assets_dir() { return find_envs_folder("assets", "MAPS_ASSETS_DIR"); }
+
+std::string mujoco_env_version() { return std::string("maps-envs 1, MuJoCo ") + mj_versionString(); }
 
 std::filesystem::path asset_path(const std::string& file_name) {
   const auto path = assets_dir() / file_name;

@@ -40,6 +40,9 @@ std::filesystem::path asset_path(const std::string& file_name);
 // The whole file as text; throws naming the file if it cannot be read.
 std::string read_text_file(const std::filesystem::path& path);
 
+// Identifies the env code and the physics engine in data files: "maps-envs 1, MuJoCo <version>".
+std::string mujoco_env_version();
+
 class MujocoEnv : public Env {
  public:
   const EnvSpec& spec() const override { return spec_; }

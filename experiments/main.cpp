@@ -6,6 +6,7 @@
 #include <iostream>
 #include <string>
 
+#include "experiments/collect.h"
 #include "experiments/demo.h"
 #include "experiments/train_expert.h"
 
@@ -61,6 +62,9 @@ int main(int argc, char** argv) {
   train_expert_cmd->add_option("--eval-episodes", train_expert.eval_episodes, "Deterministic episodes at the end")
       ->check(positive)
       ->capture_default_str();
+  train_expert_cmd->add_option("--lr", train_expert.learning_rate, "Adam's initial learning rate (annealed to 0)")
+      ->check(positive)
+      ->capture_default_str();
   train_expert_cmd->add_option("--init", train_expert.init,
                                "Warm start from another run's checkpoint.ckpt (when DIR has none)");
   train_expert_cmd
@@ -69,11 +73,46 @@ int main(int argc, char** argv) {
       ->check(non_negative)
       ->capture_default_str();
 
+  maps::experiments::CollectOptions collect;
+  CLI::App* collect_cmd = app.add_subcommand(
+      "collect", "Roll a task set's committed experts out into demonstrations (HDF5, 70/30 train/valid per task)");
+  collect_cmd->add_option("--set", collect.task_set, "Task set: gravity or modified")
+      ->required()
+      ->check(CLI::IsMember({"gravity", "modified"}));
+  collect_cmd->add_option("--demos", collect.demos, "Kept demonstrations per task")
+      ->check(positive)
+      ->capture_default_str();
+  collect_cmd->add_option("--out", collect.out, "HDF5 file to write")->required();
+  collect_cmd->add_option("--actions", collect.actions, "Record the expert's mean action or a sampled one")
+      ->check(CLI::IsMember({"mean", "sample"}))
+      ->capture_default_str();
+  collect_cmd->add_option("--experts", collect.experts_dir,
+                          "Folder of <set>/<task>.json experts (default: envs/experts)");
+  collect_cmd->add_option("--first-seed", collect.first_seed, "First reset seed of the demonstrations")
+      ->check(non_negative)
+      ->capture_default_str();
+  collect_cmd
+      ->add_option("--min-return-fraction", collect.min_return_fraction,
+                   "Discard an episode returning less than this fraction of the task's median")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  collect_cmd->add_option("--train-fraction", collect.train_fraction, "Share of each task's demos in mask/train")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  collect_cmd->add_option("--split-seed", collect.split_seed, "Seed of the train/valid split")
+      ->check(non_negative)
+      ->capture_default_str();
+  collect_cmd->add_option("--threads", collect.threads, "Tasks rolled out at once (0: one per core)")
+      ->check(non_negative)
+      ->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
+  for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
   try {
     if (*demo_cmd) return maps::experiments::run_demo(demo);
     if (*train_expert_cmd) return maps::experiments::run_train_expert(train_expert);
+    if (*collect_cmd) return maps::experiments::run_collect(collect);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

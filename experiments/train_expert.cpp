@@ -10,6 +10,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "envs/seed_ranges.h"
 #include "envs/task_sets.h"
 #include "maps/rl/ppo.h"
 #include "maps/rl/upright.h"
@@ -17,9 +18,8 @@
 namespace maps::experiments {
 namespace {
 
-// Evaluation episodes start from seeds in their own range, far from the training seeds (splitmix-mixed 63-bit
-// numbers) and from small demonstration seeds.
-constexpr std::uint64_t kEvalSeedBase = 4'000'000'000ULL;
+// Evaluation episodes start from seeds in their own range (envs/seed_ranges.h), apart from the demonstrations'.
+constexpr std::uint64_t kEvalSeedBase = envs::kEvalSeedBegin;
 // An episode counts as flipped when the torso spent more than half its steps turned over (cos(pitch) < 0).
 constexpr double kFlippedFraction = 0.5;
 
@@ -31,6 +31,7 @@ int run_train_expert(const TrainExpertOptions& options) {
   rl::PPOConfig config;
   config.total_steps = options.steps;
   config.seed = options.seed;
+  config.learning_rate = options.learning_rate;
   config.checkpoint_every = options.checkpoint_every;
   config.pitch_index = 1;  // HalfCheetah's rooty
   std::printf("maps train-expert: task %s, %lld steps, seed %llu, out %s\n", options.task.c_str(),
@@ -79,6 +80,7 @@ int run_train_expert(const TrainExpertOptions& options) {
                                 {"algorithm", "PPO (maps/rl)"},
                                 {"steps", trainer.steps_done()},
                                 {"seed", options.seed},
+                                {"learning_rate", options.learning_rate},
                                 {"warm_start", options.init},
                                 {"abandoned_as_flipped", abandoned},
                                 {"eval_episodes", options.eval_episodes},

@@ -15,6 +15,7 @@ struct TrainExpertOptions {
   std::uint64_t seed = 0;            // network init, action noise, training episode seeds
   int checkpoint_every = 10;         // iterations
   int eval_episodes = 20;            // deterministic episodes at the end
+  double learning_rate = 3e-4;       // Adam's initial rate, annealed linearly to 0
   std::string init;                  // optional warm start: a checkpoint.ckpt of a run on another task
   std::int64_t abandon_flipped = 0;  // when > 0: past this many steps, stop if the last 5 rollouts ran flipped
 };

@@ -1,0 +1,41 @@
+#include "envs/source_folders.h"
+
+#include <cstdlib>
+#include <stdexcept>
+#include <system_error>
+#include <vector>
+
+namespace maps::envs {
+
+std::filesystem::path find_envs_folder(const std::string& name, const char* env_var) {
+  namespace fs = std::filesystem;
+  if (const char* from_env = std::getenv(env_var); from_env != nullptr && *from_env != '\0') {
+    const fs::path dir(from_env);
+    if (!fs::is_directory(dir)) {
+      throw std::runtime_error(std::string(env_var) + " is set to '" + dir.string() + "', which is not a directory");
+    }
+    return dir;
+  }
+  std::vector<fs::path> tried;
+  // The source tree this file was compiled from (CMake passes absolute source paths).
+  const fs::path from_source = fs::path(__FILE__).parent_path() / name;
+  tried.push_back(from_source);
+  if (from_source.is_absolute() && fs::is_directory(from_source)) return from_source;
+  // Walking up from the working directory, for a copied tree or a relocated build.
+  std::error_code ec;
+  for (fs::path dir = fs::current_path(ec); !ec && !dir.empty(); dir = dir.parent_path()) {
+    const fs::path candidate = dir / "envs" / name;
+    tried.push_back(candidate);
+    if (fs::is_directory(candidate)) return candidate;
+    if (dir == dir.root_path()) break;
+  }
+  std::string message = "cannot find the folder envs/" + name + "; set " + env_var + ". Tried:";
+  for (const auto& path : tried) message += " '" + path.string() + "'";
+  throw std::runtime_error(message);
+}
+
+std::filesystem::path experts_dir() { return find_envs_folder("experts", "MAPS_EXPERTS_DIR"); }
+
+std::filesystem::path expert_path(const std::string& task) { return experts_dir() / (task + ".json"); }
+
+}  // namespace maps::envs
