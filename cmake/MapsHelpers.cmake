@@ -1,15 +1,19 @@
 # Helpers shared by the layer folders and tests/.
 
-# maps_add_layer(<target> [PUBLIC_DEPS <targets>...])
+# maps_add_layer(<target> [EXCLUDE_DIRS <subfolders>...] [PUBLIC_DEPS <targets>...])
 #
 # Builds the layer library of the calling folder from every *.cpp under it (recursively, with
-# CONFIGURE_DEPENDS, so adding a file needs no CMake edit: the next build re-globs).
+# CONFIGURE_DEPENDS, so adding a file needs no CMake edit: the next build re-globs), except
+# under EXCLUDE_DIRS (optional parts that get targets of their own).
 # A folder with no .cpp yet gives an INTERFACE library with the same name, include directory
 # and dependencies; it becomes a STATIC library by itself once the first .cpp appears.
 # The repository root is the public include directory ("autograd/tensor.h", "nn/linear.h").
 function(maps_add_layer target)
-  cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "PUBLIC_DEPS")
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "PUBLIC_DEPS;EXCLUDE_DIRS")
   file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
+  foreach(dir IN LISTS arg_EXCLUDE_DIRS)
+    list(FILTER sources EXCLUDE REGEX "^${CMAKE_CURRENT_SOURCE_DIR}/${dir}/")
+  endforeach()
   if(sources)
     add_library(${target} STATIC ${sources})
     target_include_directories(${target} PUBLIC "${PROJECT_SOURCE_DIR}")

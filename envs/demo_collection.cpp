@@ -22,7 +22,7 @@ struct Episode {
   bool ended_in_failure = false;
 };
 
-Episode roll_out(Env& env, const ExpertPolicy& expert, std::uint64_t seed, const DemoCollectionConfig& config) {
+Episode roll_out(Env& env, const TaskExpert& expert, std::uint64_t seed, const DemoCollectionConfig& config) {
   const EnvSpec& spec = env.spec();
   std::mt19937_64 noise(splitmix64(seed ^ splitmix64(config.noise_seed)));
   std::vector<Eigen::VectorXd> observations, actions;
@@ -33,6 +33,12 @@ Episode roll_out(Env& env, const ExpertPolicy& expert, std::uint64_t seed, const
   for (bool done = false; !done;) {
     Eigen::VectorXd action =
         config.actions == DemoActions::kMean ? expert.mean_action(obs) : expert.sample_action(obs, noise);
+    if (action.size() != spec.action_size || !action.allFinite()) {
+      throw std::runtime_error("demonstrations of " + spec.task + ": the expert (" + expert.source + ") gave " +
+                               std::to_string(action.size()) + " action entries" +
+                               (action.allFinite() ? "" : " with a NaN or infinity") + ", the env takes " +
+                               std::to_string(spec.action_size));
+    }
     // Store what the env applies: it clips to its bounds, and a learner should imitate the applied action.
     action = action.cwiseMax(spec.action_low).cwiseMin(spec.action_high);
     const StepResult result = env.step(action);
@@ -72,7 +78,7 @@ std::string format(const char* pattern, Numbers... numbers) {
   return text;
 }
 
-void check_config(const Env& env, const ExpertPolicy& expert, const DemoCollectionConfig& config) {
+void check_config(const Env& env, const TaskExpert& expert, const DemoCollectionConfig& config) {
   const std::string task = env.spec().task;
   if (config.demos < 1) {
     throw std::invalid_argument("demonstrations of " + task + ": demos must be >= 1, got " +
@@ -90,12 +96,8 @@ void check_config(const Env& env, const ExpertPolicy& expert, const DemoCollecti
   if (expert.task != task) {
     throw std::invalid_argument("demonstrations of " + task + ": the expert was trained on '" + expert.task + "'");
   }
-  expert.validate();
-  if (expert.observation_size() != env.spec().observation_size || expert.action_size() != env.spec().action_size) {
-    throw std::invalid_argument(
-        "demonstrations of " + task + ": the expert maps " + std::to_string(expert.observation_size()) +
-        " observations to " + std::to_string(expert.action_size()) + " actions, the env has " +
-        std::to_string(env.spec().observation_size) + " and " + std::to_string(env.spec().action_size));
+  if (!expert.mean_action || !expert.sample_action) {
+    throw std::invalid_argument("demonstrations of " + task + ": the expert has no policy");
   }
 }
 
@@ -109,8 +111,7 @@ DemoActions parse_demo_actions(const std::string& word) {
   throw std::invalid_argument("demonstration actions: expected 'mean' or 'sample', got '" + word + "'");
 }
 
-TaskDemonstrations collect_task_demonstrations(Env& env, const ExpertPolicy& expert,
-                                               const DemoCollectionConfig& config) {
+TaskDemonstrations collect_task_demonstrations(Env& env, const TaskExpert& expert, const DemoCollectionConfig& config) {
   check_config(env, expert, config);
   const std::string task = env.spec().task;
   const std::uint64_t max_attempts = static_cast<std::uint64_t>(config.demos) * config.max_attempts_factor;
@@ -134,7 +135,9 @@ TaskDemonstrations collect_task_demonstrations(Env& env, const ExpertPolicy& exp
 
   const auto keep_or_discard = [&](Episode&& episode) {
     std::string reason;
-    if (episode.ended_in_failure) {
+    if (config.require_success && !episode.demo.success) {
+      reason = "never met the success test";
+    } else if (episode.ended_in_failure) {
       reason = "ended in the failure state (turned over)";
     } else if (episode.failure_fraction > config.max_failure_fraction) {
       reason = format("%.1f%% of its steps in the failure state (turned over), more than %.1f%%",

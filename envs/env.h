@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
+#include <utility>
 
 // The interface every task implements. Policies reach an env as plain Eigen vectors; envs/
 // knows nothing of autograd.
@@ -17,6 +18,20 @@ struct EnvSpec {
   Eigen::VectorXd action_high;
   int horizon = 0;  // steps per episode (the time limit)
 };
+
+// A spec whose every action entry is bounded by [-1, 1] (HalfCheetah, MT10).
+inline EnvSpec unit_box_spec(std::string task, std::int64_t task_index, int observation_size, int action_size,
+                             int horizon) {
+  EnvSpec spec;
+  spec.task = std::move(task);
+  spec.task_index = task_index;
+  spec.observation_size = observation_size;
+  spec.action_size = action_size;
+  spec.action_low = Eigen::VectorXd::Constant(action_size, -1.0);
+  spec.action_high = Eigen::VectorXd::Constant(action_size, 1.0);
+  spec.horizon = horizon;
+  return spec;
+}
 
 struct StepResult {
   Eigen::VectorXd observation;

@@ -59,15 +59,8 @@ std::string scale_geom_size(std::string xml, const std::string& geom, double sca
 }
 
 EnvSpec half_cheetah_spec(std::string task, std::int64_t task_index) {
-  EnvSpec spec;
-  spec.task = std::move(task);
-  spec.task_index = task_index;
-  spec.observation_size = HalfCheetahEnv::kObservationSize;
-  spec.action_size = HalfCheetahEnv::kActionSize;
-  spec.action_low = Eigen::VectorXd::Constant(HalfCheetahEnv::kActionSize, -1.0);
-  spec.action_high = Eigen::VectorXd::Constant(HalfCheetahEnv::kActionSize, 1.0);
-  spec.horizon = HalfCheetahEnv::kHorizon;
-  return spec;
+  return unit_box_spec(std::move(task), task_index, HalfCheetahEnv::kObservationSize, HalfCheetahEnv::kActionSize,
+                       HalfCheetahEnv::kHorizon);
 }
 
 MjModelPtr compile_variant(const std::string& task, const HalfCheetahVariant& variant) {

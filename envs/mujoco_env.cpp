@@ -89,10 +89,12 @@ MujocoEnv::MujocoEnv(EnvSpec spec, MjModelPtr model, int frame_skip)
     throw std::invalid_argument("MujocoEnv '" + spec_.task + "': frame_skip must be >= 1, got " +
                                 std::to_string(frame_skip_));
   }
-  if (spec_.action_size != model_->nu || spec_.action_low.size() != spec_.action_size ||
+  // The action need not map one to one onto actuators (MT10 moves a mocap body with 3 of its 4 entries);
+  // do_simulation() checks the control against the model.
+  if (spec_.action_size < 1 || spec_.action_low.size() != spec_.action_size ||
       spec_.action_high.size() != spec_.action_size) {
     throw std::invalid_argument("MujocoEnv '" + spec_.task + "': action size " + std::to_string(spec_.action_size) +
-                                " and bounds must match the model's " + std::to_string(model_->nu) + " actuators");
+                                " must be >= 1 and match both bounds' sizes");
   }
   data_.reset(mj_makeData(model_.get()));
   if (!data_) throw std::runtime_error("MujocoEnv '" + spec_.task + "': mj_makeData failed");

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "envs/half_cheetah.h"
+#include "envs/mt10/tasks.h"
 
 namespace maps::envs {
 namespace {
@@ -39,6 +40,18 @@ EnvFactory cheetah_geoms(std::vector<std::string> geoms, double scale) {
   };
 }
 
+// MT10 (Meta-World's ten manipulation tasks), with the default options (horizon 150).
+std::vector<TaskDefinition> mt10_definitions() {
+  std::vector<TaskDefinition> definitions;
+  for (const mt10::MT10Task& task : mt10::mt10_tasks()) {
+    const mt10::MT10Factory make = task.make;
+    definitions.push_back({"mt10/" + task.name, [make](const std::string& name, std::int64_t index) {
+                             return std::unique_ptr<Env>(make(name, index, mt10::MT10Options{}));
+                           }});
+  }
+  return definitions;
+}
+
 constexpr double kBig = 1.25;
 constexpr double kSmall = 0.75;
 
@@ -66,6 +79,7 @@ const std::vector<TaskSet>& registry() {
            {"modified/big_foot", cheetah_geoms({"bfoot", "ffoot"}, kBig)},
            {"modified/small_foot", cheetah_geoms({"bfoot", "ffoot"}, kSmall)},
        }},
+      {"mt10", mt10_definitions()},
   };
   return sets;
 }

@@ -11,7 +11,7 @@
 // within its set, which is the one-hot task id. Adding a task is one line in task_sets.cpp.
 namespace maps::envs {
 
-// {"gravity", "modified"}.
+// {"gravity", "modified", "mt10"}.
 std::vector<std::string> task_set_names();
 // The tasks of a set in index order; an unknown set is an error listing the valid ones.
 std::vector<std::string> task_names(const std::string& task_set);

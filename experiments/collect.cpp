@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -22,32 +23,23 @@
 namespace maps::experiments {
 namespace {
 
-std::vector<envs::ExpertPolicy> load_experts(const std::vector<std::string>& tasks, const std::string& experts_dir) {
-  const std::filesystem::path dir = experts_dir.empty() ? envs::experts_dir() : std::filesystem::path(experts_dir);
-  std::vector<std::string> missing;
-  for (const auto& task : tasks)
-    if (!std::filesystem::is_regular_file(dir / (task + ".json"))) missing.push_back((dir / (task + ".json")).string());
-  if (!missing.empty()) {
-    std::string message = std::to_string(missing.size()) + " of " + std::to_string(tasks.size()) +
-                          " experts are missing (train them with `maps train-expert`):";
-    for (const auto& path : missing) message += " " + path;
-    throw std::runtime_error(message);
-  }
-  std::vector<envs::ExpertPolicy> experts;
+// Every task's expert, or one error listing all that are missing.
+std::vector<envs::TaskExpert> load_experts(const std::vector<std::string>& tasks, const std::string& experts_dir) {
+  std::vector<envs::TaskExpert> experts;
+  std::string missing;
+  int missing_count = 0;
   for (const auto& task : tasks) {
-    experts.push_back(envs::ExpertPolicy::load((dir / (task + ".json")).string()));
-    if (experts.back().task != task)
-      throw std::runtime_error("expert file " + (dir / (task + ".json")).string() + " holds an expert of '" +
-                               experts.back().task + "', not '" + task + "'");
+    try {
+      experts.push_back(envs::load_task_expert(task, experts_dir));
+    } catch (const std::exception& e) {
+      missing += std::string("\n  ") + e.what();
+      ++missing_count;
+    }
   }
+  if (missing_count > 0)
+    throw std::runtime_error(std::to_string(missing_count) + " of " + std::to_string(tasks.size()) +
+                             " experts could not be loaded:" + missing);
   return experts;
-}
-
-double documented_return(const envs::ExpertPolicy& expert) {
-  const auto metadata = nlohmann::json::parse(expert.metadata_json, nullptr, /*allow_exceptions=*/false);
-  if (metadata.is_object() && metadata.contains("eval_return_mean") && metadata["eval_return_mean"].is_number())
-    return metadata["eval_return_mean"].get<double>();
-  return std::nan("");
 }
 
 }  // namespace
@@ -62,7 +54,13 @@ int run_collect(const CollectOptions& options) {
   config.actions = envs::parse_demo_actions(options.actions);
   config.first_seed = options.first_seed;
   config.min_return_fraction = options.min_return_fraction;
-  const std::vector<envs::ExpertPolicy> experts = load_experts(tasks, options.experts_dir);
+  if (options.task_set == "mt10") {
+    // MT10's reward counts the steps at which the success test holds: demonstrations must succeed, and how long
+    // after success an episode runs says nothing of its quality.
+    config.require_success = true;
+    config.min_return_fraction = 0.0;
+  }
+  const std::vector<envs::TaskExpert> experts = load_experts(tasks, options.experts_dir);
 
   const int threads =
       std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
@@ -86,9 +84,12 @@ int run_collect(const CollectOptions& options) {
         double mean = 0.0;
         for (const auto& d : results[i].demos) mean += d.episode_return / results[i].demos.size();
         const std::lock_guard<std::mutex> lock(print_mutex);
-        std::printf("[%2d/%zu] %-22s return %7.1f (median %7.1f, expert %7.1f), %zu discarded, %.0f s\n", ++finished,
-                    tasks.size(), tasks[i].c_str(), mean, results[i].median_return, documented_return(experts[i]),
-                    results[i].discarded.size(),
+        const double documented = experts[i].documented_return;
+        const std::string expert_part =
+            std::isfinite(documented) ? ", expert's documented " + std::to_string(std::lround(documented)) : "";
+        std::printf("[%2d/%zu] %-26s %zu demos, return %.1f (median %.1f%s), %zu discarded, %.0f s\n", ++finished,
+                    tasks.size(), tasks[i].c_str(), results[i].demos.size(), mean, results[i].median_return,
+                    expert_part.c_str(), results[i].discarded.size(),
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         std::fflush(stdout);
       } catch (...) {
@@ -123,7 +124,7 @@ int run_collect(const CollectOptions& options) {
       file.demos.push_back(std::move(demo));
     }
     discarded_total += static_cast<int>(results[i].discarded.size());
-    per_task[tasks[i]] = {{"expert_eval_return_mean", documented_return(experts[i])},
+    per_task[tasks[i]] = {{"expert_eval_return_mean", experts[i].documented_return},
                           {"median_return", results[i].median_return},
                           {"seeds", seeds},
                           {"discarded", discarded}};

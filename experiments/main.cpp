@@ -8,6 +8,8 @@
 
 #include "experiments/collect.h"
 #include "experiments/demo.h"
+#include "experiments/expert_eval.h"
+#include "experiments/render.h"
 #include "experiments/train_expert.h"
 
 namespace {
@@ -76,9 +78,9 @@ int main(int argc, char** argv) {
   maps::experiments::CollectOptions collect;
   CLI::App* collect_cmd = app.add_subcommand(
       "collect", "Roll a task set's committed experts out into demonstrations (HDF5, 70/30 train/valid per task)");
-  collect_cmd->add_option("--set", collect.task_set, "Task set: gravity or modified")
+  collect_cmd->add_option("--set", collect.task_set, "Task set: gravity, modified or mt10")
       ->required()
-      ->check(CLI::IsMember({"gravity", "modified"}));
+      ->check(CLI::IsMember({"gravity", "modified", "mt10"}));
   collect_cmd->add_option("--demos", collect.demos, "Kept demonstrations per task")
       ->check(positive)
       ->capture_default_str();
@@ -93,7 +95,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   collect_cmd
       ->add_option("--min-return-fraction", collect.min_return_fraction,
-                   "Discard an episode returning less than this fraction of the task's median")
+                   "Discard an episode returning less than this fraction of the task's median (not for mt10)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   collect_cmd->add_option("--train-fraction", collect.train_fraction, "Share of each task's demos in mask/train")
@@ -106,6 +108,43 @@ int main(int argc, char** argv) {
       ->check(non_negative)
       ->capture_default_str();
 
+  maps::experiments::RenderOptions render;
+  CLI::App* render_cmd =
+      app.add_subcommand("render", "Draw one frame of a task's scene offscreen (MuJoCo's renderer on OSMesa) to PNG");
+  render_cmd->add_option("--task", render.task, "Task name, e.g. mt10/door-open or gravity/1.0")->required();
+  render_cmd->add_option("--seed", render.seed, "Seed of the initial state")
+      ->check(non_negative)
+      ->capture_default_str();
+  render_cmd->add_option("--out", render.out, "PNG file to write")->required();
+  render_cmd->add_option("--steps", render.steps, "Steps of the task's expert before the picture")
+      ->check(non_negative)
+      ->capture_default_str();
+  render_cmd->add_option("--width", render.width, "Width in pixels (at most 640)")
+      ->check(positive)
+      ->capture_default_str();
+  render_cmd->add_option("--height", render.height, "Height in pixels (at most 480)")
+      ->check(positive)
+      ->capture_default_str();
+  render_cmd->add_option("--camera", render.camera, "A named camera of the model (default: a view made for the task)");
+
+  maps::experiments::ExpertEvalOptions expert_eval;
+  CLI::App* expert_eval_cmd = app.add_subcommand(
+      "expert-eval", "Score each task's expert (mean action) from evaluation seeds: return, success, turned over");
+  auto* eval_set = expert_eval_cmd->add_option("--set", expert_eval.task_set, "Task set: gravity, modified or mt10")
+                       ->check(CLI::IsMember({"gravity", "modified", "mt10"}));
+  auto* eval_task = expert_eval_cmd->add_option("--task", expert_eval.task, "One task instead of a set");
+  eval_set->excludes(eval_task);
+  expert_eval_cmd->add_option("--episodes", expert_eval.episodes, "Episodes per task")
+      ->check(positive)
+      ->capture_default_str();
+  expert_eval_cmd->add_option("--first-seed", expert_eval.first_seed, "Reset seed of the first episode")
+      ->check(non_negative)
+      ->capture_default_str();
+  expert_eval_cmd->add_option("--threads", expert_eval.threads, "Tasks evaluated at once (0: one per core)")
+      ->check(non_negative)
+      ->capture_default_str();
+  expert_eval_cmd->add_option("--json", expert_eval.json_out, "Also write the table to this JSON file");
+
   CLI11_PARSE(app, argc, argv);
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
@@ -113,6 +152,8 @@ int main(int argc, char** argv) {
     if (*demo_cmd) return maps::experiments::run_demo(demo);
     if (*train_expert_cmd) return maps::experiments::run_train_expert(train_expert);
     if (*collect_cmd) return maps::experiments::run_collect(collect);
+    if (*render_cmd) return maps::experiments::run_render(render);
+    if (*expert_eval_cmd) return maps::experiments::run_expert_eval(expert_eval);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

@@ -18,6 +18,8 @@ PACKAGES=(
   libmujoco-dev
   libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r
   libhdf5-dev
+  libosmesa6-dev  # offscreen rendering (maps render); optional for the build
+  libpng-dev
 )
 
 export DEBIAN_FRONTEND=noninteractive

@@ -56,7 +56,7 @@ class FakeEnv : public Env {
 };
 
 // A 1-1 linear expert that always asks for action 2 (clipped to 1 by the env): every episode returns 55.
-ExpertPolicy constant_expert(const std::string& task) {
+TaskExpert constant_expert(const std::string& task) {
   ExpertPolicy p;
   p.task = task;
   p.obs_mean = Eigen::VectorXd::Zero(1);
@@ -64,7 +64,7 @@ ExpertPolicy constant_expert(const std::string& task) {
   p.weights = {Eigen::MatrixXd::Zero(1, 1)};
   p.biases = {Eigen::VectorXd::Constant(1, 2.0)};
   p.log_std = Eigen::VectorXd::Constant(1, -1.0);
-  return p;
+  return task_expert_from_policy(p, "constant");
 }
 
 TEST(DemoCollection, DiscardsFailedEpisodesAndRecordsWhy) {
@@ -94,6 +94,27 @@ TEST(DemoCollection, DiscardsFailedEpisodesAndRecordsWhy) {
   EXPECT_THAT(out.discarded[0].reason, HasSubstr("30.0% of its steps in the failure state"));
   EXPECT_EQ(out.discarded[1].seed, 1u);
   EXPECT_THAT(out.discarded[1].reason, HasSubstr("ended in the failure state"));
+}
+
+TEST(DemoCollection, RequireSuccessDiscardsEpisodesThatNeverSucceed) {
+  FakeEnv env;  // never reports success
+  DemoCollectionConfig config;
+  config.demos = 2;
+  config.require_success = true;
+  config.max_attempts_factor = 2;
+  EXPECT_THAT([&] { collect_task_demonstrations(env, constant_expert("fake/walker"), config); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("never met the success test")));
+}
+
+TEST(DemoCollection, AnExpertGivingWrongSizedActionsIsNamed) {
+  FakeEnv env;
+  TaskExpert expert = constant_expert("fake/walker");
+  expert.source = "broken.json";
+  expert.mean_action = [](const Eigen::VectorXd&) { return Eigen::VectorXd::Zero(3); };
+  DemoCollectionConfig config;
+  config.demos = 1;
+  EXPECT_THAT([&] { collect_task_demonstrations(env, expert, config); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("broken.json")));
 }
 
 TEST(DemoCollection, GivesUpNamingTheTaskWhenTooFewEpisodesPass) {
@@ -135,10 +156,10 @@ class CheetahDemos : public ::testing::Test {
  protected:
   void SetUp() override {
     env_ = make_env("gravity/1.0");
-    expert_ = ExpertPolicy::load(expert_path("gravity/1.0").string());
+    expert_ = load_task_expert("gravity/1.0");
   }
   std::unique_ptr<Env> env_;
-  ExpertPolicy expert_;
+  TaskExpert expert_;
 };
 
 TEST_F(CheetahDemos, ReplayingTheRecordedActionsReproducesTheDemonstration) {

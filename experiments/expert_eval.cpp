@@ -1,0 +1,124 @@
+// `maps expert-eval`: what each task's expert scores, measured the same way for every set.
+
+#include "experiments/expert_eval.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "envs/task_expert.h"
+#include "envs/task_sets.h"
+
+namespace maps::experiments {
+namespace {
+
+struct TaskScore {
+  double return_mean = 0.0, return_std = 0.0;
+  int successes = 0;
+  double first_success_step = 0.0;  // mean over successful episodes
+  int failed = 0;                   // episodes with more than half their steps in the failure state
+};
+
+TaskScore evaluate(const std::string& task, int episodes, std::uint64_t first_seed) {
+  auto env = envs::make_env(task);
+  const envs::TaskExpert expert = envs::load_task_expert(task);
+  TaskScore score;
+  std::vector<double> returns;
+  for (int e = 0; e < episodes; ++e) {
+    Eigen::VectorXd obs = env->reset(first_seed + static_cast<std::uint64_t>(e));
+    double total = 0.0;
+    int steps = 0, failure_steps = 0, first_success = -1;
+    for (bool done = false; !done; ++steps) {
+      const envs::StepResult r = env->step(expert.mean_action(obs));
+      total += r.reward;
+      if (r.success && first_success < 0) first_success = steps;
+      failure_steps += env->in_failure_state() ? 1 : 0;
+      obs = r.observation;
+      done = r.done();
+    }
+    returns.push_back(total);
+    if (first_success >= 0) {
+      ++score.successes;
+      score.first_success_step += first_success;
+    }
+    if (2 * failure_steps > steps) ++score.failed;
+  }
+  for (double r : returns) score.return_mean += r / episodes;
+  for (double r : returns) score.return_std += (r - score.return_mean) * (r - score.return_mean) / episodes;
+  score.return_std = std::sqrt(score.return_std);
+  if (score.successes > 0) score.first_success_step /= score.successes;
+  return score;
+}
+
+}  // namespace
+
+int run_expert_eval(const ExpertEvalOptions& options) {
+  if (options.task_set.empty() == options.task.empty())
+    throw std::invalid_argument("give exactly one of --set and --task");
+  if (options.episodes < 1) throw std::invalid_argument("--episodes: must be >= 1");
+  const std::vector<std::string> tasks =
+      options.task.empty() ? envs::task_names(options.task_set) : std::vector<std::string>{options.task};
+  for (const auto& task : tasks) envs::task_index(task);  // an unknown task fails here, before any work
+  const int threads =
+      std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
+                 static_cast<int>(tasks.size()));
+  std::printf("maps expert-eval: %zu tasks, %d episodes each from seed %llu (mean actions), %d threads\n", tasks.size(),
+              options.episodes, static_cast<unsigned long long>(options.first_seed), threads);
+  std::fflush(stdout);
+
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<TaskScore> scores(tasks.size());
+  std::vector<std::exception_ptr> errors(tasks.size());
+  std::atomic<std::size_t> next{0};
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) {
+    pool.emplace_back([&] {
+      for (std::size_t i = next++; i < tasks.size(); i = next++) {
+        try {
+          scores[i] = evaluate(tasks[i], options.episodes, options.first_seed);
+        } catch (...) {
+          errors[i] = std::current_exception();
+        }
+      }
+    });
+  }
+  for (auto& thread : pool) thread.join();
+  for (const auto& error : errors)
+    if (error) std::rethrow_exception(error);
+
+  std::printf("| task | return (mean +- std) | success | mean first-success step | failed (turned over) |\n");
+  std::printf("|---|---|---|---|---|\n");
+  nlohmann::json table = nlohmann::json::array();
+  for (std::size_t i = 0; i < tasks.size(); ++i) {
+    const TaskScore& s = scores[i];
+    std::printf("| %s | %.1f +- %.1f | %d / %d | %s | %d / %d |\n", tasks[i].c_str(), s.return_mean, s.return_std,
+                s.successes, options.episodes,
+                s.successes > 0 ? std::to_string(static_cast<int>(std::lround(s.first_success_step))).c_str() : "-",
+                s.failed, options.episodes);
+    table.push_back({{"task", tasks[i]},
+                     {"episodes", options.episodes},
+                     {"first_seed", options.first_seed},
+                     {"return_mean", s.return_mean},
+                     {"return_std", s.return_std},
+                     {"success_rate", static_cast<double>(s.successes) / options.episodes},
+                     {"mean_first_success_step", s.successes > 0 ? s.first_success_step : -1.0},
+                     {"failed_episodes", s.failed}});
+  }
+  std::printf("took %.1f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  if (!options.json_out.empty()) {
+    std::ofstream out(options.json_out);
+    out << table.dump(2) << "\n";
+    if (!out) throw std::runtime_error("cannot write '" + options.json_out + "'");
+  }
+  return 0;
+}
+
+}  // namespace maps::experiments
