@@ -6,15 +6,10 @@
 #include <random>
 #include <stdexcept>
 
+#include "envs/portable_random.h"
+
 namespace maps::envs {
 namespace {
-
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
 
 struct Episode {
   Demonstration demo;

@@ -16,6 +16,8 @@
 #include <tuple>
 #include <utility>
 
+#include "envs/portable_random.h"
+
 namespace maps::envs {
 namespace {
 
@@ -742,22 +744,12 @@ std::pair<std::vector<int>, std::vector<int>> split_train_valid(int n_demos, dou
 
   // Fisher-Yates with splitmix64 and rejection sampling: the same permutation on every platform
   // (std::shuffle and std::uniform_int_distribution are implementation-defined).
-  std::uint64_t state = seed;
-  auto next = [&state]() {
-    std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  };
+  envs::SplitMix64 gen{seed};
   std::vector<int> order(static_cast<std::size_t>(n_demos));
   for (int i = 0; i < n_demos; ++i) order[static_cast<std::size_t>(i)] = i;
   for (int i = n_demos - 1; i > 0; --i) {
-    const std::uint64_t bound = static_cast<std::uint64_t>(i) + 1;
-    const std::uint64_t limit = UINT64_MAX - UINT64_MAX % bound;  // accept draws below a multiple of bound
-    std::uint64_t r;
-    do r = next();
-    while (r >= limit);
-    std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(r % bound)]);
+    const std::uint64_t r = draw_below(gen, static_cast<std::uint64_t>(i) + 1);
+    std::swap(order[static_cast<std::size_t>(i)], order[static_cast<std::size_t>(r)]);
   }
   std::vector<int> valid(order.begin(), order.begin() + n_valid), train(order.begin() + n_valid, order.end());
   std::sort(train.begin(), train.end());

@@ -14,48 +14,24 @@
 #include <thread>
 #include <vector>
 
+#include "envs/expert_evaluation.h"
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
 
 namespace maps::experiments {
 namespace {
 
-struct TaskScore {
-  double return_mean = 0.0, return_std = 0.0;
-  int successes = 0;
-  double first_success_step = 0.0;  // mean over successful episodes
-  int failed = 0;                   // episodes with more than half their steps in the failure state
-};
-
-TaskScore evaluate(const std::string& task, int episodes, std::uint64_t first_seed) {
+envs::ExpertEpisodes evaluate(const std::string& task, int episodes, std::uint64_t first_seed) {
   auto env = envs::make_env(task);
-  const envs::TaskExpert expert = envs::load_task_expert(task);
-  TaskScore score;
-  std::vector<double> returns;
-  for (int e = 0; e < episodes; ++e) {
-    Eigen::VectorXd obs = env->reset(first_seed + static_cast<std::uint64_t>(e));
-    double total = 0.0;
-    int steps = 0, failure_steps = 0, first_success = -1;
-    for (bool done = false; !done; ++steps) {
-      const envs::StepResult r = env->step(expert.mean_action(obs));
-      total += r.reward;
-      if (r.success && first_success < 0) first_success = steps;
-      failure_steps += env->in_failure_state() ? 1 : 0;
-      obs = r.observation;
-      done = r.done();
-    }
-    returns.push_back(total);
-    if (first_success >= 0) {
-      ++score.successes;
-      score.first_success_step += first_success;
-    }
-    if (2 * failure_steps > steps) ++score.failed;
-  }
-  for (double r : returns) score.return_mean += r / episodes;
-  for (double r : returns) score.return_std += (r - score.return_mean) * (r - score.return_mean) / episodes;
-  score.return_std = std::sqrt(score.return_std);
-  if (score.successes > 0) score.first_success_step /= score.successes;
-  return score;
+  return envs::run_expert(*env, envs::load_task_expert(task), episodes, first_seed);
+}
+
+double mean_first_success(const envs::ExpertEpisodes& e) {
+  double total = 0.0;
+  int count = 0;
+  for (int step : e.first_success_steps)
+    if (step >= 0) total += step, ++count;
+  return count > 0 ? total / count : -1.0;
 }
 
 }  // namespace
@@ -75,7 +51,7 @@ int run_expert_eval(const ExpertEvalOptions& options) {
   std::fflush(stdout);
 
   const auto start = std::chrono::steady_clock::now();
-  std::vector<TaskScore> scores(tasks.size());
+  std::vector<envs::ExpertEpisodes> scores(tasks.size());
   std::vector<std::exception_ptr> errors(tasks.size());
   std::atomic<std::size_t> next{0};
   std::vector<std::thread> pool;
@@ -98,19 +74,20 @@ int run_expert_eval(const ExpertEvalOptions& options) {
   std::printf("|---|---|---|---|---|\n");
   nlohmann::json table = nlohmann::json::array();
   for (std::size_t i = 0; i < tasks.size(); ++i) {
-    const TaskScore& s = scores[i];
-    std::printf("| %s | %.1f +- %.1f | %d / %d | %s | %d / %d |\n", tasks[i].c_str(), s.return_mean, s.return_std,
-                s.successes, options.episodes,
-                s.successes > 0 ? std::to_string(static_cast<int>(std::lround(s.first_success_step))).c_str() : "-",
-                s.failed, options.episodes);
+    const envs::ExpertEpisodes& s = scores[i];
+    const double first = mean_first_success(s);
+    std::printf("| %s | %.1f +- %.1f | %d / %d | %s | %d / %d |\n", tasks[i].c_str(), s.mean_return(), s.return_std(),
+                s.success_count(), options.episodes,
+                first >= 0 ? std::to_string(static_cast<int>(std::lround(first))).c_str() : "-", s.failed_count(),
+                options.episodes);
     table.push_back({{"task", tasks[i]},
                      {"episodes", options.episodes},
                      {"first_seed", options.first_seed},
-                     {"return_mean", s.return_mean},
-                     {"return_std", s.return_std},
-                     {"success_rate", static_cast<double>(s.successes) / options.episodes},
-                     {"mean_first_success_step", s.successes > 0 ? s.first_success_step : -1.0},
-                     {"failed_episodes", s.failed}});
+                     {"return_mean", s.mean_return()},
+                     {"return_std", s.return_std()},
+                     {"success_rate", static_cast<double>(s.success_count()) / options.episodes},
+                     {"mean_first_success_step", first},
+                     {"failed_episodes", s.failed_count()}});
   }
   std::printf("took %.1f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   if (!options.json_out.empty()) {

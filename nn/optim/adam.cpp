@@ -33,6 +33,53 @@ void Adam::set_lr(double lr) {
   options_ = changed;
 }
 
+nn::NamedTensors Adam::state() const {
+  nn::NamedTensors out;
+  for (std::size_t i = 0; i < state_.size(); ++i) {
+    const State& s = state_[i];
+    if (s.step == 0) continue;
+    const std::string index = std::to_string(i);
+    out.push_back({"step." + index, ag::scalar_tensor(static_cast<double>(s.step), ag::Dtype::Float64)});
+    out.push_back({"exp_avg." + index, s.exp_avg.detach().clone()});
+    out.push_back({"exp_avg_sq." + index, s.exp_avg_sq.detach().clone()});
+  }
+  return out;
+}
+
+void Adam::load_state(const nn::NamedTensors& tensors) {
+  std::vector<State> loaded(params_.size());
+  const auto find = [&](const std::string& name) -> const ag::Tensor* {
+    for (const auto& t : tensors)
+      if (t.name == name) return &t.tensor;
+    return nullptr;
+  };
+  std::size_t used = 0;
+  for (std::size_t i = 0; i < params_.size(); ++i) {
+    const std::string index = std::to_string(i);
+    const ag::Tensor* step = find("step." + index);
+    if (!step) continue;
+    const ag::Tensor* m = find("exp_avg." + index);
+    const ag::Tensor* v = find("exp_avg_sq." + index);
+    for (const auto& [name, t] : {std::pair{"exp_avg." + index, m}, std::pair{"exp_avg_sq." + index, v}}) {
+      if (!t || t->shape() != params_[i].shape() || t->dtype() != params_[i].dtype())
+        throw std::invalid_argument("Adam state: '" + name + "' is missing or does not match parameter " + index +
+                                    "'s shape and dtype");
+    }
+    const double count = step->numel() == 1 ? step->item() : -1.0;
+    if (!(count >= 1.0) || count != std::floor(count))
+      throw std::invalid_argument("Adam state: 'step." + index + "' must be a whole number >= 1");
+    loaded[i].step = static_cast<std::int64_t>(count);
+    loaded[i].exp_avg = m->detach().clone();
+    loaded[i].exp_avg_sq = v->detach().clone();
+    used += 3;
+  }
+  if (used != tensors.size())
+    throw std::invalid_argument("Adam state: " + std::to_string(tensors.size() - used) +
+                                " entries name no parameter of this optimiser (" + std::to_string(params_.size()) +
+                                " parameters)");
+  state_ = std::move(loaded);
+}
+
 void Adam::step() {
   ag::NoGradGuard no_grad;
   const AdamOptions& o = options_;

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "nn/module.h"
 #include "nn/optim/optimizer.h"
 
 namespace maps::optim {
@@ -33,6 +34,12 @@ class Adam : public Optimizer {
 
   // Number of steps taken by parameter i (0 before its first update).
   std::int64_t step_count(std::size_t i) const { return state_.at(i).step; }
+
+  // The moments and step counts, for checkpoints: "step.<i>" (float64 scalar), "exp_avg.<i>", "exp_avg_sq.<i>"
+  // for every parameter i that has taken a step. load_state() checks every name, shape and dtype against the
+  // parameters and throws naming the first mismatch, leaving the state unchanged.
+  nn::NamedTensors state() const;
+  void load_state(const nn::NamedTensors& state);
 
  private:
   struct State {

@@ -23,7 +23,8 @@ TEST(Adam, MatchesPyTorchWithWeightDecayAndEpsFloat64) {
                                         0.04741393911120505, 1.460029418227668,   -0.21057548973886328,
                                         0.7100022225302908};
   const auto got = run_reference_problem(Dtype::Float64, [](std::vector<Tensor> params) {
-    return optim::Adam(std::move(params), {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.99, .eps = 1e-6, .weight_decay = 0.1});
+    return maps::optim::Adam(std::move(params),
+                             {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.99, .eps = 1e-6, .weight_decay = 0.1});
   });
   expect_all_near(got, expected, 1e-12);
 }
@@ -32,8 +33,8 @@ TEST(Adam, MatchesPyTorchDefaultsFloat32) {
   const std::vector<double> expected = {0.4951491951942444,   -0.9950000643730164, 1.9955984354019165,
                                         0.004493376240134239, 1.495999813079834,   -0.24617484211921692,
                                         0.7460000514984131};
-  const auto got =
-      run_reference_problem(Dtype::Float32, [](std::vector<Tensor> params) { return optim::Adam(std::move(params)); });
+  const auto got = run_reference_problem(
+      Dtype::Float32, [](std::vector<Tensor> params) { return maps::optim::Adam(std::move(params)); });
   expect_all_near(got, expected, 1e-6);
 }
 
@@ -51,7 +52,7 @@ TEST(Adam, MatchesPyTorchDefaultsFloat32) {
 TEST(Adam, MatchesPyTorchInFloat32WithWeightDecay) {
   Tensor p = ag::from_vector(std::vector<float>{0.5f, -1.25f, 3.0f, 1e-3f, -7.0f, 0.1f}, {6});
   p.requires_grad_();
-  optim::Adam adam({p}, {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.95, .eps = 1e-5, .weight_decay = 0.1});
+  maps::optim::Adam adam({p}, {.lr = 0.01, .beta1 = 0.8, .beta2 = 0.95, .eps = 1e-5, .weight_decay = 0.1});
   const std::vector<std::vector<float>> grads = {{0.1f, -0.2f, 0.3f, 1e-4f, 5.f, -0.01f},
                                                  {0.3f, 0.1f, -0.3f, 2e-4f, -5.f, 0.02f},
                                                  {-0.1f, 0.25f, 0.f, 0.f, 1.f, 0.5f},
@@ -68,7 +69,7 @@ TEST(Adam, MatchesPyTorchInFloat32WithWeightDecay) {
 
 TEST(Adam, SkipsParametersWithoutGrad) {
   Tensor p = ag::ones({2}).requires_grad_(), q = ag::ones({2}).requires_grad_();
-  optim::Adam adam({p, q});
+  maps::optim::Adam adam({p, q});
   p.set_grad(ag::ones({2}));
   adam.step();
   EXPECT_EQ(adam.step_count(0), 1);
@@ -81,12 +82,12 @@ TEST(Adam, SkipsParametersWithoutGrad) {
 
 TEST(Adam, RejectsInvalidOptions) {
   Tensor p = ag::ones({1}).requires_grad_();
-  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.lr = -1.0}); }), HasSubstr("invalid learning rate"));
-  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.beta1 = 1.0}); }), HasSubstr("invalid beta1"));
-  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.beta2 = -0.1}); }), HasSubstr("invalid beta2"));
-  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.eps = -1e-8}); }), HasSubstr("invalid epsilon"));
-  EXPECT_THAT(error_of([&] { optim::Adam({p}, {.weight_decay = -1.0}); }), HasSubstr("invalid weight_decay"));
-  optim::Adam adam({p});
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p}, {.lr = -1.0}); }), HasSubstr("invalid learning rate"));
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p}, {.beta1 = 1.0}); }), HasSubstr("invalid beta1"));
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p}, {.beta2 = -0.1}); }), HasSubstr("invalid beta2"));
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p}, {.eps = -1e-8}); }), HasSubstr("invalid epsilon"));
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p}, {.weight_decay = -1.0}); }), HasSubstr("invalid weight_decay"));
+  maps::optim::Adam adam({p});
   adam.set_lr(0.5);
   EXPECT_EQ(adam.lr(), 0.5);
   EXPECT_THAT(error_of([&] { adam.set_lr(-0.5); }), HasSubstr("invalid learning rate"));
@@ -95,20 +96,73 @@ TEST(Adam, RejectsInvalidOptions) {
 
 TEST(Adam, RejectsBadParameters) {
   Tensor p = ag::ones({2}).requires_grad_();
-  EXPECT_THAT(error_of([&] { optim::Adam({p * 2.0}); }), HasSubstr("not a leaf"));
-  EXPECT_THAT(error_of([&] { optim::Adam({p, p}); }), HasSubstr("same tensor"));
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p * 2.0}); }), HasSubstr("not a leaf"));
+  EXPECT_THAT(error_of([&] { maps::optim::Adam({p, p}); }), HasSubstr("same tensor"));
 }
 
 TEST(Adam, StepRecordsNoGraph) {
   ag::Generator gen(71);
   nn::Linear lin(3, 2, gen);
-  optim::Adam adam(lin.parameters());
+  maps::optim::Adam adam(lin.parameters());
   ag::sum(lin.forward(ag::ones({4, 3}))).backward();
   adam.step();
   for (const auto& p : lin.parameters()) {
     EXPECT_TRUE(p.is_leaf());
     EXPECT_TRUE(p.requires_grad());
   }
+}
+
+TEST(Adam, StateRoundTripResumesExactly) {
+  // Two parameters; the second gets no grad on the first step, so its step count lags.
+  const auto make_params = [] {
+    return std::vector<ag::Tensor>{ag::from_vector(std::vector<double>{1.0, -2.0, 0.5}, {3}, ag::Dtype::Float64),
+                                   ag::from_vector(std::vector<double>{0.3, 0.7}, {2}, ag::Dtype::Float64)};
+  };
+  const auto set_grads = [](std::vector<ag::Tensor>& p, int step) {
+    p[0].set_grad(ag::from_vector(std::vector<double>{0.1 * step, -0.2, 0.3}, {3}, ag::Dtype::Float64));
+    if (step > 0) p[1].set_grad(ag::from_vector(std::vector<double>{-0.5, 0.05 * step}, {2}, ag::Dtype::Float64));
+  };
+  std::vector<ag::Tensor> straight = make_params();
+  maps::optim::Adam a(straight, {.lr = 0.1});
+  for (int step = 0; step < 6; ++step) {
+    a.zero_grad();
+    set_grads(straight, step);
+    a.step();
+  }
+  std::vector<ag::Tensor> resumed = make_params();
+  maps::optim::Adam b(resumed, {.lr = 0.1});
+  for (int step = 0; step < 3; ++step) {
+    b.zero_grad();
+    set_grads(resumed, step);
+    b.step();
+  }
+  const maps::nn::NamedTensors saved = b.state();
+  std::vector<ag::Tensor> copy = {resumed[0].detach().clone(), resumed[1].detach().clone()};
+  maps::optim::Adam c(copy, {.lr = 0.1});
+  c.load_state(saved);
+  EXPECT_EQ(c.step_count(0), 3);
+  EXPECT_EQ(c.step_count(1), 2);
+  for (int step = 3; step < 6; ++step) {
+    c.zero_grad();
+    set_grads(copy, step);
+    c.step();
+  }
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(copy[i].to_vector(), straight[i].to_vector()) << i;
+}
+
+TEST(Adam, LoadStateRejectsMismatchesAndKeepsItsState) {
+  std::vector<ag::Tensor> p = {ag::zeros({3}, ag::Dtype::Float64)};
+  maps::optim::Adam adam(p);
+  maps::nn::NamedTensors bad = {{"step.0", ag::scalar_tensor(2.0, ag::Dtype::Float64)},
+                                {"exp_avg.0", ag::zeros({4}, ag::Dtype::Float64)},
+                                {"exp_avg_sq.0", ag::zeros({3}, ag::Dtype::Float64)}};
+  EXPECT_THAT([&] { adam.load_state(bad); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("exp_avg.0")));
+  bad[1].tensor = ag::zeros({3}, ag::Dtype::Float64);
+  bad.push_back({"exp_avg.7", ag::zeros({3}, ag::Dtype::Float64)});
+  EXPECT_THAT([&] { adam.load_state(bad); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("name no parameter")));
+  EXPECT_EQ(adam.step_count(0), 0);
 }
 
 }  // namespace

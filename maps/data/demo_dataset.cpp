@@ -1,0 +1,140 @@
+#include "maps/data/demo_dataset.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <utility>
+
+#include "envs/portable_random.h"
+
+namespace maps::core {
+namespace {
+
+using envs::draw_below;
+using envs::splitmix64;
+
+// Rows of a demo kept for training or validation, with each row's predecessor in time (row t - 1 of the demo,
+// row 0 paired with itself). The predecessor is the real previous state even when subsampling skips it: the
+// smoothness loss compares consecutive states, and it reads only observations, never action labels.
+void append_rows(const envs::Demonstration& demo, std::int64_t offset, std::int64_t step, Eigen::MatrixXd& obs,
+                 Eigen::MatrixXd& prev, Eigen::MatrixXd& actions) {
+  const std::int64_t T = demo.num_samples();
+  const std::int64_t kept = offset < T ? (T - offset + step - 1) / step : 0;
+  const Eigen::Index start = obs.rows();
+  obs.conservativeResize(start + kept, demo.obs.cols());
+  prev.conservativeResize(start + kept, demo.obs.cols());
+  actions.conservativeResize(start + kept, demo.actions.cols());
+  for (std::int64_t i = 0; i < kept; ++i) {
+    const std::int64_t t = offset + i * step;
+    obs.row(start + i) = demo.obs.row(t);
+    prev.row(start + i) = demo.obs.row(t > 0 ? t - 1 : 0);
+    actions.row(start + i) = demo.actions.row(t);
+  }
+}
+
+}  // namespace
+
+DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
+    : task_set_(file.task_set), task_names_(file.task_names), config_(config) {
+  if (config.subsample < 1)
+    throw std::invalid_argument("data: subsample must be >= 1, got " + std::to_string(config.subsample));
+  if (config.demos_per_task < 0)
+    throw std::invalid_argument("data: demos_per_task must be >= 0, got " + std::to_string(config.demos_per_task));
+  if (file.demos.empty()) throw std::invalid_argument("data: the demo file holds no demonstrations");
+  action_size_ = file.demos.front().actions.cols();
+  const int K = num_tasks();
+  std::vector<std::vector<int>> train(K), valid(K);
+  for (int i : file.train) train[file.demos[i].task_index].push_back(i);
+  for (int i : file.valid) valid[file.demos[i].task_index].push_back(i);
+
+  std::mt19937_64 rng(splitmix64(config.seed ^ 0x6d6170732d646174ULL));  // a stream of its own: "maps-dat"
+  tasks_.resize(K);
+  training_seeds_.resize(K);
+  Eigen::MatrixXd all_train_obs(0, file.demos.front().obs.cols());
+  for (int k = 0; k < K; ++k) {
+    std::vector<int>& pool = train[k];
+    const auto wanted = config.demos_per_task == 0 ? pool.size() : static_cast<std::size_t>(config.demos_per_task);
+    if (pool.size() < wanted || pool.empty())
+      throw std::invalid_argument("data: task " + task_names_[k] + " has " + std::to_string(pool.size()) +
+                                  " training demos (mask/train), " + std::to_string(wanted) + " requested");
+    if (valid[k].empty()) throw std::invalid_argument("data: task " + task_names_[k] + " has no validation demos");
+    for (std::size_t i = pool.size(); i > 1; --i) std::swap(pool[i - 1], pool[draw_below(rng, i)]);
+    pool.resize(wanted);
+    std::sort(pool.begin(), pool.end());
+    TaskData& data = tasks_[k];
+    for (int i : pool) {
+      const std::int64_t offset = static_cast<std::int64_t>(draw_below(rng, config.subsample));
+      append_rows(file.demos[i], offset, config.subsample, data.train_obs, data.train_prev_obs, data.train_actions);
+      training_seeds_[k].push_back(file.demos[i].seed);
+    }
+    if (data.train_obs.rows() == 0)
+      throw std::invalid_argument("data: subsample " + std::to_string(config.subsample) + " leaves task " +
+                                  task_names_[k] + " no training states");
+    for (int i : valid[k]) append_rows(file.demos[i], 0, 1, data.valid_obs, data.valid_prev_obs, data.valid_actions);
+    double total = 0.0;
+    int count = 0;
+    for (const auto& demo : file.demos)
+      if (demo.task_index == k) total += demo.episode_return, ++count;
+    data.demo_mean_return = total / count;
+    const Eigen::Index rows = all_train_obs.rows();
+    all_train_obs.conservativeResize(rows + data.train_obs.rows(), Eigen::NoChange);
+    all_train_obs.bottomRows(data.train_obs.rows()) = data.train_obs;
+  }
+  standardizer_ = Standardizer::fit(all_train_obs);
+}
+
+Batch DemoDataset::make_batch(const std::vector<std::pair<int, std::int64_t>>& picks, ag::Dtype dtype, bool validation,
+                              std::int64_t per_task) const {
+  const auto n = static_cast<Eigen::Index>(picks.size());
+  Eigen::MatrixXd obs(n, observation_size()), prev(n, observation_size()), actions(n, action_size_);
+  Batch batch;
+  batch.tasks.reserve(picks.size());
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const auto [task, row] = picks[static_cast<std::size_t>(j)];
+    const TaskData& data = tasks_[task];
+    obs.row(j) = (validation ? data.valid_obs : data.train_obs).row(row);
+    prev.row(j) = (validation ? data.valid_prev_obs : data.train_prev_obs).row(row);
+    actions.row(j) = (validation ? data.valid_actions : data.train_actions).row(row);
+    batch.tasks.push_back(task);
+  }
+  batch.observations = standardizer_.apply(obs, dtype);
+  batch.previous_observations = standardizer_.apply(prev, dtype);
+  batch.actions = ag::from_eigen(actions).to(dtype);
+  batch.per_task = per_task;
+  return batch;
+}
+
+Batch DemoDataset::sample(std::int64_t per_task, std::mt19937_64& rng, ag::Dtype dtype) const {
+  if (per_task < 1) throw std::invalid_argument("data: states per task must be >= 1");
+  std::vector<std::pair<int, std::int64_t>> picks;
+  picks.reserve(static_cast<std::size_t>(per_task * num_tasks()));
+  for (int k = 0; k < num_tasks(); ++k)
+    for (std::int64_t i = 0; i < per_task; ++i)
+      picks.emplace_back(k, static_cast<std::int64_t>(draw_below(rng, tasks_[k].train_obs.rows())));
+  return make_batch(picks, dtype, false, per_task);
+}
+
+Batch DemoDataset::task_training_batch(int task, std::int64_t n, std::mt19937_64& rng, ag::Dtype dtype) const {
+  if (task < 0 || task >= num_tasks())
+    throw std::invalid_argument("data: task index " + std::to_string(task) + " out of range");
+  std::vector<std::pair<int, std::int64_t>> picks;
+  for (std::int64_t i = 0; i < n; ++i)
+    picks.emplace_back(task, static_cast<std::int64_t>(draw_below(rng, tasks_[task].train_obs.rows())));
+  return make_batch(picks, dtype, false, 0);
+}
+
+Batch DemoDataset::task_validation_batch(int task, ag::Dtype dtype) const {
+  if (task < 0 || task >= num_tasks())
+    throw std::invalid_argument("data: task index " + std::to_string(task) + " out of range");
+  std::vector<std::pair<int, std::int64_t>> picks;
+  for (std::int64_t r = 0; r < tasks_[task].valid_obs.rows(); ++r) picks.emplace_back(task, r);
+  return make_batch(picks, dtype, true, 0);
+}
+
+Batch DemoDataset::validation_batch(ag::Dtype dtype) const {
+  std::vector<std::pair<int, std::int64_t>> picks;
+  for (int k = 0; k < num_tasks(); ++k)
+    for (std::int64_t r = 0; r < tasks_[k].valid_obs.rows(); ++r) picks.emplace_back(k, r);
+  return make_batch(picks, dtype, true, 0);
+}
+
+}  // namespace maps::core

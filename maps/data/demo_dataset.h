@@ -1,0 +1,75 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "autograd/autograd.h"
+#include "envs/demo_file.h"
+#include "maps/data/batch.h"
+#include "maps/data/standardizer.h"
+
+// The demonstrations a run trains on, drawn from a demo file by the run's seed, and the batches the trainer
+// draws from them.
+namespace maps::core {
+
+struct DataConfig {
+  // Training demonstrations per task, drawn without replacement from the task's mask/train demos; 0 takes all.
+  int demos_per_task = 0;
+  // Keep every k-th state-action pair of each demo, from an offset drawn in [0, k) (GAIL's protocol); 1 keeps all.
+  int subsample = 1;
+  // Draws the demos and offsets. Every method given the same seed sees the same data (paired comparisons).
+  std::uint64_t seed = 0;
+};
+
+class DemoDataset {
+ public:
+  // Throws std::invalid_argument naming what is wrong: a task with fewer training demos than asked for, a
+  // subsample factor < 1, a demo shorter than the factor leaves nothing of.
+  DemoDataset(const envs::DemoFile& file, const DataConfig& config);
+
+  int num_tasks() const { return static_cast<int>(task_names_.size()); }
+  std::int64_t observation_size() const { return standardizer_.size(); }
+  std::int64_t action_size() const { return action_size_; }
+  const std::vector<std::string>& task_names() const { return task_names_; }
+  const std::string& task_set() const { return task_set_; }
+  const DataConfig& config() const { return config_; }
+  // Fitted to the kept training states of all tasks.
+  const Standardizer& standardizer() const { return standardizer_; }
+  // The reset seeds of the demos drawn for training, per task (what a run used, for its record).
+  const std::vector<std::vector<std::uint64_t>>& training_demo_seeds() const { return training_seeds_; }
+  std::int64_t training_samples(int task) const { return tasks_.at(task).train_obs.rows(); }
+  std::int64_t validation_samples(int task) const { return tasks_.at(task).valid_obs.rows(); }
+  // Mean return of the task's demonstrations in the file (train and valid): the HalfCheetah score's normaliser.
+  double demo_mean_return(int task) const { return tasks_.at(task).demo_mean_return; }
+
+  // A balanced batch: `per_task` training states of every task, drawn uniformly with replacement, task 0's first.
+  Batch sample(std::int64_t per_task, std::mt19937_64& rng, ag::Dtype dtype) const;
+  // `n` training states of one task (drawn with replacement), tasks all equal to `task`.
+  Batch task_training_batch(int task, std::int64_t n, std::mt19937_64& rng, ag::Dtype dtype) const;
+  // Every state of the task's validation demos (all of them, every state: subsampling is for training only).
+  Batch task_validation_batch(int task, ag::Dtype dtype) const;
+  // All tasks' validation states, task-major (per_task = 0: tasks may differ in count).
+  Batch validation_batch(ag::Dtype dtype) const;
+
+ private:
+  struct TaskData {
+    Eigen::MatrixXd train_obs, train_prev_obs, train_actions;  // raw (not standardised)
+    Eigen::MatrixXd valid_obs, valid_prev_obs, valid_actions;
+    double demo_mean_return = 0.0;
+  };
+  Batch make_batch(const std::vector<std::pair<int, std::int64_t>>& picks, ag::Dtype dtype, bool validation,
+                   std::int64_t per_task) const;
+
+  std::string task_set_;
+  std::vector<std::string> task_names_;
+  DataConfig config_;
+  std::int64_t action_size_ = 0;
+  std::vector<TaskData> tasks_;
+  std::vector<std::vector<std::uint64_t>> training_seeds_;
+  Standardizer standardizer_;
+};
+
+}  // namespace maps::core

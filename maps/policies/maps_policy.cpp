@@ -1,0 +1,116 @@
+#include "maps/policies/maps_policy.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace maps::core {
+
+MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generator& gen)
+    : Policy("MAPSPolicy", shape), config_(config), activation_(nn::activation_from_name(config.activation)) {
+  const std::int64_t S = shape.observation_size, A = shape.action_size, K = shape.num_tasks, M = config.modules;
+  if (S < 1 || A < 1 || K < 1)
+    throw std::invalid_argument("MAPSPolicy: observation, action sizes and task count must be >= 1");
+  if (M < 1) throw std::invalid_argument("MAPSPolicy: modules must be >= 1, got " + std::to_string(M));
+  if (config.module_hidden.empty()) throw std::invalid_argument("MAPSPolicy: module_hidden must name >= 1 layer");
+  std::int64_t in = S;
+  for (std::size_t i = 0; i < config.module_hidden.size(); ++i) {
+    module_layers_.push_back(register_module(
+        "modules" + std::to_string(i), std::make_shared<nn::ParallelLinear>(M, in, config.module_hidden[i], gen)));
+    in = config.module_hidden[i];
+  }
+  std::vector<std::int64_t> selector_sizes{S + K};
+  selector_sizes.insert(selector_sizes.end(), config.selector_hidden.begin(), config.selector_hidden.end());
+  selector_sizes.push_back(M);
+  selector_ = register_module("selector", std::make_shared<nn::MLP>(selector_sizes, activation_, gen));
+  // The head is Linear(M * F -> A) over the concatenated scored features, kept as M blocks [F, A]: then
+  // head = sum_i g_i (v_i W_i) + b is one batched matmul and needs no transposing copy. Initialised as that Linear:
+  // uniform in +-1/sqrt(M F) (PyTorch's Kaiming-uniform bound for fan_in M F), bias too.
+  const std::int64_t F = in;
+  auto head = std::make_shared<nn::ParallelLinear>(M, F, A, gen, /*bias=*/false);
+  const double bound = 1.0 / std::sqrt(static_cast<double>(M * F));
+  head->weight().detach().copy_(ag::rand(head->weight().shape(), gen, ag::Dtype::Float32, -bound, bound));
+  head_weight_ = register_module("head", head);
+  head_bias_ = register_parameter("head_bias", ag::rand({A}, gen, ag::Dtype::Float32, -bound, bound));
+  for (const auto& [name, weight] : config.selector_losses) {
+    if (!(weight >= 0.0) || !std::isfinite(weight))
+      throw std::invalid_argument("MAPSPolicy: selector loss '" + name + "' needs a finite weight >= 0");
+    losses_.push_back(register_module("loss_" + name, make_selector_loss(name)));
+    loss_weights_.push_back(weight);
+  }
+}
+
+void MAPSPolicy::check_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const {
+  if (observations.dim() != 2 || observations.size(1) != shape().observation_size)
+    throw std::invalid_argument("MAPSPolicy: observations must be [n, " + std::to_string(shape().observation_size) +
+                                "], got " + observations.to_string().substr(0, 60));
+  if (static_cast<std::int64_t>(tasks.size()) != observations.size(0))
+    throw std::invalid_argument("MAPSPolicy: " + std::to_string(tasks.size()) + " task ids for " +
+                                std::to_string(observations.size(0)) + " observations");
+  for (std::int64_t k : tasks)
+    if (k < 0 || k >= shape().num_tasks)
+      throw std::invalid_argument("MAPSPolicy: task index " + std::to_string(k) + " outside [0, " +
+                                  std::to_string(shape().num_tasks) + ")");
+}
+
+ag::Tensor MAPSPolicy::features(const ag::Tensor& observations) {
+  ag::Tensor h = observations;
+  for (std::size_t slot : module_layers_)
+    h = nn::apply_activation(activation_, child_at<nn::ParallelLinear>(slot).forward(h));
+  return h;
+}
+
+ag::Tensor MAPSPolicy::selector_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const {
+  return ag::concat({observations, ag::one_hot(tasks, shape().num_tasks, observations.dtype())}, 1);
+}
+
+ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  check_input(observations, tasks);
+  return ag::softmax(child_at<nn::MLP>(selector_).forward(selector_input(observations, tasks)), 1);
+}
+
+ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores) {
+  const std::int64_t M = features.size(0), n = features.size(1);
+  const ag::Tensor per_module = child_at<nn::ParallelLinear>(head_weight_).forward(features);  // [M, n, A]
+  const ag::Tensor weights = scores.t().reshape({M, n, 1});
+  return ag::sum(per_module * weights, {0}) + parameter_at(head_bias_);
+}
+
+ag::Tensor MAPSPolicy::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  return head(features(observations), scores(observations, tasks));
+}
+
+LossTerms MAPSPolicy::loss(const Batch& batch) {
+  const ag::Tensor& obs = batch.observations;
+  check_input(obs, batch.tasks);
+  const std::int64_t n = obs.size(0), K = shape().num_tasks, M = config_.modules;
+  SelectorOutputs out;
+  out.tasks = batch.tasks;
+  out.num_tasks = K;
+  out.num_modules = M;
+  // One selector pass scores every state under every task (the share loss needs them all); the states' own-task
+  // scores are rows of it.
+  std::vector<ag::Tensor> repeated(static_cast<std::size_t>(K), obs);
+  std::vector<std::int64_t> every_task;
+  every_task.reserve(static_cast<std::size_t>(K * n));
+  for (std::int64_t k = 0; k < K; ++k) every_task.insert(every_task.end(), static_cast<std::size_t>(n), k);
+  const ag::Tensor all = ag::softmax(
+      child_at<nn::MLP>(selector_).forward(selector_input(ag::concat(repeated, 0), every_task)), 1);  // [K n, M]
+  out.all_task_scores = all.reshape({K, n, M});
+  out.scores = ag::index_select(all, own_task_rows(batch.tasks));
+  out.previous_scores = scores(batch.previous_observations, batch.tasks);
+
+  LossTerms result;
+  const ag::Tensor bc = ag::mse_loss(head(features(obs), out.scores), batch.actions);
+  result.terms.emplace_back("bc", bc);
+  ag::Tensor selector_total = ag::zeros({}, obs.dtype());
+  for (std::size_t j = 0; j < losses_.size(); ++j) {
+    auto& loss = child_at<SelectorLoss>(losses_[j]);
+    const ag::Tensor value = loss.forward(out);
+    result.terms.emplace_back(loss.name(), value);
+    selector_total = selector_total + value * loss_weights_[j];
+  }
+  result.total = bc * config_.bc_weight + selector_total * config_.selector_weight;
+  return result;
+}
+
+}  // namespace maps::core

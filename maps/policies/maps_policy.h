@@ -1,0 +1,66 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "maps/policies/policy.h"
+#include "maps/selector/selector_loss.h"
+#include "nn/activation.h"
+#include "nn/mlp.h"
+#include "nn/parallel_linear.h"
+
+// MAPS (PAPER.md, Model): M proto-policy modules mu_i(s) see the state only; a selector G(s, k) scores them with a
+// softmax; a head maps the scored features concat(g_1 v_1, ..., g_M v_M) to the action.
+namespace maps::core {
+
+struct MAPSConfig {
+  std::int64_t modules = 10;                                  // M
+  std::vector<std::int64_t> module_hidden = {128, 128, 128};  // each module: S -> ... -> features (the last)
+  std::vector<std::int64_t> selector_hidden = {128, 128};     // [S + K] -> ... -> M
+  std::string activation = "tanh";                            // after every module layer and in the selector's hidden
+  double bc_weight = 0.75;
+  double selector_weight = 0.25;
+  // Selector losses and their weights (lambda); the paper's HalfCheetah values by default.
+  std::vector<std::pair<std::string, double>> selector_losses = {
+      {"share", 1.0}, {"explore", 0.5}, {"sparse", 0.001}, {"smooth", 1.0}};
+};
+
+class MAPSPolicy : public Policy {
+ public:
+  MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generator& gen);
+
+  ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
+  // total = bc_weight * L_BC + selector_weight * sum_j lambda_j L_j; terms: "bc", then each selector loss by name.
+  LossTerms loss(const Batch& batch) override;
+
+  // Module features [M, n, F] of standardised observations [n, S].
+  ag::Tensor features(const ag::Tensor& observations);
+  // Selector scores g(s, k) [n, M] (softmax over modules) of each observation under its task.
+  ag::Tensor scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks);
+  // The action from module features [M, n, F] and scores [n, M].
+  ag::Tensor head(const ag::Tensor& features, const ag::Tensor& scores);
+
+  const MAPSConfig& config() const { return config_; }
+  std::int64_t num_modules() const { return config_.modules; }
+
+ protected:
+  std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<MAPSPolicy>(*this); }
+
+ private:
+  ag::Tensor selector_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const;
+  void check_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const;
+
+  MAPSConfig config_;
+  nn::Activation activation_;
+  std::vector<std::size_t> module_layers_;  // child slots of the ParallelLinear layers
+  std::size_t selector_ = 0;                // child slot of the selector MLP
+  std::size_t head_weight_ = 0;             // child slot of the head's ParallelLinear (no bias)
+  std::size_t head_bias_ = 0;               // parameter slot [A]
+  std::vector<std::size_t> losses_;         // child slots of the selector losses
+  std::vector<double> loss_weights_;
+};
+
+}  // namespace maps::core

@@ -1,0 +1,55 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "autograd/autograd.h"
+#include "maps/data/batch.h"
+#include "nn/module.h"
+
+// The interface every method implements (MAPS and the baselines), so the trainer and the evaluator treat them alike.
+namespace maps::core {
+
+// Named loss terms (for logs and curves) and the total the optimiser minimises.
+struct LossTerms {
+  ag::Tensor total;
+  std::vector<std::pair<std::string, ag::Tensor>> terms;  // e.g. {"bc", ...}, {"share", ...}
+};
+
+// The sizes every policy is built for.
+struct PolicyShape {
+  std::int64_t observation_size = 0;  // S
+  std::int64_t action_size = 0;       // A
+  std::int64_t num_tasks = 0;         // K
+};
+
+class DemoDataset;
+
+class Policy : public nn::Module {
+ public:
+  Policy(std::string type_name, PolicyShape shape) : nn::Module(std::move(type_name)), shape_(shape) {}
+
+  // Actions [n, A] for standardised observations [n, S] of the given tasks (deterministic: the mean action).
+  virtual ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) = 0;
+  // The loss of one training batch (built for a balanced batch of batch_per_task() rows per task).
+  virtual LossTerms loss(const Batch& batch) = 0;
+  // Rows per task a training batch should hold (MAML asks for support + query).
+  virtual std::int64_t batch_per_task(std::int64_t states_per_task) const { return states_per_task; }
+  // Called once after training, before evaluation (MAML fine-tunes on each task here).
+  virtual void prepare_for_evaluation(const DemoDataset& /*data*/) {}
+
+  const PolicyShape& shape() const { return shape_; }
+
+ protected:
+  Policy(const Policy&) = default;
+
+ private:
+  PolicyShape shape_;
+};
+
+// Rows j of a [K * n, ...] tensor holding every task's output for n inputs, task-major: row tasks[j] * n + j.
+std::vector<std::int64_t> own_task_rows(const std::vector<std::int64_t>& tasks);
+
+}  // namespace maps::core
