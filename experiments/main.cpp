@@ -8,9 +8,11 @@
 
 #include "experiments/collect.h"
 #include "experiments/demo.h"
+#include "experiments/eval_run.h"
 #include "experiments/expert_eval.h"
 #include "experiments/render.h"
 #include "experiments/train_expert.h"
+#include "experiments/train_run.h"
 
 namespace {
 
@@ -145,6 +147,23 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   expert_eval_cmd->add_option("--json", expert_eval.json_out, "Also write the table to this JSON file");
 
+  maps::experiments::TrainRunOptions train_run;
+  CLI::App* train_cmd = app.add_subcommand("train", "Train one method on a demo file as a JSON config says");
+  train_cmd->add_option("--config", train_run.config_path, "Run config (JSON; see maps/training/run_config.h)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  train_cmd->add_option("--out", train_run.out, "Run folder (resumes a run of the same config)")->required();
+
+  maps::experiments::EvalRunOptions eval_run;
+  CLI::App* eval_cmd = app.add_subcommand("eval", "Evaluate a trained run on held-out initial states");
+  eval_cmd->add_option("--run", eval_run.run, "Run folder written by maps train")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  eval_cmd->add_option("--episodes", eval_run.episodes, "Episodes per task (default: the run config's)")
+      ->check(positive);
+  eval_cmd->add_option("--threads", eval_run.threads, "Threads (0: one per core; default: the run config's)")
+      ->check(non_negative);
+
   CLI11_PARSE(app, argc, argv);
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
@@ -154,6 +173,8 @@ int main(int argc, char** argv) {
     if (*collect_cmd) return maps::experiments::run_collect(collect);
     if (*render_cmd) return maps::experiments::run_render(render);
     if (*expert_eval_cmd) return maps::experiments::run_expert_eval(expert_eval);
+    if (*train_cmd) return maps::experiments::run_train(train_run);
+    if (*eval_cmd) return maps::experiments::run_eval(eval_run);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

@@ -130,10 +130,13 @@ Batch DemoDataset::task_validation_batch(int task, ag::Dtype dtype) const {
   return make_batch(picks, dtype, true, 0);
 }
 
-Batch DemoDataset::validation_batch(ag::Dtype dtype) const {
+Batch DemoDataset::validation_batch(ag::Dtype dtype, std::int64_t max_per_task) const {
   std::vector<std::pair<int, std::int64_t>> picks;
-  for (int k = 0; k < num_tasks(); ++k)
-    for (std::int64_t r = 0; r < tasks_[k].valid_obs.rows(); ++r) picks.emplace_back(k, r);
+  for (int k = 0; k < num_tasks(); ++k) {
+    const std::int64_t rows = tasks_[k].valid_obs.rows();
+    const std::int64_t count = max_per_task > 0 ? std::min(rows, max_per_task) : rows;
+    for (std::int64_t i = 0; i < count; ++i) picks.emplace_back(k, i * rows / count);
+  }
   return make_batch(picks, dtype, true, 0);
 }
 

@@ -51,8 +51,9 @@ class DemoDataset {
   Batch task_training_batch(int task, std::int64_t n, std::mt19937_64& rng, ag::Dtype dtype) const;
   // Every state of the task's validation demos (all of them, every state: subsampling is for training only).
   Batch task_validation_batch(int task, ag::Dtype dtype) const;
-  // All tasks' validation states, task-major (per_task = 0: tasks may differ in count).
-  Batch validation_batch(ag::Dtype dtype) const;
+  // All tasks' validation states, task-major (per_task = 0: tasks may differ in count). With max_per_task > 0, at
+  // most that many states per task, evenly spaced through the task's validation states (a fixed subset).
+  Batch validation_batch(ag::Dtype dtype, std::int64_t max_per_task = 0) const;
 
  private:
   struct TaskData {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "nn/nn.h"
+#include "tests/common/error_of.h"
 
 namespace nntest {
 
@@ -21,16 +22,7 @@ using ag::Shape;
 using ag::Tensor;
 using ::testing::HasSubstr;
 
-// The message of what fn throws, or "<no exception>".
-template <typename Fn>
-std::string error_of(Fn&& fn) {
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "<no exception>";
-}
+using ::error_of;
 
 inline Tensor tensor(const std::vector<double>& values, const Shape& shape, Dtype dtype = Dtype::Float64) {
   return ag::from_vector(values, shape, dtype);

@@ -1,0 +1,88 @@
+// `maps eval`: the score of a trained run.
+
+#include "experiments/eval_run.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <stdexcept>
+
+#include "experiments/run_folder.h"
+#include "maps/evaluation/evaluator.h"
+#include "maps/policies/maps_policy.h"
+#include "nn/serialize.h"
+
+namespace maps::experiments {
+
+int run_eval(const EvalRunOptions& options) {
+  namespace fs = std::filesystem;
+  const fs::path dir(options.run);
+  const core::RunConfig config = core::parse_run_config(read_json_file((dir / "config.json").string()));
+  const std::string best_path = (dir / "best.ckpt").string();
+  if (!fs::exists(best_path))
+    throw std::runtime_error(options.run + " has no best.ckpt: train it first (maps train --out " + options.run + ")");
+  const core::DemoDataset data = load_run_dataset(config);
+  const auto policy = core::make_policy(config, {data.observation_size(), data.action_size(), data.num_tasks()});
+  const nlohmann::json best = nlohmann::json::parse(nn::load(*policy, best_path));
+  // The standardizer the policy was trained with; the demo file must still give the same one.
+  const std::vector<double> mean = best.at("standardizer").at("mean"), stddev = best.at("standardizer").at("std");
+  const core::Standardizer& standardizer = data.standardizer();
+  for (std::size_t i = 0; i < mean.size(); ++i)
+    if (std::abs(mean[i] - standardizer.mean[static_cast<Eigen::Index>(i)]) > 1e-9 ||
+        std::abs(stddev[i] - standardizer.std[static_cast<Eigen::Index>(i)]) > 1e-9)
+      throw std::runtime_error(config.data_file + " is not the demo file " + options.run +
+                               " was trained on (its observation statistics differ)");
+  policy->eval();
+  policy->prepare_for_evaluation(data);
+
+  core::EvalConfig eval;
+  eval.episodes = options.episodes > 0 ? options.episodes : config.eval_episodes;
+  eval.threads = options.threads >= 0 ? options.threads : config.eval_threads;
+  std::vector<double> expert_returns;
+  const bool by_return = data.task_set() != "mt10";
+  for (int k = 0; k < data.num_tasks(); ++k)
+    expert_returns.push_back(by_return ? data.demo_mean_return(k) : std::numeric_limits<double>::quiet_NaN());
+  core::ModuleUsageFn usage;
+  auto* maps_policy = dynamic_cast<core::MAPSPolicy*>(policy.get());
+  if (maps_policy)
+    usage = [maps_policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
+      return maps_policy->scores(obs, tasks);
+    };
+  std::printf("maps eval: %s, %d episodes per task\n", options.run.c_str(), eval.episodes);
+  std::fflush(stdout);
+  const core::EvaluationResult result =
+      core::evaluate(*policy, standardizer, data.task_names(), expert_returns, eval, maps_policy ? &usage : nullptr);
+
+  nlohmann::json tasks = nlohmann::json::array();
+  std::printf("| task | score (95%% CI) | return | success |\n|---|---|---|---|\n");
+  for (const auto& t : result.tasks) {
+    std::printf("| %s | %.3f +- %.3f | %.1f +- %.1f | %.2f |\n", t.task.c_str(), t.score, t.score_ci95(), t.return_mean,
+                t.return_std, t.success_rate);
+    nlohmann::json entry{{"task", t.task},
+                         {"episodes", t.episodes},
+                         {"score", t.score},
+                         {"score_ci95", t.score_ci95()},
+                         {"return_mean", t.return_mean},
+                         {"return_std", t.return_std},
+                         {"success_rate", t.success_rate},
+                         {"returns", t.returns}};
+    if (t.module_usage.size() > 0)
+      entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());
+    tasks.push_back(entry);
+  }
+  std::printf("mean score %.3f (%.1f s)\n", result.mean_score, result.seconds);
+  write_json_file((dir / "eval.json").string(), {{"method", config.method},
+                                                 {"seed", config.seed},
+                                                 {"demos_per_task", config.data.demos_per_task},
+                                                 {"subsample", config.data.subsample},
+                                                 {"best_step", best.at("step")},
+                                                 {"episodes", eval.episodes},
+                                                 {"first_seed", eval.first_seed},
+                                                 {"mean_score", result.mean_score},
+                                                 {"seconds", result.seconds},
+                                                 {"tasks", tasks}});
+  return 0;
+}
+
+}  // namespace maps::experiments

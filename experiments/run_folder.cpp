@@ -1,0 +1,35 @@
+#include "experiments/run_folder.h"
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "envs/demo_file.h"
+
+namespace maps::experiments {
+
+void write_json_file(const std::string& path, const nlohmann::json& json) {
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::trunc);
+    out << json.dump(2) << "\n";
+    if (!out) throw std::runtime_error("cannot write '" + temporary + "'");
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+nlohmann::json read_json_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open '" + path + "'");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("'" + path + "' is not valid JSON: " + e.what());
+  }
+}
+
+core::DemoDataset load_run_dataset(const core::RunConfig& config) {
+  return core::DemoDataset(envs::read_demo_file(config.data_file), config.data);
+}
+
+}  // namespace maps::experiments

@@ -1,0 +1,20 @@
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "maps/data/demo_dataset.h"
+#include "maps/training/run_config.h"
+
+// A run folder (maps train / maps eval): config.json (the resolved config), last.ckpt, best.ckpt, curve.csv,
+// train.json (the training summary), eval.json (the evaluation).
+namespace maps::experiments {
+
+// Writes JSON atomically (a temporary file in the same folder, then rename).
+void write_json_file(const std::string& path, const nlohmann::json& json);
+nlohmann::json read_json_file(const std::string& path);
+
+// The run's demonstrations, as its config draws them.
+core::DemoDataset load_run_dataset(const core::RunConfig& config);
+
+}  // namespace maps::experiments

@@ -1,0 +1,154 @@
+#include "maps/training/run_config.h"
+
+#include <set>
+#include <stdexcept>
+
+#include "envs/portable_random.h"
+#include "maps/policies/mt_bc.h"
+#include "maps/policies/mt_mh_bc.h"
+#include "maps/policies/single_bc.h"
+
+namespace maps::core {
+namespace {
+
+using Json = nlohmann::json;
+
+void check_keys(const Json& json, const std::string& where, const std::set<std::string>& known) {
+  if (!json.is_object()) throw std::invalid_argument("config " + where + ": expected a JSON object");
+  for (const auto& [key, value] : json.items()) {
+    if (!known.count(key)) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      throw std::invalid_argument("config " + where + ": unknown key '" + key + "' (known: " + list + ")");
+    }
+  }
+}
+
+template <typename T>
+void read(const Json& json, const std::string& where, const char* key, T& out) {
+  if (!json.contains(key)) return;
+  try {
+    out = json.at(key).get<T>();
+  } catch (const std::exception&) {
+    throw std::invalid_argument("config " + where + "." + key + ": wrong type (" + json.at(key).dump() + ")");
+  }
+}
+
+const std::set<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"};
+
+}  // namespace
+
+RunConfig parse_run_config(const Json& json) {
+  RunConfig c;
+  check_keys(json, "", {"method", "seed", "data", "train", "maps", "maml", "eval"});
+  read(json, "", "method", c.method);
+  if (!kMethods.count(c.method))
+    throw std::invalid_argument("config method: '" + c.method +
+                                "' is not one of maps, single_bc, mt_bc, mt_mh_bc, maml");
+  read(json, "", "seed", c.seed);
+  if (!json.contains("data")) throw std::invalid_argument("config: \"data\": {\"file\": ...} is required");
+  const Json& data = json["data"];
+  check_keys(data, "data", {"file", "demos_per_task", "subsample"});
+  read(data, "data", "file", c.data_file);
+  if (c.data_file.empty()) throw std::invalid_argument("config data.file: required");
+  read(data, "data", "demos_per_task", c.data.demos_per_task);
+  read(data, "data", "subsample", c.data.subsample);
+  c.data.seed = c.seed;
+  if (json.contains("train")) {
+    const Json& t = json["train"];
+    check_keys(t, "train",
+               {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
+                "validation_states_per_task"});
+    read(t, "train", "steps", c.train.steps);
+    read(t, "train", "learning_rate", c.train.learning_rate);
+    read(t, "train", "states_per_task", c.train.states_per_task);
+    read(t, "train", "validate_every", c.train.validate_every);
+    read(t, "train", "checkpoint_every", c.train.checkpoint_every);
+    read(t, "train", "validation_states_per_task", c.train.validation_states_per_task);
+  }
+  c.train.seed = c.seed;
+  if (json.contains("maps")) {
+    const Json& m = json["maps"];
+    check_keys(m, "maps",
+               {"modules", "module_hidden", "selector_hidden", "activation", "bc_weight", "selector_weight",
+                "selector_losses"});
+    read(m, "maps", "modules", c.maps.modules);
+    read(m, "maps", "module_hidden", c.maps.module_hidden);
+    read(m, "maps", "selector_hidden", c.maps.selector_hidden);
+    read(m, "maps", "activation", c.maps.activation);
+    read(m, "maps", "bc_weight", c.maps.bc_weight);
+    read(m, "maps", "selector_weight", c.maps.selector_weight);
+    if (m.contains("selector_losses")) {
+      const Json& losses = m["selector_losses"];
+      if (!losses.is_object())
+        throw std::invalid_argument("config maps.selector_losses: expected an object of name: weight");
+      c.maps.selector_losses.clear();
+      for (const auto& [name, weight] : losses.items()) {
+        if (!weight.is_number())
+          throw std::invalid_argument("config maps.selector_losses." + name + ": expected a number");
+        c.maps.selector_losses.emplace_back(name, weight.get<double>());
+      }
+    }
+  }
+  if (json.contains("maml")) {
+    const Json& m = json["maml"];
+    check_keys(m, "maml", {"inner_lr", "inner_steps", "first_order", "query_per_task", "finetune_steps"});
+    read(m, "maml", "inner_lr", c.maml.inner_lr);
+    read(m, "maml", "inner_steps", c.maml.inner_steps);
+    read(m, "maml", "first_order", c.maml.first_order);
+    read(m, "maml", "query_per_task", c.maml.query_per_task);
+    read(m, "maml", "finetune_steps", c.maml.finetune_steps);
+  }
+  c.maml.finetune_seed = c.seed;
+  if (json.contains("eval")) {
+    const Json& e = json["eval"];
+    check_keys(e, "eval", {"episodes", "threads"});
+    read(e, "eval", "episodes", c.eval_episodes);
+    read(e, "eval", "threads", c.eval_threads);
+  }
+  return c;
+}
+
+Json to_json(const RunConfig& c) {
+  Json losses = Json::object();
+  for (const auto& [name, weight] : c.maps.selector_losses) losses[name] = weight;
+  return Json{
+      {"method", c.method},
+      {"seed", c.seed},
+      {"data", {{"file", c.data_file}, {"demos_per_task", c.data.demos_per_task}, {"subsample", c.data.subsample}}},
+      {"train",
+       {{"steps", c.train.steps},
+        {"learning_rate", c.train.learning_rate},
+        {"states_per_task", c.train.states_per_task},
+        {"validate_every", c.train.validate_every},
+        {"checkpoint_every", c.train.checkpoint_every},
+        {"validation_states_per_task", c.train.validation_states_per_task}}},
+      {"maps",
+       {{"modules", c.maps.modules},
+        {"module_hidden", c.maps.module_hidden},
+        {"selector_hidden", c.maps.selector_hidden},
+        {"activation", c.maps.activation},
+        {"bc_weight", c.maps.bc_weight},
+        {"selector_weight", c.maps.selector_weight},
+        {"selector_losses", losses}}},
+      {"maml",
+       {{"inner_lr", c.maml.inner_lr},
+        {"inner_steps", c.maml.inner_steps},
+        {"first_order", c.maml.first_order},
+        {"query_per_task", c.maml.query_per_task},
+        {"finetune_steps", c.maml.finetune_steps}}},
+      {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}}};
+}
+
+std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {
+  // The initialisation's own stream of the run's seed ("init").
+  ag::Generator gen(envs::splitmix64(config.seed ^ 0x696e6974ULL));
+  if (config.method == "maps") return std::make_shared<MAPSPolicy>(shape, config.maps, gen);
+  if (config.method == "single_bc") return std::make_shared<SingleBC>(shape, gen);
+  if (config.method == "mt_bc") return std::make_shared<MTBC>(shape, gen);
+  if (config.method == "mt_mh_bc") return std::make_shared<MTMHBC>(shape, gen);
+  if (config.method == "maml") return std::make_shared<MAML>(shape, gen, config.maml);
+  throw std::invalid_argument("unknown method '" + config.method + "'");
+}
+
+}  // namespace maps::core

@@ -1,0 +1,49 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "autograd/autograd.h"
+#include "maps/data/demo_dataset.h"
+#include "maps/policies/maml.h"
+#include "maps/policies/maps_policy.h"
+#include "maps/policies/policy.h"
+#include "maps/training/trainer.h"
+
+// One run's configuration as JSON (`maps train --config`), every key optional but "method" and "data.file":
+//
+//   {"method": "maps",                       // maps | single_bc | mt_bc | mt_mh_bc | maml
+//    "seed": 0,                              // data draw, initialisation and batches all derive from it
+//    "data": {"file": "data/gravity.h5", "demos_per_task": 5, "subsample": 20},
+//    "train": {"steps": 30000, "learning_rate": 3e-4, "states_per_task": 128, "validate_every": 1000,
+//              "checkpoint_every": 1000, "validation_states_per_task": 2000},
+//    "maps": {"modules": 10, "activation": "tanh",
+//             "selector_losses": {"share": 1, "explore": 0.5, "sparse": 0.001, "smooth": 1}},
+//    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10},
+//    "eval": {"episodes": 100, "threads": 0}}
+//
+// An unknown key is an error naming it (a typo must not silently run the default).
+namespace maps::core {
+
+struct RunConfig {
+  std::string method = "maps";
+  std::uint64_t seed = 0;
+  std::string data_file;
+  DataConfig data;
+  TrainConfig train;
+  MAPSConfig maps;
+  MAMLConfig maml;
+  int eval_episodes = 100;
+  int eval_threads = 0;
+};
+
+RunConfig parse_run_config(const nlohmann::json& json);
+// Every field, defaults included: what a run folder records.
+nlohmann::json to_json(const RunConfig& config);
+
+// The method's policy for the data's shapes, initialised from the run's seed.
+std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape);
+
+}  // namespace maps::core

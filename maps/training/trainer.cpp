@@ -1,0 +1,242 @@
+#include "maps/training/trainer.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <ostream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "envs/portable_random.h"
+#include "nn/optim/adam.h"
+#include "nn/serialize.h"
+
+namespace maps::core {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr const char* kPolicyPrefix = "policy.";
+constexpr const char* kAdamPrefix = "adam.";
+constexpr std::int64_t kValidationChunk = 4096;  // rows per act() call: bounds MAPS's [M, n, F] features
+
+struct Progress {
+  std::int64_t step = 0;
+  std::int64_t best_step = -1;
+  double best_validation = INFINITY;
+};
+
+nn::NamedTensors with_prefix(const nn::NamedTensors& tensors, const std::string& prefix) {
+  nn::NamedTensors out;
+  for (const auto& t : tensors) out.push_back({prefix + t.name, t.tensor});
+  return out;
+}
+
+nn::NamedTensors strip_prefix(const nn::NamedTensors& tensors, const std::string& prefix) {
+  nn::NamedTensors out;
+  for (const auto& t : tensors)
+    if (t.name.rfind(prefix, 0) == 0) out.push_back({t.name.substr(prefix.size()), t.tensor});
+  return out;
+}
+
+void save_last(const std::string& path, const Policy& policy, const optim::Adam& adam, const Progress& progress,
+               const std::mt19937_64& rng) {
+  nn::NamedTensors tensors = with_prefix(policy.state_dict(), kPolicyPrefix);
+  for (auto& t : with_prefix(adam.state(), kAdamPrefix)) tensors.push_back(std::move(t));
+  std::ostringstream rng_text;
+  rng_text << rng;
+  const Json state{
+      {"format", "maps-train 1"},
+      {"step", progress.step},
+      {"best_step", progress.best_step},
+      {"best_validation", std::isfinite(progress.best_validation) ? Json(progress.best_validation) : Json(nullptr)},
+      {"rng", rng_text.str()}};
+  nn::save_tensors(path, tensors, state.dump());
+}
+
+Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, std::mt19937_64& rng) {
+  const nn::Checkpoint checkpoint = nn::load_tensors(path);
+  Json state;
+  try {
+    state = Json::parse(checkpoint.config);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("training checkpoint " + path + ": unreadable state (" + e.what() + ")");
+  }
+  if (state.value("format", "") != "maps-train 1")
+    throw std::runtime_error("training checkpoint " + path + " is not a maps-train 1 checkpoint");
+  try {
+    policy.load_state_dict(strip_prefix(checkpoint.tensors, kPolicyPrefix));
+    adam.load_state(strip_prefix(checkpoint.tensors, kAdamPrefix));
+  } catch (const std::exception& e) {
+    throw std::runtime_error("training checkpoint " + path + " does not fit this policy: " + e.what());
+  }
+  Progress progress;
+  progress.step = state.at("step").get<std::int64_t>();
+  progress.best_step = state.at("best_step").get<std::int64_t>();
+  progress.best_validation =
+      state.at("best_validation").is_number() ? state["best_validation"].get<double>() : INFINITY;
+  std::istringstream rng_text(state.at("rng").get<std::string>());
+  rng_text >> rng;
+  if (rng_text.fail()) throw std::runtime_error("training checkpoint " + path + ": unreadable RNG state");
+  return progress;
+}
+
+// Keeps the header and the rows up to `step` (the rows a resumed run will not write again).
+void truncate_curve(const std::string& path, std::int64_t step) {
+  std::ifstream in(path);
+  if (!in) return;
+  std::vector<std::string> kept;
+  std::string line;
+  for (bool header = true; std::getline(in, line); header = false) {
+    if (header || std::stoll(line.substr(0, line.find(','))) <= step) kept.push_back(line);
+  }
+  in.close();
+  std::ofstream out(path, std::ios::trunc);
+  for (const auto& l : kept) out << l << "\n";
+}
+
+std::string format_seconds(double seconds) {
+  const auto s = static_cast<long long>(seconds);
+  char text[32];
+  std::snprintf(text, sizeof text, "%lldm%02llds", s / 60, s % 60);
+  return text;
+}
+
+}  // namespace
+
+double validation_loss(Policy& policy, const Batch& batch) {
+  ag::NoGradGuard no_grad;
+  const std::int64_t n = batch.size();
+  if (n == 0) throw std::invalid_argument("validation_loss: empty batch");
+  double total = 0.0;
+  for (std::int64_t start = 0; start < n; start += kValidationChunk) {
+    const std::int64_t count = std::min(kValidationChunk, n - start);
+    const std::vector<std::int64_t> tasks(batch.tasks.begin() + start, batch.tasks.begin() + start + count);
+    const ag::Tensor prediction = policy.act(ag::narrow(batch.observations, 0, start, count), tasks);
+    total += ag::mse_loss(prediction, ag::narrow(batch.actions, 0, start, count)).item() * static_cast<double>(count);
+  }
+  return total / static_cast<double>(n);
+}
+
+TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
+                          const std::string& run_dir, std::ostream* log) {
+  if (config.steps < 1 || config.states_per_task < 1 || config.validate_every < 1 || config.checkpoint_every < 1)
+    throw std::invalid_argument("train: steps, states_per_task, validate_every and checkpoint_every must be >= 1");
+  fs::create_directories(run_dir);
+  const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
+  const std::string best_path = (fs::path(run_dir) / "best.ckpt").string();
+  const std::string curve_path = (fs::path(run_dir) / "curve.csv").string();
+
+  policy.train();
+  optim::Adam adam(policy.parameters(), {.lr = config.learning_rate});
+  std::mt19937_64 rng(envs::splitmix64(config.seed ^ 0x6261746368657321ULL));  // "batches!"
+  Progress progress;
+  TrainSummary summary;
+  if (fs::exists(last_path)) {
+    progress = load_last(last_path, policy, adam, rng);
+    summary.resumed = true;
+    truncate_curve(curve_path, progress.step);
+    if (log) *log << "resumed from " << last_path << " at step " << progress.step << std::endl;
+  } else {
+    std::ofstream(curve_path, std::ios::trunc);  // a fresh run starts a fresh curve
+  }
+  const Batch validation = data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task);
+  const std::int64_t per_task = policy.batch_per_task(config.states_per_task);
+
+  std::vector<std::string> term_names;
+  std::vector<double> term_sums;
+  std::int64_t terms_counted = 0;
+  const auto start = std::chrono::steady_clock::now();
+  auto window_start = start;
+  std::int64_t window_first_step = progress.step;
+  while (progress.step < config.steps) {
+    const Batch batch = data.sample(per_task, rng, ag::Dtype::Float32);
+    const LossTerms terms = policy.loss(batch);
+    const double total = terms.total.item();
+    if (!std::isfinite(total)) {
+      std::string culprit = "total";
+      for (const auto& [name, value] : terms.terms)
+        if (!std::isfinite(value.item())) culprit = name;
+      throw std::runtime_error("training stopped at step " + std::to_string(progress.step + 1) + ": the loss '" +
+                               culprit + "' is not finite; " +
+                               (fs::exists(last_path) ? last_path + " holds the last good checkpoint"
+                                                      : std::string("no checkpoint was written yet")));
+    }
+    adam.zero_grad();
+    terms.total.backward();
+    adam.step();
+    ++progress.step;
+    if (term_names.empty()) {
+      for (const auto& [name, value] : terms.terms) term_names.push_back(name);
+      term_names.push_back("total");
+      term_sums.assign(term_names.size(), 0.0);
+      if (std::ifstream(curve_path).peek() == std::ifstream::traits_type::eof()) {
+        std::ofstream curve(curve_path, std::ios::app);
+        curve << "step";
+        for (const auto& name : term_names) curve << "," << name;
+        curve << ",validation_bc,steps_per_second\n";
+      }
+    }
+    for (std::size_t j = 0; j + 1 < term_names.size(); ++j) term_sums[j] += terms.terms[j].second.item();
+    term_sums.back() += total;
+    ++terms_counted;
+
+    const bool last_step = progress.step == config.steps;
+    if (progress.step % config.validate_every == 0 || last_step) {
+      const double valid = validation_loss(policy, validation);
+      policy.train();
+      if (valid < progress.best_validation) {
+        progress.best_validation = valid;
+        progress.best_step = progress.step;
+        const Standardizer& standardizer = data.standardizer();
+        const Json best{{"step", progress.step},
+                        {"validation_bc", valid},
+                        {"standardizer",
+                         {{"mean", std::vector<double>(standardizer.mean.data(),
+                                                       standardizer.mean.data() + standardizer.mean.size())},
+                          {"std", std::vector<double>(standardizer.std.data(),
+                                                      standardizer.std.data() + standardizer.std.size())}}}};
+        nn::save(policy, best_path, best.dump());
+      }
+      const auto now = std::chrono::steady_clock::now();
+      const double window = std::chrono::duration<double>(now - window_start).count();
+      const double steps_per_second = static_cast<double>(progress.step - window_first_step) / std::max(window, 1e-9);
+      std::ofstream curve(curve_path, std::ios::app);
+      curve << progress.step;
+      for (double sum : term_sums) curve << "," << sum / static_cast<double>(terms_counted);
+      curve << "," << valid << "," << steps_per_second << "\n";
+      if (log) {
+        std::ostringstream line;
+        line.precision(4);
+        line << "step " << progress.step << "/" << config.steps << "  loss " << term_sums.back() / terms_counted
+             << " (";
+        for (std::size_t j = 0; j + 1 < term_names.size(); ++j)
+          line << (j ? " " : "") << term_names[j] << " " << term_sums[j] / terms_counted;
+        line << ")  valid " << valid << " (best " << progress.best_validation << " @" << progress.best_step << ")  "
+             << static_cast<long long>(steps_per_second) << " steps/s  eta "
+             << format_seconds(static_cast<double>(config.steps - progress.step) / std::max(steps_per_second, 1e-9));
+        *log << line.str() << std::endl;
+      }
+      std::fill(term_sums.begin(), term_sums.end(), 0.0);
+      terms_counted = 0;
+      window_start = now;
+      window_first_step = progress.step;
+    }
+    if (progress.step % config.checkpoint_every == 0 || last_step) save_last(last_path, policy, adam, progress, rng);
+  }
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.steps_done = progress.step;
+  summary.best_step = progress.best_step;
+  summary.best_validation_loss = progress.best_validation;
+  if (fs::exists(best_path)) nn::load(policy, best_path);
+  policy.eval();
+  return summary;
+}
+
+}  // namespace maps::core

@@ -1,0 +1,47 @@
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+
+#include "maps/data/demo_dataset.h"
+#include "maps/policies/policy.h"
+
+// Training any Policy on a DemoDataset with Adam, with validation, the best-validation checkpoint, a progress
+// line, a stop on a non-finite loss, and resumption.
+//
+// The run folder holds: last.ckpt (policy, Adam state, step, batch RNG and the best so far: what resume needs,
+// written every checkpoint_every steps and at the end), best.ckpt (the policy at its lowest validation loss,
+// whose config string is JSON with the step, its validation loss and the observation standardizer's mean and std),
+// curve.csv (one row per validation: step, the training loss terms averaged since the last row, the validation
+// BC loss, steps per second).
+namespace maps::core {
+
+struct TrainConfig {
+  std::int64_t steps = 30000;  // the paper's code
+  double learning_rate = 3e-4;
+  std::int64_t states_per_task = 128;  // per task per batch (PAPER.md: 128 HalfCheetah, 32 MT10)
+  std::int64_t validate_every = 1000;
+  std::int64_t checkpoint_every = 1000;
+  std::int64_t validation_states_per_task = 2000;  // evenly spaced through the validation demos
+  std::uint64_t seed = 0;                          // the batch draws
+};
+
+struct TrainSummary {
+  std::int64_t steps_done = 0;
+  std::int64_t best_step = -1;
+  double best_validation_loss = 0.0;
+  double seconds = 0.0;  // this process's training time
+  bool resumed = false;
+};
+
+// Trains (or resumes from run_dir/last.ckpt), then loads best.ckpt into `policy`. `log` gets the progress lines
+// (nullptr: silent). A non-finite loss throws std::runtime_error naming the step and the term, with last.ckpt
+// left at the last good checkpoint.
+TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
+                          const std::string& run_dir, std::ostream* log);
+
+// The BC loss (mean squared action error) of policy.act on a batch, in chunks of rows, recording no graph.
+double validation_loss(Policy& policy, const Batch& batch);
+
+}  // namespace maps::core
