@@ -1,0 +1,85 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "autograd/autograd.h"
+#include "envs/env.h"
+#include "envs/seed_ranges.h"
+#include "maps/data/standardizer.h"
+#include "maps/policies/policy.h"
+
+// Rolls a trained policy out on held-out initial states and scores it the way the paper reports it:
+// HalfCheetah sets by return normalised with the expert's return, MT10 by success rate.
+namespace maps::core {
+
+struct EvalConfig {
+  int episodes = 100;                               // per task, from seeds first_seed, first_seed + 1, ...
+  std::uint64_t first_seed = envs::kEvalSeedBegin;  // evaluation seeds never overlap demonstration seeds
+  int threads = 0;                                  // tasks run concurrently; 0: hardware_concurrency
+  ag::Dtype dtype = ag::Dtype::Float32;             // of the observations handed to the policy
+};
+
+struct TaskEvaluation {
+  std::string task;
+  int episodes = 0;
+  double return_mean = 0.0;
+  double return_std = 0.0;       // population std over episodes
+  double success_rate = 0.0;     // share of episodes where the task's success test held at some step
+  double score = 0.0;            // mean over episodes of max(0, return / expert return), or the success rate
+  double score_std_error = 0.0;  // sample std of the per-episode scores / sqrt(episodes); 0 for one episode
+  std::vector<double> returns;   // per episode, in seed order
+  std::vector<bool> successes;
+  // Mean selector score of each module over every state visited in this task's episodes; empty unless a
+  // ModuleUsageFn was given.
+  Eigen::VectorXd module_usage;
+
+  // Half-width of the normal-approximation 95% confidence interval of `score`.
+  double score_ci95() const { return 1.96 * score_std_error; }
+};
+
+struct EvaluationResult {
+  std::vector<TaskEvaluation> tasks;  // in the order of the task list
+  double mean_score = 0.0;            // unweighted mean of the tasks' scores
+  double seconds = 0.0;               // wall time of the whole evaluation
+  // Where the time went, summed over tasks (each measured on the thread running the task, helpers included):
+  // creating and resetting the envs, stepping them, and standardising + the policy (+ usage) calls.
+  double setup_seconds = 0.0;
+  double env_seconds = 0.0;
+  double policy_seconds = 0.0;
+};
+
+// Selector scores [n, M] for standardised observations [n, S] of the given tasks (MAPS's module usage).
+using ModuleUsageFn = std::function<ag::Tensor(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks)>;
+// Called once per finished task (index in the task list), from a worker thread but never concurrently.
+using EvalProgressFn = std::function<void(std::size_t task_index, const TaskEvaluation& evaluation)>;
+
+// Runs config.episodes episodes of every task, all episodes of one task stepped together: one policy.act call
+// per step for the whole batch of running episodes, under ag::NoGradGuard. Task i of `tasks` is task id i for
+// the policy. `expert_returns` holds one normaliser per task (NaN: score that task by success rate), or is empty
+// (every task by success rate). Episode e of every task starts from seed first_seed + e, so results depend
+// neither on the thread count nor on the order tasks finish in.
+//
+// Tasks run on separate threads, each with its own envs, calling policy.act (and `usage`) concurrently: both
+// must only read shared state (true of the autograd engine and nn layers without grad; a policy caching into
+// members must be run with threads = 1). Threads without a task of their own help step (and create) the envs
+// of the tasks in progress, so even one task uses every core; the owner thread alone calls the policy.
+EvaluationResult evaluate(Policy& policy, const Standardizer& standardizer, const std::vector<std::string>& tasks,
+                          const std::vector<double>& expert_returns, const EvalConfig& config,
+                          const ModuleUsageFn* usage = nullptr, const EvalProgressFn& progress = {});
+
+// A new env for a task name (envs::make_env by default).
+using EnvFactory = std::function<std::unique_ptr<envs::Env>(const std::string& task)>;
+// evaluate() with envs from `make_env` instead of the task registry (tests use toy envs whose episodes end at
+// different steps; the real sets all run to their horizon). Task names are not checked against the registry.
+EvaluationResult evaluate_with_envs(const EnvFactory& make_env, Policy& policy, const Standardizer& standardizer,
+                                    const std::vector<std::string>& tasks, const std::vector<double>& expert_returns,
+                                    const EvalConfig& config, const ModuleUsageFn* usage = nullptr,
+                                    const EvalProgressFn& progress = {});
+
+}  // namespace maps::core
