@@ -225,15 +225,19 @@ TEST(Evaluator, BatchedStepsMatchEpisodesSteppedAloneWhenEpisodesEndAtDifferentS
   config.episodes = 13;
   config.first_seed = 5;
   config.threads = 1;
-  const EvaluationResult result = evaluate_with_envs(make_toy_env, policy, standardizer, tasks, {}, config);
-  ASSERT_EQ(result.tasks.size(), 2u);
-  for (std::size_t i = 0; i < tasks.size(); ++i) {
-    const AloneResult alone =
-        run_alone(make_toy_env, policy, standardizer, tasks[i], static_cast<std::int64_t>(i), config);
-    EXPECT_EQ(result.tasks[i].task, tasks[i]);
-    EXPECT_EQ(result.tasks[i].episodes, 13);
-    EXPECT_EQ(result.tasks[i].returns, alone.returns) << tasks[i];
-    EXPECT_EQ(result.tasks[i].successes, alone.successes) << tasks[i];
+  // 0: one env per episode; 4 and 1: that many envs, each starting the next pending episode when its own ends.
+  for (int max_envs : {0, 4, 1}) {
+    config.max_envs_per_task = max_envs;
+    const EvaluationResult result = evaluate_with_envs(make_toy_env, policy, standardizer, tasks, {}, config);
+    ASSERT_EQ(result.tasks.size(), 2u);
+    for (std::size_t i = 0; i < tasks.size(); ++i) {
+      const AloneResult alone =
+          run_alone(make_toy_env, policy, standardizer, tasks[i], static_cast<std::int64_t>(i), config);
+      EXPECT_EQ(result.tasks[i].task, tasks[i]);
+      EXPECT_EQ(result.tasks[i].episodes, 13);
+      EXPECT_EQ(result.tasks[i].returns, alone.returns) << tasks[i] << ", max_envs_per_task " << max_envs;
+      EXPECT_EQ(result.tasks[i].successes, alone.successes) << tasks[i] << ", max_envs_per_task " << max_envs;
+    }
   }
 }
 
@@ -255,12 +259,16 @@ TEST(Evaluator, BatchedStepsMatchEpisodesSteppedAloneOnRealTasks) {
     EXPECT_EQ(result.tasks[0].returns, alone.returns) << task;
     EXPECT_EQ(result.tasks[0].successes, alone.successes) << task;
 
-    const EvaluationResult second = evaluate(policy, standardizer, tasks, {}, config);
     const AloneResult alone1 = run_alone(kRegistry, policy, standardizer, task, 1, config);
-    EXPECT_EQ(second.tasks[1].returns, alone1.returns) << task;
-    EXPECT_EQ(second.tasks[1].successes, alone1.successes) << task;
-    EXPECT_NE(second.tasks[1].returns, result.tasks[0].returns) << task << ": the task id should change the actions";
-    EXPECT_NE(second.tasks[1].returns[0], second.tasks[1].returns[1]) << task;
+    // An env reused for a later episode (max_envs_per_task < episodes) must behave as a fresh one.
+    for (int max_envs : {0, 2}) {
+      config.max_envs_per_task = max_envs;
+      const EvaluationResult second = evaluate(policy, standardizer, tasks, {}, config);
+      EXPECT_EQ(second.tasks[1].returns, alone1.returns) << task << ", max_envs_per_task " << max_envs;
+      EXPECT_EQ(second.tasks[1].successes, alone1.successes) << task << ", max_envs_per_task " << max_envs;
+      EXPECT_NE(second.tasks[1].returns, result.tasks[0].returns) << task << ": the task id should change actions";
+      EXPECT_NE(second.tasks[1].returns[0], second.tasks[1].returns[1]) << task;
+    }
   }
 }
 
@@ -302,6 +310,7 @@ TEST(Evaluator, ThreadsBeyondTheTaskCountOnlyHelpStepAndGiveIdenticalResults) {
   const EvaluationResult one = evaluate_with_envs(make_toy_env, policy, standardizer, {"toy/a", "toy/b"}, {}, config);
   for (int threads : {2, 3, 5}) {
     config.threads = threads;
+    config.max_envs_per_task = threads == 3 ? 7 : 0;  // envs reused across episodes, batches still fixed
     const EvaluationResult many =
         evaluate_with_envs(make_toy_env, policy, standardizer, {"toy/a", "toy/b"}, {}, config);
     for (std::size_t i = 0; i < 2; ++i) {
@@ -502,6 +511,10 @@ TEST(Evaluator, ErrorsNameTheTaskAndWhatWasExpected) {
   none.episodes = 0;
   EXPECT_THAT(error_of([&] { evaluate(policy, standardizer, {"gravity/1.0"}, {}, none); }),
               HasSubstr("episodes must be >= 1"));
+  EvalConfig negative = config;
+  negative.max_envs_per_task = -1;
+  EXPECT_THAT(error_of([&] { evaluate(policy, standardizer, {"gravity/1.0"}, {}, negative); }),
+              HasSubstr("max_envs_per_task must be >= 0"));
 
   // An env error raised on a helper thread reaches the caller with the env's own message.
   FnPolicy nan_policy(shape, [](const ag::Tensor& x, const std::vector<std::int64_t>&) {
@@ -524,7 +537,8 @@ TEST(Evaluator, ErrorsNameTheTaskAndWhatWasExpected) {
 // ----- timing (run by hand: --gtest_also_run_disabled_tests --gtest_filter='EvaluatorTiming*') -----
 
 // A 3x128 tanh MLP policy over a whole task set, 100 episodes per task, on 1 and 2 threads (or only on
-// MAPS_EVAL_TIMING_THREADS threads, to time each under /usr/bin/time).
+// MAPS_EVAL_TIMING_THREADS threads, to time each under /usr/bin/time; MAPS_EVAL_TIMING_MAX_ENVS sets
+// max_envs_per_task).
 void time_task_set(const std::string& set) {
   const std::vector<std::string> tasks = envs::task_names(set);
   MlpPolicy policy(shape_of(tasks.front(), static_cast<std::int64_t>(tasks.size())), 128, 3, 1);
@@ -535,13 +549,15 @@ void time_task_set(const std::string& set) {
   for (int threads : thread_counts) {
     EvalConfig config;
     config.threads = threads;
+    if (const char* max_envs = std::getenv("MAPS_EVAL_TIMING_MAX_ENVS")) config.max_envs_per_task = std::atoi(max_envs);
     const EvaluationResult r = evaluate(policy, standardizer, tasks, {}, config);
     const double busy = r.setup_seconds + r.env_seconds + r.policy_seconds;
     std::printf(
-        "%s, threads=%d: %zu tasks x %d episodes x %d steps in %.2f s wall; per task summed: env creation "
+        "%s, threads=%d, max_envs_per_task=%d: %zu tasks x %d episodes x %d steps in %.2f s wall; per task summed: env "
+        "creation "
         "%.2f s (%.0f%%), env steps %.2f s (%.0f%%), standardise+act %.2f s (%.0f%%)\n",
-        set.c_str(), threads, tasks.size(), config.episodes, horizon, r.seconds, r.setup_seconds,
-        100.0 * r.setup_seconds / busy, r.env_seconds, 100.0 * r.env_seconds / busy, r.policy_seconds,
+        set.c_str(), threads, config.max_envs_per_task, tasks.size(), config.episodes, horizon, r.seconds,
+        r.setup_seconds, 100.0 * r.setup_seconds / busy, r.env_seconds, 100.0 * r.env_seconds / busy, r.policy_seconds,
         100.0 * r.policy_seconds / busy);
   }
 }

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Runs a grid of `maps train` + `maps eval` runs, one folder per cell, skipping cells whose eval.json exists
+# (so an interrupted grid resumes where it stopped; a cell interrupted mid-training resumes from its checkpoint).
+# Two cells run at once (the machine's two cores).
+#
+#   experiments/suites/run_grid.sh OUT DATA METHODS COUNTS SEEDS SUBSAMPLE STEPS [EPISODES]
+#   experiments/suites/run_grid.sh results/gate-gravity data/gravity.h5 "single_bc" "1 2 5 10 25" "0 1 2 3 4" 10 3000 100
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+if [[ $# -lt 7 ]]; then
+  sed -n '2,7p' "$0" >&2
+  exit 2
+fi
+out=$1 data=$2 methods=$3 counts=$4 seeds=$5 subsample=$6 steps=$7 episodes=${8:-100}
+[[ -f "$data" ]] || { echo "run_grid: no demo file '$data' (make it with maps collect)" >&2; exit 2; }
+maps=build/bin/maps
+mkdir -p "$out"
+cells=()
+for method in $methods; do
+  for count in $counts; do
+    for seed in $seeds; do
+      cells+=("$method $count $seed")
+    done
+  done
+done
+run_cell() {
+  local method=$1 count=$2 seed=$3
+  local dir="$out/${method}_d${count}_k${subsample}_s${seed}"
+  [[ -f "$dir/eval.json" ]] && return 0
+  mkdir -p "$dir"
+  cat > "$dir/request.json" <<JSON
+{"method": "$method", "seed": $seed,
+ "data": {"file": "$data", "demos_per_task": $count, "subsample": $subsample},
+ "train": {"steps": $steps, "validate_every": 250, "checkpoint_every": 500},
+ "eval": {"episodes": $episodes, "threads": 1}}
+JSON
+  "$maps" train --config "$dir/request.json" --out "$dir" > "$dir/train.log" 2>&1
+  "$maps" eval --run "$dir" > "$dir/eval.log" 2>&1
+  echo "$(date +%T) $dir: $(tail -1 "$dir/eval.log")"
+}
+export -f run_cell
+export out data subsample steps episodes maps
+printf '%s\n' "${cells[@]}" | xargs -P2 -L1 bash -c 'run_cell $0 $1 $2'

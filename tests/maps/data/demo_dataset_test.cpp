@@ -1,0 +1,78 @@
+#include "maps/data/demo_dataset.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "tests/maps/data/synthetic_demos.h"
+
+namespace maps::core {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(DemoDataset, DrawsDemosBySeedAndSubsamplesFromAnOffset) {
+  const envs::DemoFile file = synthetic_demo_file();
+  DataConfig config;
+  config.demos_per_task = 2;
+  config.subsample = 10;
+  config.seed = 3;
+  const DemoDataset a(file, config), b(file, config);
+  EXPECT_EQ(a.training_demo_seeds(), b.training_demo_seeds());  // the same seed, the same data
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_EQ(a.training_demo_seeds()[k].size(), 2u);
+    EXPECT_EQ(a.training_samples(k), 2 * 4);  // 40 steps, every 10th
+    for (std::uint64_t seed : a.training_demo_seeds()[k]) EXPECT_LT(seed % 100, 4u) << "a validation demo was drawn";
+  }
+  std::set<std::vector<std::vector<std::uint64_t>>> draws;
+  for (std::uint64_t seed = 0; seed < 8; ++seed) {
+    config.seed = seed;
+    draws.insert(DemoDataset(file, config).training_demo_seeds());
+  }
+  EXPECT_GT(draws.size(), 3u);                 // seeds redraw the demos
+  EXPECT_EQ(a.validation_samples(0), 2 * 40);  // validation keeps every state
+  EXPECT_DOUBLE_EQ(a.demo_mean_return(1), 80.0);
+}
+
+TEST(DemoDataset, BatchesAreBalancedStandardisedAndCarryThePreviousState) {
+  const envs::DemoFile file = synthetic_demo_file();
+  const DemoDataset data(file, DataConfig{});
+  std::mt19937_64 rng(1);
+  const Batch batch = data.sample(16, rng, ag::Dtype::Float64);
+  ASSERT_EQ(batch.size(), 32);
+  EXPECT_EQ(batch.per_task, 16);
+  for (int j = 0; j < 32; ++j) EXPECT_EQ(batch.tasks[j], j < 16 ? 0 : 1);
+  // The standardised training states have mean 0 and std 1 per dimension.
+  Eigen::MatrixXd all(0, 3);
+  for (int k = 0; k < 2; ++k) {
+    std::mt19937_64 r(2);
+    const Batch many = data.task_training_batch(k, 4000, r, ag::Dtype::Float64);
+    const auto m = many.observations.matrix<double>();
+    all.conservativeResize(all.rows() + m.rows(), 3);
+    all.bottomRows(m.rows()) = m;
+  }
+  const Eigen::RowVectorXd mean = all.colwise().mean();
+  EXPECT_LT(mean.cwiseAbs().maxCoeff(), 0.05);
+  // A state and its predecessor, both standardised: consecutive rows of one demo differ by the step in column 2.
+  const auto obs = batch.observations.matrix<double>(), prev = batch.previous_observations.matrix<double>();
+  for (int j = 0; j < 32; ++j) {
+    const double dt = (obs(j, 2) - prev(j, 2)) * data.standardizer().std[2];
+    EXPECT_TRUE(std::abs(dt - 0.05) < 1e-9 || std::abs(dt) < 1e-12) << j;  // t - 1, or t = 0 paired with itself
+  }
+}
+
+TEST(DemoDataset, BadRequestsAreNamed) {
+  const envs::DemoFile file = synthetic_demo_file();
+  DataConfig config;
+  config.demos_per_task = 5;
+  EXPECT_THAT([&] { DemoDataset(file, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("synthetic/a has 4 training demos")));
+  config.demos_per_task = 1;
+  config.subsample = 0;
+  EXPECT_THAT([&] { DemoDataset(file, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("subsample")));
+}
+
+}  // namespace
+}  // namespace maps::core

@@ -1,0 +1,157 @@
+#include "maps/training/trainer.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "maps/policies/maps_policy.h"
+#include "maps/policies/mt_bc.h"
+#include "maps/training/run_config.h"
+#include "nn/serialize.h"
+#include "tests/maps/data/synthetic_demos.h"
+
+namespace maps::core {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("maps_trainer_test_" + name);
+  fs::remove_all(dir);
+  return dir;
+}
+
+TrainConfig small_config() {
+  TrainConfig c;
+  c.steps = 60;
+  c.states_per_task = 16;
+  c.validate_every = 20;
+  c.checkpoint_every = 20;
+  c.seed = 5;
+  return c;
+}
+
+std::shared_ptr<Policy> small_maps(std::uint64_t seed) {
+  ag::Generator gen(seed);
+  MAPSConfig config;
+  config.modules = 3;
+  config.module_hidden = {16};
+  config.selector_hidden = {8};
+  return std::make_shared<MAPSPolicy>(PolicyShape{3, 2, 2}, config, gen);
+}
+
+std::vector<double> parameters_of(const Policy& policy) {
+  std::vector<double> out;
+  for (const auto& p : policy.parameters())
+    for (double v : p.to_vector()) out.push_back(v);
+  return out;
+}
+
+TEST(Trainer, LearnsKeepsTheBestCheckpointAndWritesTheCurve) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  auto policy = small_maps(1);
+  const Batch validation = data.validation_batch(ag::Dtype::Float32);
+  const double before = validation_loss(*policy, validation);
+  const fs::path dir = fresh_dir("learns");
+  TrainConfig config = small_config();
+  config.steps = 200;
+  config.learning_rate = 3e-3;
+  const TrainSummary summary = train_policy(*policy, data, config, dir.string(), nullptr);
+  EXPECT_EQ(summary.steps_done, 200);
+  EXPECT_LT(summary.best_validation_loss, 0.5 * before);
+  // The policy left in memory is the best checkpoint's.
+  EXPECT_NEAR(validation_loss(*policy, validation), summary.best_validation_loss, 1e-6);
+  std::ifstream curve(dir / "curve.csv");
+  std::string header;
+  std::getline(curve, header);
+  EXPECT_EQ(header, "step,bc,share,explore,sparse,smooth,total,validation_bc,steps_per_second");
+  int rows = 0;
+  for (std::string line; std::getline(curve, line);) ++rows;
+  EXPECT_EQ(rows, 10);
+  const auto best = nlohmann::json::parse(nn::load_tensors((dir / "best.ckpt").string()).config);
+  EXPECT_EQ(best.at("step").get<std::int64_t>(), summary.best_step);
+  EXPECT_EQ(best.at("standardizer").at("mean").size(), 3u);
+}
+
+TEST(Trainer, AResumedRunEndsExactlyWhereAnUninterruptedOneDoes) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  auto straight = small_maps(2);
+  const fs::path a = fresh_dir("straight"), b = fresh_dir("resumed");
+  TrainConfig config = small_config();
+  train_policy(*straight, data, config, a.string(), nullptr);
+  // Stop after 40 steps (a process that ended), then a new process with the full budget resumes.
+  auto first = small_maps(2);
+  TrainConfig partial = config;
+  partial.steps = 40;
+  train_policy(*first, data, partial, b.string(), nullptr);
+  auto second = small_maps(99);  // a different initialisation: every value must come from the checkpoint
+  const TrainSummary summary = train_policy(*second, data, config, b.string(), nullptr);
+  EXPECT_TRUE(summary.resumed);
+  // Both last checkpoints (policy, Adam moments, step, RNG) are identical.
+  const auto ca = nn::load_tensors((a / "last.ckpt").string()), cb = nn::load_tensors((b / "last.ckpt").string());
+  ASSERT_EQ(ca.tensors.size(), cb.tensors.size());
+  for (std::size_t i = 0; i < ca.tensors.size(); ++i)
+    EXPECT_EQ(ca.tensors[i].tensor.to_vector(), cb.tensors[i].tensor.to_vector()) << ca.tensors[i].name;
+  EXPECT_EQ(parameters_of(*straight), parameters_of(*second));
+  // The resumed curve has each validation row once.
+  std::ifstream curve(b / "curve.csv");
+  int rows = -1;
+  for (std::string line; std::getline(curve, line);) ++rows;
+  EXPECT_EQ(rows, 3);
+}
+
+TEST(Trainer, ANonFiniteLossStopsWithTheStepAndTheTermAndKeepsTheLastCheckpoint) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  auto policy = small_maps(3);
+  const fs::path dir = fresh_dir("nan");
+  TrainConfig config = small_config();
+  config.steps = 20;
+  train_policy(*policy, data, config, dir.string(), nullptr);
+  // Poison one weight: the next forward gives NaN.
+  ag::Tensor w = policy->parameter("head.weight");
+  w.data<float>()[0] = std::numeric_limits<float>::quiet_NaN();
+  const auto before = nn::load_tensors((dir / "last.ckpt").string());
+  config.steps = 40;
+  nn::save_tensors((dir / "poisoned.ckpt").string(), policy->state_dict());
+  fs::remove(dir / "last.ckpt");
+  EXPECT_THAT([&] { train_policy(*policy, data, config, dir.string(), nullptr); },
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  ::testing::AllOf(HasSubstr("training stopped at step 1"), HasSubstr("'bc' is not finite"))));
+  nn::save_tensors((dir / "last.ckpt").string(), before.tensors, before.config);
+  auto fresh = small_maps(4);
+  const TrainSummary summary = train_policy(*fresh, data, config, dir.string(), nullptr);
+  EXPECT_TRUE(summary.resumed);
+  EXPECT_TRUE(std::isfinite(summary.best_validation_loss));
+}
+
+TEST(RunConfig, ParsesDefaultsAndRejectsUnknownKeys) {
+  const RunConfig c = parse_run_config(nlohmann::json::parse(
+      R"({"method": "maml", "seed": 3, "data": {"file": "x.h5", "demos_per_task": 5, "subsample": 20},
+          "maml": {"first_order": true}, "maps": {"selector_losses": {"share": 2, "smooth": 0}}})"));
+  EXPECT_EQ(c.method, "maml");
+  EXPECT_TRUE(c.maml.first_order);
+  EXPECT_EQ(c.data.seed, 3u);
+  EXPECT_EQ(c.train.steps, 30000);
+  ASSERT_EQ(c.maps.selector_losses.size(), 2u);
+  EXPECT_EQ(parse_run_config(to_json(c)).maml.query_per_task, 160);
+  EXPECT_THAT(
+      [] { parse_run_config(nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x", "demo": 3}})")); },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("unknown key 'demo'")));
+  EXPECT_THAT([] { parse_run_config(nlohmann::json::parse(R"({"method": "gail", "data": {"file": "x"}})")); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("'gail'")));
+  EXPECT_THAT([] { parse_run_config(nlohmann::json::parse(R"({"method": "maps"})")); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("data")));
+  for (const char* method : {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"}) {
+    RunConfig m = c;
+    m.method = method;
+    EXPECT_EQ(make_policy(m, {3, 2, 2})->shape().num_tasks, 2) << method;
+  }
+}
+
+}  // namespace
+}  // namespace maps::core
