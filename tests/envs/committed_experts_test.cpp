@@ -25,7 +25,8 @@ TEST_P(CommittedExpert, ReachesItsDocumentedReturnUpright) {
   EXPECT_EQ(expert.task, task);
   const auto metadata = nlohmann::json::parse(expert.metadata_json);
   const double documented = metadata.at("eval_return_mean").get<double>();
-  EXPECT_EQ(metadata.at("flipped_episodes").get<int>(), 0) << task;
+  // The target of issue 3: under 5% of the evaluation episodes spent mostly turned over.
+  EXPECT_LT(metadata.at("flipped_episodes").get<double>(), 0.05 * metadata.at("eval_episodes").get<double>()) << task;
   EXPECT_GE(documented, 4500.0) << task;
 
   auto env = make_env(task);
