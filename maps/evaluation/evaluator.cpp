@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cstdlib>
 #include <cmath>
 #include <condition_variable>
 #include <exception>
@@ -37,11 +36,11 @@ struct TaskRun {
 };
 
 // Lets workers that have run out of tasks help the others step their envs. A task's owner thread still makes
-// every policy call (one batch per step); only the env steps and env creations, which are independent of each
-// other, are shared out. Results cannot depend on who ran which env, so they do not depend on the thread count.
+// every policy call (one batch per step); only the env steps, which are independent of each other, are shared
+// out. Results cannot depend on who stepped which env, so they do not depend on the thread count.
 class StepHelpers {
  public:
-  explicit StepHelpers(int threads) : threads_(std::getenv("MAPS_EVAL_NO_HELPERS") ? 1 : threads), runners_(threads) {}
+  explicit StepHelpers(int threads) : threads_(threads), runners_(threads) {}
 
   // fn(i) for every i in [0, count), on this thread and on any idle worker; rethrows the first exception.
   void parallel_for(std::size_t count, const std::function<void(std::size_t)>& fn) {
@@ -118,15 +117,16 @@ class StepHelpers {
 
 // Creates the task's envs and checks them against what the policy and the standardiser were built for, so a
 // mismatch is reported before any stepping.
-std::vector<std::unique_ptr<envs::Env>> make_envs(StepHelpers& helpers, const EnvFactory& make_env,
-                                                  const std::string& task, int count, const Policy& policy,
-                                                  const Standardizer& standardizer) {
-  // Creating an env can cost more than its whole episode (MT10 compiles its scene each time): share it out too.
-  std::vector<std::unique_ptr<envs::Env>> result(static_cast<std::size_t>(count));
-  helpers.parallel_for(result.size(), [&](std::size_t e) {
-    result[e] = make_env(task);
-    if (!result[e]) throw std::runtime_error("evaluate: the env factory returned no env for task '" + task + "'");
-  });
+std::vector<std::unique_ptr<envs::Env>> make_envs(const EnvFactory& make_env, const std::string& task, int count,
+                                                  const Policy& policy, const Standardizer& standardizer) {
+  // Created on this thread only: concurrent make_env calls measured no faster (MuJoCo's XML loader appears to
+  // serialise them), so helpers would only queue up.
+  std::vector<std::unique_ptr<envs::Env>> result;
+  result.reserve(static_cast<std::size_t>(count));
+  for (int e = 0; e < count; ++e) {
+    result.push_back(make_env(task));
+    if (!result.back()) throw std::runtime_error("evaluate: the env factory returned no env for task '" + task + "'");
+  }
   const envs::EnvSpec& spec = result.front()->spec();
   if (spec.observation_size != standardizer.size())
     throw std::invalid_argument("evaluate: task '" + task + "' has observations of size " +
@@ -139,25 +139,40 @@ std::vector<std::unique_ptr<envs::Env>> make_envs(StepHelpers& helpers, const En
   return result;
 }
 
-// All episodes of one task stepped together, so the policy sees one [n_active, S] batch per step.
+// The episodes of one task stepped together, so the policy sees one [n_running, S] batch per step. With fewer
+// envs than episodes, an env whose episode ends starts the next pending one (same seed as it would have had).
 // Stops early (with a partial result nobody reads) once `cancel` is set, i.e. another task failed.
 TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& policy, const Standardizer& standardizer,
                  const std::string& task, std::int64_t task_id, double expert_return, const EvalConfig& config,
                  const ModuleUsageFn* usage, const std::atomic<bool>& cancel) {
   const int episodes = config.episodes;
+  const int env_count = config.max_envs_per_task > 0 ? std::min(episodes, config.max_envs_per_task) : episodes;
   const auto setup_start = Clock::now();
-  std::vector<std::unique_ptr<envs::Env>> envs = make_envs(helpers, make_env, task, episodes, policy, standardizer);
+  std::vector<std::unique_ptr<envs::Env>> envs = make_envs(make_env, task, env_count, policy, standardizer);
   const auto obs_size = static_cast<Eigen::Index>(standardizer.size());
   const std::int64_t action_size = envs.front()->spec().action_size;
 
-  // Row j of `obs` is the current observation of episode active[j]; finished episodes are compacted away.
-  Eigen::MatrixXd obs(episodes, obs_size);
-  std::vector<int> active(static_cast<std::size_t>(episodes));
-  std::iota(active.begin(), active.end(), 0);
-  helpers.parallel_for(envs.size(), [&](std::size_t e) {
-    const Eigen::VectorXd first = envs[e]->reset(config.first_seed + e);
-    obs.row(static_cast<Eigen::Index>(e)) = first.transpose();
-  });
+  // A wrong-sized observation would otherwise be written past the row (Eigen checks nothing in Release).
+  auto check_observation = [&](const Eigen::VectorXd& o) {
+    if (o.size() != obs_size)
+      throw std::runtime_error("evaluate: task '" + task + "': the env returned an observation of size " +
+                               std::to_string(o.size()) + ", expected " + std::to_string(obs_size));
+  };
+  // Row j of `obs` is the current observation of running[j], which runs on env running[j].env.
+  struct Running {
+    std::size_t env;
+    std::size_t episode;
+  };
+  std::vector<Running> running;
+  Eigen::MatrixXd obs(env_count, obs_size);
+  std::size_t next_episode = 0;
+  auto start_episode = [&](std::size_t env, Eigen::Index row) {
+    const Eigen::VectorXd first = envs[env]->reset(config.first_seed + next_episode);
+    check_observation(first);
+    obs.row(row) = first.transpose();
+    running.push_back({env, next_episode++});
+  };
+  for (std::size_t e = 0; e < envs.size(); ++e) start_episode(e, static_cast<Eigen::Index>(e));
 
   TaskRun run;
   run.setup_seconds = seconds_between(setup_start, Clock::now());
@@ -170,10 +185,10 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   std::int64_t usage_rows = 0;
 
   std::vector<envs::StepResult> steps;
-  while (!active.empty() && !cancel) {
-    const auto n = static_cast<std::int64_t>(active.size());
+  while (!running.empty() && !cancel) {
+    const auto n = static_cast<std::int64_t>(running.size());
     const auto t0 = Clock::now();
-    const std::vector<std::int64_t> ids(active.size(), task_id);
+    const std::vector<std::int64_t> ids(running.size(), task_id);
     ag::RowMatrixD actions;
     {
       // Thread-local: every worker needs its own guard.
@@ -200,27 +215,35 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
     }
     const auto t1 = Clock::now();
 
-    steps.resize(active.size());
-    helpers.parallel_for(active.size(), [&](std::size_t j) {
-      steps[j] = envs[static_cast<std::size_t>(active[j])]->step(actions.row(static_cast<Eigen::Index>(j)).transpose());
+    steps.resize(running.size());
+    helpers.parallel_for(running.size(), [&](std::size_t j) {
+      steps[j] = envs[running[j].env]->step(actions.row(static_cast<Eigen::Index>(j)).transpose());
     });
-    Eigen::MatrixXd next(n, obs_size);
-    std::vector<int> still_running;
-    still_running.reserve(active.size());
-    for (std::size_t j = 0; j < active.size(); ++j) {
-      const auto e = static_cast<std::size_t>(active[j]);
+    // Keeps the order of `running` (continuing episodes first, then new ones in seed order), so the batches are
+    // a function of the config alone.
+    const std::vector<Running> stepped = std::move(running);
+    running.clear();
+    std::vector<std::size_t> freed;
+    for (std::size_t j = 0; j < stepped.size(); ++j) {
       const envs::StepResult& r = steps[j];
-      ev.returns[e] += r.reward;
-      if (r.success) ev.successes[e] = true;
+      ev.returns[stepped[j].episode] += r.reward;
+      if (r.success) ev.successes[stepped[j].episode] = true;
       if (r.done()) {
-        envs[e].reset();  // frees the simulator early; nothing steps it again
+        freed.push_back(stepped[j].env);
       } else {
-        next.row(static_cast<Eigen::Index>(still_running.size())) = r.observation.transpose();
-        still_running.push_back(active[j]);
+        check_observation(r.observation);
+        obs.row(static_cast<Eigen::Index>(running.size())) = r.observation.transpose();
+        running.push_back(stepped[j]);
       }
     }
-    obs = next.topRows(static_cast<Eigen::Index>(still_running.size()));
-    active = std::move(still_running);
+    for (std::size_t env : freed) {
+      if (next_episode < static_cast<std::size_t>(episodes)) {
+        start_episode(env, static_cast<Eigen::Index>(running.size()));
+      } else {
+        envs[env].reset();  // frees the simulator early; nothing steps it again
+      }
+    }
+    obs.conservativeResize(static_cast<Eigen::Index>(running.size()), obs_size);
     const auto t2 = Clock::now();
     run.policy_seconds += seconds_between(t0, t1);
     run.env_seconds += seconds_between(t1, t2);
@@ -250,6 +273,9 @@ void check_arguments(const Policy& policy, const Standardizer& standardizer, con
   if (tasks.empty()) throw std::invalid_argument("evaluate: no tasks given");
   if (config.episodes < 1)
     throw std::invalid_argument("evaluate: episodes must be >= 1, got " + std::to_string(config.episodes));
+  if (config.max_envs_per_task < 0)
+    throw std::invalid_argument("evaluate: max_envs_per_task must be >= 0 (0: one env per episode), got " +
+                                std::to_string(config.max_envs_per_task));
   if (config.threads < 0)
     throw std::invalid_argument("evaluate: threads must be >= 0 (0: all cores), got " + std::to_string(config.threads));
   if (!expert_returns.empty() && expert_returns.size() != tasks.size())
