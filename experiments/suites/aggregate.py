@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Tables of a grid's results (experiments/suites/run_grid.sh): per method and demo count, each task's score as
-mean over seeds with a 95% confidence interval (t distribution), and the mean over tasks.
+mean over seeds with a 95% confidence interval (t distribution), and the mean over tasks; where MAPS ran, each
+method's paired difference from MAPS (same seeds, so the same demonstrations) and MAPS's per-task module usage.
 
     /usr/bin/python3 experiments/suites/aggregate.py results/gate-gravity
 """
@@ -38,6 +39,33 @@ def main(root):
         means = [r["mean_score"] for r in results]
         row.append(f"**{statistics.mean(means):.2f} +- {ci(means):.2f}**")
         print("| " + " | ".join(row) + " |")
+
+    maps_cells = {(d, k): {r["seed"]: r for r in rs} for (m, d, k), rs in cells.items() if m == "maps"}
+    if maps_cells:
+        print("\nPaired difference of the mean score, method - MAPS, over the seeds both ran (95% CI):\n")
+        print("| method | demos | k | pairs | difference |")
+        print("|---|---|---|---|---|")
+        for (method, demos, k), results in sorted(cells.items()):
+            if method == "maps" or (demos, k) not in maps_cells:
+                continue
+            diffs = [r["mean_score"] - maps_cells[(demos, k)][r["seed"]]["mean_score"]
+                     for r in results if r["seed"] in maps_cells[(demos, k)]]
+            if diffs:
+                print(f"| {method} | {demos} | {k} | {len(diffs)} | {statistics.mean(diffs):+.2f} +- {ci(diffs):.2f} |")
+        print("\nMAPS module usage: mean selector score of each module over the states of each task's evaluation"
+              " episodes, averaged over seeds:\n")
+        for (demos, k), by_seed in sorted(maps_cells.items()):
+            runs = list(by_seed.values())
+            modules = len(runs[0]["tasks"][0].get("module_usage", []))
+            if not modules:
+                continue
+            print(f"{demos} demos, k = {k}, {len(runs)} seeds:\n")
+            print("| task | " + " | ".join(f"m{i}" for i in range(modules)) + " |")
+            print("|---" * (modules + 1) + "|")
+            for i, task in enumerate(tasks):
+                usage = [statistics.mean(r["tasks"][i]["module_usage"][j] for r in runs) for j in range(modules)]
+                print(f"| {task} | " + " | ".join(f"{u:.2f}" for u in usage) + " |")
+            print()
 
 
 if __name__ == "__main__":
