@@ -11,6 +11,7 @@
 
 #include "nn/nn.h"
 #include "tests/common/error_of.h"
+#include "tests/common/max_abs_diff.h"
 
 namespace nntest {
 
@@ -28,14 +29,7 @@ inline Tensor tensor(const std::vector<double>& values, const Shape& shape, Dtyp
   return ag::from_vector(values, shape, dtype);
 }
 
-// Largest absolute elementwise difference; shapes must match.
-inline double max_abs_diff(const Tensor& a, const Tensor& b) {
-  EXPECT_EQ(a.shape(), b.shape());
-  const std::vector<double> x = a.to_vector(), y = b.to_vector();
-  double worst = 0.0;
-  for (std::size_t i = 0; i < x.size() && i < y.size(); ++i) worst = std::max(worst, std::abs(x[i] - y[i]));
-  return worst;
-}
+using ::max_abs_diff;
 
 inline std::vector<std::string> names_of(const nn::NamedTensors& tensors) {
   std::vector<std::string> names;

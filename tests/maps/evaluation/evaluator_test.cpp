@@ -19,6 +19,7 @@
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
 #include "nn/mlp.h"
+#include "tests/common/error_of.h"
 
 namespace maps::core {
 namespace {
@@ -464,16 +465,6 @@ TEST(Evaluator, ProgressIsReportedOncePerTask) {
 }
 
 // ----- (5) errors -----
-
-template <typename Fn>
-std::string error_of(Fn&& fn) {
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "(no exception)";
-}
 
 TEST(Evaluator, ErrorsNameTheTaskAndWhatWasExpected) {
   const PolicyShape shape = shape_of("gravity/1.0", 2);

@@ -16,6 +16,7 @@
 #include "maps/policies/policy.h"
 #include "nn/optim/adam.h"
 #include "tests/common/error_of.h"
+#include "tests/common/max_abs_diff.h"
 
 namespace baselinetest {
 
@@ -27,13 +28,7 @@ using ::testing::HasSubstr;
 
 using ::error_of;
 
-inline double max_abs_diff(const Tensor& a, const Tensor& b) {
-  EXPECT_EQ(a.shape(), b.shape());
-  const std::vector<double> x = a.to_vector(), y = b.to_vector();
-  double worst = 0.0;
-  for (std::size_t i = 0; i < x.size() && i < y.size(); ++i) worst = std::max(worst, std::abs(x[i] - y[i]));
-  return worst;
-}
+using ::max_abs_diff;
 
 // A different smooth map R^3 -> R^2 per task (tasks 0..3), values of order 1.
 inline std::vector<double> target(std::int64_t task, const double* s) {
