@@ -7,18 +7,17 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <filesystem>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
 #include "envs/demo_collection.h"
 #include "envs/mujoco_env.h"
 #include "envs/source_folders.h"
 #include "envs/task_sets.h"
+#include "experiments/parallel_tasks.h"
 
 namespace maps::experiments {
 namespace {
@@ -62,9 +61,7 @@ int run_collect(const CollectOptions& options) {
   }
   const std::vector<envs::TaskExpert> experts = load_experts(tasks, options.experts_dir);
 
-  const int threads =
-      std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
-                 static_cast<int>(tasks.size()));
+  const int threads = worker_count(options.threads, tasks.size());
   std::printf("maps collect: %s set, %zu tasks, %d demos each (%s actions), seeds from %llu, %d threads\n",
               options.task_set.c_str(), tasks.size(), options.demos, options.actions.c_str(),
               static_cast<unsigned long long>(options.first_seed), threads);
@@ -72,36 +69,23 @@ int run_collect(const CollectOptions& options) {
 
   const auto start = std::chrono::steady_clock::now();
   std::vector<envs::TaskDemonstrations> results(tasks.size());
-  std::vector<std::exception_ptr> errors(tasks.size());
-  std::atomic<std::size_t> next{0};
   std::atomic<int> finished{0};
   std::mutex print_mutex;
-  const auto work = [&] {
-    for (std::size_t i = next++; i < tasks.size(); i = next++) {
-      try {
-        auto env = envs::make_env(tasks[i]);
-        results[i] = envs::collect_task_demonstrations(*env, experts[i], config);
-        double mean = 0.0;
-        for (const auto& d : results[i].demos) mean += d.episode_return / results[i].demos.size();
-        const std::lock_guard<std::mutex> lock(print_mutex);
-        const double documented = experts[i].documented_return;
-        const std::string expert_part =
-            std::isfinite(documented) ? ", expert's documented " + std::to_string(std::lround(documented)) : "";
-        std::printf("[%2d/%zu] %-26s %zu demos, return %.1f (median %.1f%s), %zu discarded, %.0f s\n", ++finished,
-                    tasks.size(), tasks[i].c_str(), results[i].demos.size(), mean, results[i].median_return,
-                    expert_part.c_str(), results[i].discarded.size(),
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-        std::fflush(stdout);
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
-  for (auto& thread : pool) thread.join();
-  for (const auto& error : errors)
-    if (error) std::rethrow_exception(error);
+  run_tasks_in_parallel(tasks.size(), threads, [&](std::size_t i) {
+    auto env = envs::make_env(tasks[i]);
+    results[i] = envs::collect_task_demonstrations(*env, experts[i], config);
+    double mean = 0.0;
+    for (const auto& d : results[i].demos) mean += d.episode_return / results[i].demos.size();
+    const std::lock_guard<std::mutex> lock(print_mutex);
+    const double documented = experts[i].documented_return;
+    const std::string expert_part =
+        std::isfinite(documented) ? ", expert's documented " + std::to_string(std::lround(documented)) : "";
+    std::printf("[%2d/%zu] %-26s %zu demos, return %.1f (median %.1f%s), %zu discarded, %.0f s\n", ++finished,
+                tasks.size(), tasks[i].c_str(), results[i].demos.size(), mean, results[i].median_return,
+                expert_part.c_str(), results[i].discarded.size(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    std::fflush(stdout);
+  });
 
   envs::DemoFile file;
   file.task_set = options.task_set;

@@ -2,21 +2,18 @@
 
 #include "experiments/expert_eval.h"
 
-#include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
 #include "envs/expert_evaluation.h"
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
+#include "experiments/parallel_tasks.h"
 
 namespace maps::experiments {
 namespace {
@@ -43,32 +40,15 @@ int run_expert_eval(const ExpertEvalOptions& options) {
   const std::vector<std::string> tasks =
       options.task.empty() ? envs::task_names(options.task_set) : std::vector<std::string>{options.task};
   for (const auto& task : tasks) envs::task_index(task);  // an unknown task fails here, before any work
-  const int threads =
-      std::clamp(options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency()), 1,
-                 static_cast<int>(tasks.size()));
+  const int threads = worker_count(options.threads, tasks.size());
   std::printf("maps expert-eval: %zu tasks, %d episodes each from seed %llu (mean actions), %d threads\n", tasks.size(),
               options.episodes, static_cast<unsigned long long>(options.first_seed), threads);
   std::fflush(stdout);
 
   const auto start = std::chrono::steady_clock::now();
   std::vector<envs::ExpertEpisodes> scores(tasks.size());
-  std::vector<std::exception_ptr> errors(tasks.size());
-  std::atomic<std::size_t> next{0};
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) {
-    pool.emplace_back([&] {
-      for (std::size_t i = next++; i < tasks.size(); i = next++) {
-        try {
-          scores[i] = evaluate(tasks[i], options.episodes, options.first_seed);
-        } catch (...) {
-          errors[i] = std::current_exception();
-        }
-      }
-    });
-  }
-  for (auto& thread : pool) thread.join();
-  for (const auto& error : errors)
-    if (error) std::rethrow_exception(error);
+  run_tasks_in_parallel(tasks.size(), threads,
+                        [&](std::size_t i) { scores[i] = evaluate(tasks[i], options.episodes, options.first_seed); });
 
   std::printf("| task | return (mean +- std) | success | mean first-success step | failed (turned over) |\n");
   std::printf("|---|---|---|---|---|\n");
