@@ -76,6 +76,8 @@ int main(int argc, char** argv) {
                    "Past this many steps, stop (exit 3) once the last 5 rollouts ran on the back; 0: never")
       ->check(non_negative)
       ->capture_default_str();
+  train_expert_cmd->add_flag("--end-when-flipped", train_expert.end_when_flipped,
+                             "End a training episode (terminated, not bootstrapped) when the torso turns over");
 
   maps::experiments::CollectOptions collect;
   CLI::App* collect_cmd = app.add_subcommand(

@@ -82,7 +82,8 @@ Json config_json(const PPOConfig& c) {
               {"scale_rewards", c.scale_rewards},
               {"hidden", c.hidden},
               {"seed", c.seed},
-              {"pitch_index", c.pitch_index}};
+              {"pitch_index", c.pitch_index},
+              {"end_episode_when_flipped", c.end_episode_when_flipped}};
 }
 
 }  // namespace
@@ -123,6 +124,10 @@ PPOTrainer::PPOTrainer(envs::Env& env, const PPOConfig& config, std::string out_
   if (config.pitch_index >= spec.observation_size)
     throw std::invalid_argument("PPOTrainer: pitch_index " + std::to_string(config.pitch_index) +
                                 " is past the observation size " + std::to_string(spec.observation_size));
+  if (config.end_episode_when_flipped && config.pitch_index < 0)
+    throw std::invalid_argument(
+        "PPOTrainer: end_episode_when_flipped needs pitch_index, the observation entry "
+        "holding the torso's pitch (HalfCheetah: 1)");
   ag::Generator init_gen(config.seed);
   model_ = std::make_shared<ActorCritic>(
       ActorCriticConfig{
@@ -183,11 +188,15 @@ void PPOTrainer::collect(Rollout& r) {
     episode_actions_.push_back(clipped);
     ++steps_done_;
     episode_return_ += result.reward;
-    r.rewards(t) = config_.scale_rewards ? reward_scaler_.scale(result.reward, result.done()) : result.reward;
-    r.terminated[t] = result.terminated;
-    r.episode_end[t] = result.done();
-    if (result.done()) {
-      if (!result.terminated) r.bootstrap.emplace_back(t, obs_rms_.normalize(result.observation));
+    const bool ended_flipped =
+        config_.end_episode_when_flipped && !result.done() && std::cos(result.observation(config_.pitch_index)) < 0.0;
+    const bool terminated = result.terminated || ended_flipped;
+    const bool done = result.done() || ended_flipped;
+    r.rewards(t) = config_.scale_rewards ? reward_scaler_.scale(result.reward, done) : result.reward;
+    r.terminated[t] = terminated;
+    r.episode_end[t] = done;
+    if (done) {
+      if (!terminated) r.bootstrap.emplace_back(t, obs_rms_.normalize(result.observation));
       recent_returns_.push_back(episode_return_);
       while (static_cast<int>(recent_returns_.size()) > std::max(1, config_.recent_episodes))
         recent_returns_.pop_front();

@@ -45,6 +45,10 @@ struct PPOConfig {
   // When >= 0, observation[pitch_index] is a torso pitch (HalfCheetah: 1) and each iteration reports the fraction
   // of its rollout's steps spent turned over (cos(pitch) < 0), to catch a policy learning to run on its back.
   int pitch_index = -1;
+  // With pitch_index >= 0: a training episode ends as terminated (no bootstrap, so the value of what follows is 0)
+  // at the first step that leaves the torso turned over. On HalfCheetah, where running earns positive reward, that
+  // makes flipping cost the rest of the episode's return, instead of leaving it to luck whether a seed avoids it.
+  bool end_episode_when_flipped = false;
 };
 
 // What one iteration (a rollout then its updates) measured.

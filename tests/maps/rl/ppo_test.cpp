@@ -139,5 +139,77 @@ TEST(PPO, NonFiniteLossStopsAndKeepsTheLastGoodCheckpoint) {
   std::filesystem::remove_all(dir);
 }
 
+// A pole whose angle the action tilts by 0.3 a per step; reward 1 per step, 50 steps; obs = (angle, 0).
+// The angle sits at observation index 0, standing in for HalfCheetah's torso pitch.
+class TiltEnv : public maps::envs::Env {
+ public:
+  TiltEnv() : spec_(maps::envs::unit_box_spec("toy/tilt", 0, 2, 1, 50)) {}
+  const maps::envs::EnvSpec& spec() const override { return spec_; }
+  Eigen::VectorXd reset(std::uint64_t seed) override {
+    std::mt19937_64 rng(seed);
+    angle_ = std::uniform_real_distribution<double>(-0.5, 0.5)(rng);
+    t_ = 0;
+    return Eigen::Vector2d(angle_, 0.0);
+  }
+  maps::envs::StepResult step(const Eigen::VectorXd& action) override {
+    angle_ += 0.3 * std::clamp(action(0), -1.0, 1.0);
+    maps::envs::StepResult r;
+    r.observation = Eigen::Vector2d(angle_, 0.0);
+    r.reward = 1.0;
+    r.truncated = ++t_ >= spec_.horizon;
+    return r;
+  }
+
+ private:
+  maps::envs::EnvSpec spec_;
+  double angle_ = 0.0;
+  int t_ = 0;
+};
+
+rl::PPOConfig tilt_config(bool end_when_flipped) {
+  rl::PPOConfig c = toy_config(512);
+  c.pitch_index = 0;
+  c.end_episode_when_flipped = end_when_flipped;
+  return c;
+}
+
+TEST(PPO, EndsTrainingEpisodesWhenTheTorsoTurnsOverOnlyWhenAsked) {
+  TiltEnv env_keep, env_end;
+  rl::PPOTrainer keep(env_keep, tilt_config(false)), end(env_end, tilt_config(true));
+  keep.train();
+  end.train();
+  // Without the option every episode runs its 50 steps; with it, the random walk of the untrained policy
+  // (action std 1) turns over (|angle| > pi/2) within the horizon in many episodes.
+  EXPECT_EQ(keep.history().back().episodes_finished, 512 / 50);
+  EXPECT_DOUBLE_EQ(keep.recent_mean_return(), 50.0);
+  EXPECT_GT(end.history().back().episodes_finished, 512 / 50 + 2);
+  EXPECT_LT(end.recent_mean_return(), 45.0);
+  // ... and no action is ever taken turned over, which the untrained policy without the option does.
+  EXPECT_GT(keep.history().back().flipped_fraction, 0.0);
+  EXPECT_EQ(end.history().back().flipped_fraction, 0.0);
+}
+
+TEST(PPO, EndingEpisodesWhenFlippedTeachesThePolicyToStayUpright) {
+  TiltEnv env;
+  rl::PPOConfig config = tilt_config(true);
+  config.total_steps = 16 * 512;
+  rl::PPOTrainer trainer(env, config);
+  trainer.train(1);
+  const double first = trainer.recent_mean_return();
+  trainer.train();
+  const double last = trainer.recent_mean_return();
+  std::printf("tilt PPO with episodes ending when flipped: training return %.1f -> %.1f\n", first, last);
+  EXPECT_GT(last, first + 10.0);
+  EXPECT_GT(last, 45.0);
+}
+
+TEST(PPO, EndingEpisodesWhenFlippedNeedsThePitchIndex) {
+  TiltEnv env;
+  rl::PPOConfig config = tilt_config(true);
+  config.pitch_index = -1;
+  EXPECT_THAT([&] { rl::PPOTrainer t(env, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("pitch_index")));
+}
+
 }  // namespace
 }  // namespace rltest

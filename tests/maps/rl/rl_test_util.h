@@ -20,14 +20,7 @@ namespace rltest {
 // start uniform in [-1, 1] from the reset seed.
 class PointEnv : public maps::envs::Env {
  public:
-  PointEnv() {
-    spec_.task = "toy/point";
-    spec_.observation_size = 2;
-    spec_.action_size = 1;
-    spec_.action_low = Eigen::VectorXd::Constant(1, -1.0);
-    spec_.action_high = Eigen::VectorXd::Constant(1, 1.0);
-    spec_.horizon = 50;
-  }
+  PointEnv() : spec_(maps::envs::unit_box_spec("toy/point", 0, 2, 1, 50)) {}
   const maps::envs::EnvSpec& spec() const override { return spec_; }
   Eigen::VectorXd reset(std::uint64_t seed) override {
     std::mt19937_64 rng(seed);
