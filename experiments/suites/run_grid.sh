@@ -5,15 +5,17 @@
 #
 #   experiments/suites/run_grid.sh OUT DATA METHODS COUNTS SEEDS SUBSAMPLE STEPS [EPISODES]
 #   experiments/suites/run_grid.sh results/gate-gravity data/gravity.h5 "single_bc" "1 2 5 10 25" "0 1 2 3 4" 10 3000 100
+# MAPS_BIN=path/to/maps runs another build of the tool.
+# A method written METHOD@W (e.g. mt_bc@430) gives a baseline three hidden layers of W units (cell mt_bc_w430_...).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 if [[ $# -lt 7 ]]; then
-  sed -n '2,7p' "$0" >&2
+  sed -n '2,9p' "$0" >&2
   exit 2
 fi
 out=$1 data=$2 methods=$3 counts=$4 seeds=$5 subsample=$6 steps=$7 episodes=${8:-100}
 [[ -f "$data" ]] || { echo "run_grid: no demo file '$data' (make it with maps collect)" >&2; exit 2; }
-maps=build/bin/maps
+maps=${MAPS_BIN:-build/bin/maps}  # another build of the tool, e.g. while build/ is rebuilt
 mkdir -p "$out"
 cells=()
 for method in $methods; do
@@ -24,15 +26,21 @@ for method in $methods; do
   done
 done
 run_cell() {
-  local method=$1 count=$2 seed=$3
-  local dir="$out/${method}_d${count}_k${subsample}_s${seed}"
+  local method=${1%@*} count=$2 seed=$3 width="" name=$1 baselines=""
+  if [[ $1 == *@* ]]; then
+    width=${1#*@}
+    [[ $width =~ ^[1-9][0-9]*$ ]] || { echo "run_grid: method '$1': expected METHOD@WIDTH with WIDTH > 0" >&2; return 2; }
+    name="${method}_w${width}"
+    baselines=$',\n "baselines": {"hidden": ['"$width, $width, $width"']}'
+  fi
+  local dir="$out/${name}_d${count}_k${subsample}_s${seed}"
   [[ -f "$dir/eval.json" ]] && return 0
   mkdir -p "$dir"
   cat > "$dir/request.json" <<JSON
 {"method": "$method", "seed": $seed,
  "data": {"file": "$data", "demos_per_task": $count, "subsample": $subsample},
  "train": {"steps": $steps, "validate_every": 250, "checkpoint_every": 500},
- "eval": {"episodes": $episodes, "threads": 1}}
+ "eval": {"episodes": $episodes, "threads": 1}$baselines}
 JSON
   "$maps" train --config "$dir/request.json" --out "$dir" > "$dir/train.log" 2>&1
   "$maps" eval --run "$dir" > "$dir/eval.log" 2>&1

@@ -40,7 +40,7 @@ const std::set<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc"
 
 RunConfig parse_run_config(const Json& json) {
   RunConfig c;
-  check_keys(json, "", {"method", "seed", "data", "train", "maps", "maml", "eval"});
+  check_keys(json, "", {"method", "seed", "data", "train", "maps", "maml", "baselines", "eval"});
   read(json, "", "method", c.method);
   if (!kMethods.count(c.method))
     throw std::invalid_argument("config method: '" + c.method +
@@ -100,6 +100,16 @@ RunConfig parse_run_config(const Json& json) {
     read(m, "maml", "finetune_steps", c.maml.finetune_steps);
   }
   c.maml.finetune_seed = c.seed;
+  if (json.contains("baselines")) {
+    const Json& b = json["baselines"];
+    check_keys(b, "baselines", {"hidden"});
+    read(b, "baselines", "hidden", c.baseline_hidden);
+    if (c.baseline_hidden.empty())
+      throw std::invalid_argument("config baselines.hidden: expected at least one hidden layer size");
+    for (std::int64_t size : c.baseline_hidden)
+      if (size < 1)
+        throw std::invalid_argument("config baselines.hidden: sizes must be >= 1, got " + std::to_string(size));
+  }
   if (json.contains("eval")) {
     const Json& e = json["eval"];
     check_keys(e, "eval", {"episodes", "threads"});
@@ -137,6 +147,7 @@ Json to_json(const RunConfig& c) {
         {"first_order", c.maml.first_order},
         {"query_per_task", c.maml.query_per_task},
         {"finetune_steps", c.maml.finetune_steps}}},
+      {"baselines", {{"hidden", c.baseline_hidden}}},
       {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}}};
 }
 
@@ -144,10 +155,11 @@ std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& 
   // The initialisation's own stream of the run's seed ("init").
   ag::Generator gen(envs::splitmix64(config.seed ^ 0x696e6974ULL));
   if (config.method == "maps") return std::make_shared<MAPSPolicy>(shape, config.maps, gen);
-  if (config.method == "single_bc") return std::make_shared<SingleBC>(shape, gen);
-  if (config.method == "mt_bc") return std::make_shared<MTBC>(shape, gen);
-  if (config.method == "mt_mh_bc") return std::make_shared<MTMHBC>(shape, gen);
-  if (config.method == "maml") return std::make_shared<MAML>(shape, gen, config.maml);
+  const auto& hidden = config.baseline_hidden;
+  if (config.method == "single_bc") return std::make_shared<SingleBC>(shape, gen, hidden);
+  if (config.method == "mt_bc") return std::make_shared<MTBC>(shape, gen, hidden);
+  if (config.method == "mt_mh_bc") return std::make_shared<MTMHBC>(shape, gen, hidden);
+  if (config.method == "maml") return std::make_shared<MAML>(shape, gen, config.maml, hidden);
   throw std::invalid_argument("unknown method '" + config.method + "'");
 }
 

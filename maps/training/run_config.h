@@ -4,9 +4,11 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "autograd/autograd.h"
 #include "maps/data/demo_dataset.h"
+#include "maps/policies/baseline_util.h"
 #include "maps/policies/maml.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/policy.h"
@@ -22,6 +24,7 @@
 //    "maps": {"modules": 10, "activation": "tanh",
 //             "selector_losses": {"share": 1, "explore": 0.5, "sparse": 0.001, "smooth": 1}},
 //    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10},
+//    "baselines": {"hidden": [128, 128, 128]},  // the MLP of Single BC, MT-BC, MT-MH-BC and MAML
 //    "eval": {"episodes": 100, "threads": 0}}
 //
 // An unknown key is an error naming it (a typo must not silently run the default).
@@ -35,6 +38,7 @@ struct RunConfig {
   TrainConfig train;
   MAPSConfig maps;
   MAMLConfig maml;
+  std::vector<std::int64_t> baseline_hidden = detail::default_hidden_sizes();
   int eval_episodes = 100;
   int eval_threads = 0;
 };

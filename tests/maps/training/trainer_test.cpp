@@ -153,5 +153,40 @@ TEST(RunConfig, ParsesDefaultsAndRejectsUnknownKeys) {
   }
 }
 
+TEST(RunConfig, BaselineHiddenSizesReachEveryBaselineAndAreChecked) {
+  RunConfig c = parse_run_config(
+      nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x.h5"}, "baselines": {"hidden": [7, 5]}})"));
+  EXPECT_EQ(c.baseline_hidden, (std::vector<std::int64_t>{7, 5}));
+  EXPECT_EQ(parse_run_config(to_json(c)).baseline_hidden, c.baseline_hidden);
+  // S = 3, A = 2, K = 2: the parameter count follows the hidden sizes.
+  EXPECT_EQ(make_policy(c, {3, 2, 2})->parameter_count(), (3 + 2) * 7 + 7 + 7 * 5 + 5 + 5 * 2 + 2);
+  for (const char* method : {"single_bc", "mt_mh_bc", "maml"}) {
+    RunConfig m = c, wide = c;
+    m.method = wide.method = method;
+    wide.baseline_hidden = {70, 50};
+    EXPECT_GT(make_policy(wide, {3, 2, 2})->parameter_count(), make_policy(m, {3, 2, 2})->parameter_count()) << method;
+  }
+  EXPECT_EQ(parse_run_config(nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}})")).baseline_hidden,
+            (std::vector<std::int64_t>{128, 128, 128}));
+  EXPECT_THAT(
+      [] {
+        parse_run_config(
+            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"hidden": []}})"));
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("baselines.hidden")));
+  EXPECT_THAT(
+      [] {
+        parse_run_config(
+            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"hidden": [64, 0]}})"));
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("baselines.hidden")));
+  EXPECT_THAT(
+      [] {
+        parse_run_config(
+            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"width": 64}})"));
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("unknown key 'width'")));
+}
+
 }  // namespace
 }  // namespace maps::core
