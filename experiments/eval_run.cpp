@@ -67,8 +67,11 @@ int run_eval(const EvalRunOptions& options) {
                          {"return_std", t.return_std},
                          {"success_rate", t.success_rate},
                          {"returns", t.returns}};
-    if (t.module_usage.size() > 0)
+    if (t.module_usage.size() > 0) {
       entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());
+      entry["selector_entropy"] = t.selector_entropy;
+      entry["selector_top_score"] = t.selector_top_score;
+    }
     tasks.push_back(entry);
   }
   std::printf("mean score %.3f (%.1f s)\n", result.mean_score, result.seconds);

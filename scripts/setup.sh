@@ -3,7 +3,6 @@
 # installed are skipped, and apt-get runs only when something is missing.
 set -euo pipefail
 
-# Later issues append here (gnuplot, ...).
 PACKAGES=(
   build-essential
   cmake
@@ -20,6 +19,8 @@ PACKAGES=(
   libhdf5-dev
   libosmesa6-dev  # offscreen rendering (maps render); optional for the build
   libpng-dev
+  python3             # /usr/bin/python3 runs the result tables and plots (experiments/suites/)
+  python3-matplotlib  # plots
 )
 
 export DEBIAN_FRONTEND=noninteractive

@@ -182,6 +182,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   ev.returns.assign(static_cast<std::size_t>(episodes), 0.0);
   ev.successes.assign(static_cast<std::size_t>(episodes), false);
   Eigen::VectorXd usage_sum;
+  double entropy_sum = 0.0, top_score_sum = 0.0;
   std::int64_t usage_rows = 0;
 
   std::vector<envs::StepResult> steps;
@@ -210,6 +211,11 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
         const ag::RowMatrixD scores = ag::to_eigen_double(u);
         if (usage_sum.size() == 0) usage_sum = Eigen::VectorXd::Zero(scores.cols());
         usage_sum += scores.colwise().sum().transpose();
+        for (Eigen::Index i = 0; i < scores.rows(); ++i) {
+          for (Eigen::Index m = 0; m < scores.cols(); ++m)
+            if (scores(i, m) > 0.0) entropy_sum -= scores(i, m) * std::log(scores(i, m));
+          top_score_sum += scores.row(i).maxCoeff();
+        }
         usage_rows += n;
       }
     }
@@ -264,7 +270,11 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   double score_ss = 0.0;
   for (double s : scores) score_ss += (s - ev.score) * (s - ev.score);
   ev.score_std_error = episodes > 1 ? std::sqrt(score_ss / (n - 1.0) / n) : 0.0;
-  if (usage != nullptr) ev.module_usage = usage_sum / static_cast<double>(usage_rows);
+  if (usage != nullptr) {
+    ev.module_usage = usage_sum / static_cast<double>(usage_rows);
+    ev.selector_entropy = entropy_sum / static_cast<double>(usage_rows);
+    ev.selector_top_score = top_score_sum / static_cast<double>(usage_rows);
+  }
   return run;
 }
 

@@ -46,6 +46,12 @@ struct TaskEvaluation {
   // Mean selector score of each module over every state visited in this task's episodes; empty unless a
   // ModuleUsageFn was given.
   Eigen::VectorXd module_usage;
+  // How decisively the selector routes each state (the usage above is a mean over states, so it is uniform both
+  // when every state mixes all modules and when each state picks one module but different states pick different
+  // ones): the mean over visited states of the entropy (nats) of that state's scores, and of its largest score.
+  // 0 unless a ModuleUsageFn was given. Uniform over M modules: log M and 1/M; one module per state: 0 and 1.
+  double selector_entropy = 0.0;
+  double selector_top_score = 0.0;
 
   // Half-width of the normal-approximation 95% confidence interval of `score`.
   double score_ci95() const { return 1.96 * score_std_error; }

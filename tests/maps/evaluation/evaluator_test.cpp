@@ -449,6 +449,33 @@ TEST(Evaluator, ModuleUsageIsTheMeanScoreOverEveryVisitedState) {
   EXPECT_EQ(without.tasks[0].module_usage.size(), 0);
 }
 
+TEST(Evaluator, SelectorEntropyAndTopScoreTellRoutingPerStateFromMixing) {
+  // Task a: each state picks one module, alternating with the sign of x0 (its mean usage can still look spread);
+  // task b: every state mixes two modules equally.
+  const std::vector<std::string> tasks{"toy/a", "toy/b"};
+  FnPolicy policy = rowwise_linear_policy({3, 2, 2});
+  const Standardizer standardizer = make_standardizer(3);
+  const ModuleUsageFn usage = [](const ag::Tensor& x, const std::vector<std::int64_t>& ids) {
+    const ag::RowMatrixD obs = ag::to_eigen_double(x);
+    ag::RowMatrixD scores(obs.rows(), 2);
+    for (Eigen::Index i = 0; i < obs.rows(); ++i) {
+      if (ids[static_cast<std::size_t>(i)] == 0)
+        scores.row(i) << (obs(i, 0) > 0.0 ? 1.0 : 0.0), (obs(i, 0) > 0.0 ? 0.0 : 1.0);
+      else
+        scores.row(i) << 0.5, 0.5;
+    }
+    return ag::from_eigen(scores).to(x.dtype());
+  };
+  EvalConfig config;
+  config.episodes = 5;
+  config.dtype = ag::Dtype::Float64;
+  const EvaluationResult result = evaluate_with_envs(make_toy_env, policy, standardizer, tasks, {}, config, &usage);
+  EXPECT_NEAR(result.tasks[0].selector_entropy, 0.0, 1e-12);
+  EXPECT_NEAR(result.tasks[0].selector_top_score, 1.0, 1e-12);
+  EXPECT_NEAR(result.tasks[1].selector_entropy, std::log(2.0), 1e-12);
+  EXPECT_NEAR(result.tasks[1].selector_top_score, 0.5, 1e-12);
+}
+
 TEST(Evaluator, ProgressIsReportedOncePerTask) {
   FnPolicy policy = rowwise_linear_policy({3, 2, 3});
   EvalConfig config;
