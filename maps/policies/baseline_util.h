@@ -8,7 +8,8 @@
 #include "maps/data/batch.h"
 #include "maps/policies/policy.h"
 
-// Input checks and sizes shared by the baselines (SingleBC, MTBC, MTMHBC, MAML). Every error names `where`
+// Input checks and sizes shared by the policies (the baselines SingleBC, MTBC, MTMHBC, MAML; MAPS's checks). Every
+// error names `where`
 // ("SingleBC::act") and what was expected, so a wiring mistake in the trainer points at the policy it reached.
 namespace maps::core::detail {
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "maps/policies/baseline_util.h"
+
 namespace maps::core {
 
 MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generator& gen)
@@ -39,19 +41,6 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
   }
 }
 
-void MAPSPolicy::check_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const {
-  if (observations.dim() != 2 || observations.size(1) != shape().observation_size)
-    throw std::invalid_argument("MAPSPolicy: observations must be [n, " + std::to_string(shape().observation_size) +
-                                "], got " + observations.to_string().substr(0, 60));
-  if (static_cast<std::int64_t>(tasks.size()) != observations.size(0))
-    throw std::invalid_argument("MAPSPolicy: " + std::to_string(tasks.size()) + " task ids for " +
-                                std::to_string(observations.size(0)) + " observations");
-  for (std::int64_t k : tasks)
-    if (k < 0 || k >= shape().num_tasks)
-      throw std::invalid_argument("MAPSPolicy: task index " + std::to_string(k) + " outside [0, " +
-                                  std::to_string(shape().num_tasks) + ")");
-}
-
 ag::Tensor MAPSPolicy::features(const ag::Tensor& observations) {
   ag::Tensor h = observations;
   for (std::size_t slot : module_layers_)
@@ -64,7 +53,7 @@ ag::Tensor MAPSPolicy::selector_input(const ag::Tensor& observations, const std:
 }
 
 ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
-  check_input(observations, tasks);
+  detail::check_observations("MAPSPolicy::scores", shape(), observations, tasks);
   return ag::softmax(child_at<nn::MLP>(selector_).forward(selector_input(observations, tasks)), 1);
 }
 
@@ -81,7 +70,7 @@ ag::Tensor MAPSPolicy::act(const ag::Tensor& observations, const std::vector<std
 
 LossTerms MAPSPolicy::loss(const Batch& batch) {
   const ag::Tensor& obs = batch.observations;
-  check_input(obs, batch.tasks);
+  detail::check_observations("MAPSPolicy::loss", shape(), obs, batch.tasks);
   const std::int64_t n = obs.size(0), K = shape().num_tasks, M = config_.modules;
   SelectorOutputs out;
   out.tasks = batch.tasks;

@@ -51,7 +51,6 @@ class MAPSPolicy : public Policy {
 
  private:
   ag::Tensor selector_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const;
-  void check_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const;
 
   MAPSConfig config_;
   nn::Activation activation_;

@@ -139,12 +139,12 @@ TEST(MAPSPolicy, BadInputIsNamed) {
       [&] {
         policy.act(ag::zeros({2, 5}), {0, 1});
       },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy: observations must be [n, 4]")));
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy::scores: expected observations [n, 4]")));
   EXPECT_THAT(
       [&] {
         policy.act(ag::zeros({2, 4}), {0, 3});
       },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("task index 3")));
+      ::testing::ThrowsMessage<std::out_of_range>(HasSubstr("task 3 at row 1")));
   MAPSConfig bad = tiny_config();
   bad.selector_losses = {{"novelty", 1.0}};
   EXPECT_THAT(
