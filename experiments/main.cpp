@@ -76,8 +76,12 @@ int main(int argc, char** argv) {
                    "Past this many steps, stop (exit 3) once the last 5 rollouts ran on the back; 0: never")
       ->check(non_negative)
       ->capture_default_str();
-  train_expert_cmd->add_flag("--end-when-flipped", train_expert.end_when_flipped,
-                             "End a training episode (terminated, not bootstrapped) when the torso turns over");
+  train_expert_cmd
+      ->add_option("--end-at-pitch", train_expert.end_at_pitch,
+                   "End a training episode (terminated, not bootstrapped) once the torso's |pitch| exceeds this many "
+                   "radians (1.5708: turned over); 0: never")
+      ->check(CLI::Range(0.0, 3.14159265358979))
+      ->capture_default_str();
 
   maps::experiments::CollectOptions collect;
   CLI::App* collect_cmd = app.add_subcommand(

@@ -35,7 +35,7 @@ int run_train_expert(const TrainExpertOptions& options) {
   config.learning_rate = options.learning_rate;
   config.checkpoint_every = options.checkpoint_every;
   config.pitch_index = 1;  // HalfCheetah's rooty
-  config.end_episode_when_flipped = options.end_when_flipped;
+  config.end_episode_at_pitch = options.end_at_pitch;
   std::printf("maps train-expert: task %s, %lld steps, seed %llu, out %s\n", options.task.c_str(),
               static_cast<long long>(options.steps), static_cast<unsigned long long>(options.seed),
               options.out.c_str());
@@ -82,7 +82,7 @@ int run_train_expert(const TrainExpertOptions& options) {
       {"seed", options.seed},
       {"learning_rate", options.learning_rate},
       {"warm_start", options.init},
-      {"end_when_flipped", options.end_when_flipped},
+      {"end_at_pitch", options.end_at_pitch},
       {"abandoned_as_flipped", abandoned},
       {"eval_episodes", options.eval_episodes},
       {"eval_seed_base", kEvalSeedBase},

@@ -18,7 +18,7 @@ struct TrainExpertOptions {
   double learning_rate = 3e-4;       // Adam's initial rate, annealed linearly to 0
   std::string init;                  // optional warm start: a checkpoint.ckpt of a run on another task
   std::int64_t abandon_flipped = 0;  // when > 0: past this many steps, stop if the last 5 rollouts ran flipped
-  bool end_when_flipped = false;     // end a training episode (terminated) once the torso turns over
+  double end_at_pitch = 0.0;         // when > 0: end a training episode (terminated) once |pitch| exceeds it
 };
 
 // Returns 0 when the expert ran upright, 3 when it ran flipped or was abandoned as flipped (the expert is still

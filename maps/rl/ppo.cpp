@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
@@ -83,7 +84,7 @@ Json config_json(const PPOConfig& c) {
               {"hidden", c.hidden},
               {"seed", c.seed},
               {"pitch_index", c.pitch_index},
-              {"end_episode_when_flipped", c.end_episode_when_flipped}};
+              {"end_episode_at_pitch", c.end_episode_at_pitch}};
 }
 
 }  // namespace
@@ -115,7 +116,8 @@ PPOTrainer::PPOTrainer(envs::Env& env, const PPOConfig& config, std::string out_
       log_(log),
       obs_rms_(env.spec().observation_size),
       reward_scaler_(config.gamma),
-      rng_(config.seed ^ 0x5DEECE66DULL) {
+      rng_(config.seed ^ 0x5DEECE66DULL),
+      end_cos_(std::cos(config.end_episode_at_pitch)) {
   const auto& spec = env.spec();
   if (config.total_steps <= 0 || config.steps_per_rollout <= 0 || config.epochs <= 0 || config.minibatch_size <= 0)
     throw std::invalid_argument("PPOTrainer: total_steps, steps_per_rollout, epochs and minibatch_size must be > 0");
@@ -124,10 +126,12 @@ PPOTrainer::PPOTrainer(envs::Env& env, const PPOConfig& config, std::string out_
   if (config.pitch_index >= spec.observation_size)
     throw std::invalid_argument("PPOTrainer: pitch_index " + std::to_string(config.pitch_index) +
                                 " is past the observation size " + std::to_string(spec.observation_size));
-  if (config.end_episode_when_flipped && config.pitch_index < 0)
-    throw std::invalid_argument(
-        "PPOTrainer: end_episode_when_flipped needs pitch_index, the observation entry "
-        "holding the torso's pitch (HalfCheetah: 1)");
+  if (!(config.end_episode_at_pitch >= 0.0 && config.end_episode_at_pitch <= std::numbers::pi) ||
+      (config.end_episode_at_pitch > 0.0 && config.pitch_index < 0))
+    throw std::invalid_argument("PPOTrainer: end_episode_at_pitch must be in [0, pi] radians (got " +
+                                std::to_string(config.end_episode_at_pitch) +
+                                ") and needs pitch_index, the observation entry holding the torso's pitch "
+                                "(HalfCheetah: 1)");
   ag::Generator init_gen(config.seed);
   model_ = std::make_shared<ActorCritic>(
       ActorCriticConfig{
@@ -188,8 +192,9 @@ void PPOTrainer::collect(Rollout& r) {
     episode_actions_.push_back(clipped);
     ++steps_done_;
     episode_return_ += result.reward;
-    const bool ended_flipped =
-        config_.end_episode_when_flipped && !result.done() && std::cos(result.observation(config_.pitch_index)) < 0.0;
+    // cos compares angles that may have wound past pi (the pitch is an unwrapped hinge angle).
+    const bool ended_flipped = config_.end_episode_at_pitch > 0.0 && !result.done() &&
+                               std::cos(result.observation(config_.pitch_index)) < end_cos_;
     const bool terminated = result.terminated || ended_flipped;
     const bool done = result.done() || ended_flipped;
     r.rewards(t) = config_.scale_rewards ? reward_scaler_.scale(result.reward, done) : result.reward;

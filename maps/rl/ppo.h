@@ -45,10 +45,11 @@ struct PPOConfig {
   // When >= 0, observation[pitch_index] is a torso pitch (HalfCheetah: 1) and each iteration reports the fraction
   // of its rollout's steps spent turned over (cos(pitch) < 0), to catch a policy learning to run on its back.
   int pitch_index = -1;
-  // With pitch_index >= 0: a training episode ends as terminated (no bootstrap, so the value of what follows is 0)
-  // at the first step that leaves the torso turned over. On HalfCheetah, where running earns positive reward, that
-  // makes flipping cost the rest of the episode's return, instead of leaving it to luck whether a seed avoids it.
-  bool end_episode_when_flipped = false;
+  // When > 0 (needs pitch_index): a training episode ends as terminated (no bootstrap, so the value of what follows
+  // is 0) at the first step whose |pitch| exceeds this angle in radians (pi/2: turned over; less: tilted too far
+  // to recover). On HalfCheetah, where running earns positive reward, that makes tilting over cost the rest of the
+  // episode's return, instead of leaving it to luck whether a seed avoids it.
+  double end_episode_at_pitch = 0.0;
 };
 
 // What one iteration (a rollout then its updates) measured.
@@ -130,6 +131,7 @@ class PPOTrainer {
   RunningMeanStd obs_rms_;
   RewardScaler reward_scaler_;
   ag::Generator rng_;  // action noise and minibatch shuffles
+  double end_cos_;     // cos(config.end_episode_at_pitch)
 
   std::int64_t steps_done_ = 0;
   std::int64_t iteration_ = 0;

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <numbers>
 #include <numeric>
 #include <sstream>
 
@@ -169,7 +170,7 @@ class TiltEnv : public maps::envs::Env {
 rl::PPOConfig tilt_config(bool end_when_flipped) {
   rl::PPOConfig c = toy_config(512);
   c.pitch_index = 0;
-  c.end_episode_when_flipped = end_when_flipped;
+  c.end_episode_at_pitch = end_when_flipped ? std::numbers::pi / 2 : 0.0;
   return c;
 }
 
@@ -187,6 +188,13 @@ TEST(PPO, EndsTrainingEpisodesWhenTheTorsoTurnsOverOnlyWhenAsked) {
   // ... and no action is ever taken turned over, which the untrained policy without the option does.
   EXPECT_GT(keep.history().back().flipped_fraction, 0.0);
   EXPECT_EQ(end.history().back().flipped_fraction, 0.0);
+  // A smaller angle ends episodes sooner: more of them fit in the rollout.
+  TiltEnv env_early;
+  rl::PPOConfig early_config = tilt_config(true);
+  early_config.end_episode_at_pitch = 0.6;
+  rl::PPOTrainer early(env_early, early_config);
+  early.train();
+  EXPECT_GT(early.history().back().episodes_finished, end.history().back().episodes_finished);
 }
 
 TEST(PPO, EndingEpisodesWhenFlippedTeachesThePolicyToStayUpright) {
@@ -203,12 +211,16 @@ TEST(PPO, EndingEpisodesWhenFlippedTeachesThePolicyToStayUpright) {
   EXPECT_GT(last, 45.0);
 }
 
-TEST(PPO, EndingEpisodesWhenFlippedNeedsThePitchIndex) {
+TEST(PPO, EndingEpisodesAtAPitchNeedsThePitchIndexAndAnAngleUpToPi) {
   TiltEnv env;
   rl::PPOConfig config = tilt_config(true);
   config.pitch_index = -1;
   EXPECT_THAT([&] { rl::PPOTrainer t(env, config); },
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("pitch_index")));
+  config = tilt_config(true);
+  config.end_episode_at_pitch = 4.0;
+  EXPECT_THAT([&] { rl::PPOTrainer t(env, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("[0, pi]")));
 }
 
 }  // namespace
