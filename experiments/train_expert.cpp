@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <numbers>
+#include <stdexcept>
 
 #include "envs/expert_evaluation.h"
 #include "envs/seed_ranges.h"
@@ -27,6 +29,10 @@ constexpr double kFlippedFraction = 0.5;  // as envs::ExpertEpisodes::failed_cou
 }  // namespace
 
 int run_train_expert(const TrainExpertOptions& options) {
+  if (options.abandon_flipped > 0 && options.end_at_pitch > 0.0 && options.end_at_pitch <= std::numbers::pi / 2)
+    throw std::invalid_argument("--abandon-flipped watches for rollouts run turned over, which --end-at-pitch " +
+                                std::to_string(options.end_at_pitch) +
+                                " (<= pi/2) never lets happen; use one or the other");
   auto env = envs::make_env(options.task);
   auto eval_env = envs::make_env(options.task);
   rl::PPOConfig config;

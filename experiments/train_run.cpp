@@ -17,7 +17,9 @@ int run_train(const TrainRunOptions& options) {
   const nlohmann::json resolved = core::to_json(config);
   std::filesystem::create_directories(options.out);
   const std::string config_path = (std::filesystem::path(options.out) / "config.json").string();
-  if (std::filesystem::exists(config_path) && read_json_file(config_path) != resolved)
+  // Compared after resolving both, so a folder written before a key existed (its default then implied) resumes.
+  if (std::filesystem::exists(config_path) &&
+      core::to_json(core::parse_run_config(read_json_file(config_path))) != resolved)
     throw std::runtime_error(options.out + " holds a run of another config (" + config_path +
                              "); use a new folder, or delete it to start over");
   write_json_file(config_path, resolved);

@@ -22,10 +22,11 @@ def fmt(values):
 
 
 def score_table(by_cell, tasks):
-    print("| method | demos | k | seeds | " + " | ".join(tasks) + " | mean | best step |")
-    print("|---" * (len(tasks) + 6) + "|")
+    print("| method | demos | k | seeds | steps | " + " | ".join(tasks) + " | mean | best step |")
+    print("|---" * (len(tasks) + 7) + "|")
     for (label, demos, k), runs in sorted(by_cell.items(), key=lambda item: (item[0][1], item[0][2], item[0][0])):
-        row = [label, str(demos), str(k), str(len(runs))]
+        budgets = sorted({r.config.get("train", {}).get("steps", "?") for r in runs}, key=str)
+        row = [label, str(demos), str(k), str(len(runs)), "/".join(map(str, budgets))]
         row += [fmt([r.eval["tasks"][i]["score"] for r in runs]) for i in range(len(tasks))]
         row.append(f"**{fmt([r.eval['mean_score'] for r in runs])}**")
         best = [r.eval["best_step"] for r in runs]
@@ -35,7 +36,9 @@ def score_table(by_cell, tasks):
 
 def paired_table(by_cell):
     maps = {(d, k): {r.seed: r for r in rs} for (label, d, k), rs in by_cell.items() if label == "maps"}
-    if not maps:
+    has_pairs = any(label != "maps" and (d, k) in maps and any(r.seed in maps[(d, k)] for r in rs)
+                    for (label, d, k), rs in by_cell.items())
+    if not has_pairs:
         return
     print("\nPaired difference of the mean score, method - MAPS, over the seeds both ran (95% CI; an interval that"
           " excludes 0 is a difference):\n")

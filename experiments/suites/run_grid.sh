@@ -29,6 +29,7 @@ run_cell() {
   local method=${1%@*} count=$2 seed=$3 width="" name=$1 baselines=""
   if [[ $1 == *@* ]]; then
     width=${1#*@}
+    [[ $method != maps ]] || { echo "run_grid: method '$1': @W sets a baseline's width; MAPS has no baseline MLP" >&2; return 2; }
     [[ $width =~ ^[1-9][0-9]*$ ]] || { echo "run_grid: method '$1': expected METHOD@WIDTH with WIDTH > 0" >&2; return 2; }
     name="${method}_w${width}"
     baselines=$',\n "baselines": {"hidden": ['"$width, $width, $width"']}'
@@ -42,8 +43,11 @@ run_cell() {
  "train": {"steps": $steps, "validate_every": 250, "checkpoint_every": 500},
  "eval": {"episodes": $episodes, "threads": 1}$baselines}
 JSON
-  "$maps" train --config "$dir/request.json" --out "$dir" > "$dir/train.log" 2>&1
-  "$maps" eval --run "$dir" > "$dir/eval.log" 2>&1
+  # A failed step must not leave a cell that looks finished (eval.json from a half-trained run).
+  "$maps" train --config "$dir/request.json" --out "$dir" > "$dir/train.log" 2>&1 ||
+    { echo "$(date +%T) $dir: training failed, see $dir/train.log: $(tail -1 "$dir/train.log")" >&2; return 1; }
+  "$maps" eval --run "$dir" > "$dir/eval.log" 2>&1 ||
+    { echo "$(date +%T) $dir: evaluation failed, see $dir/eval.log: $(tail -1 "$dir/eval.log")" >&2; return 1; }
   echo "$(date +%T) $dir: $(tail -1 "$dir/eval.log")"
 }
 export -f run_cell

@@ -65,12 +65,15 @@ ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores
 }
 
 ag::Tensor MAPSPolicy::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  detail::check_observations("MAPSPolicy::act", shape(), observations, tasks);
   return head(features(observations), scores(observations, tasks));
 }
 
 LossTerms MAPSPolicy::loss(const Batch& batch) {
   const ag::Tensor& obs = batch.observations;
-  detail::check_observations("MAPSPolicy::loss", shape(), obs, batch.tasks);
+  detail::check_batch("MAPSPolicy::loss", shape(), batch);
+  detail::check_observations("MAPSPolicy::loss (previous_observations)", shape(), batch.previous_observations,
+                             batch.tasks);
   const std::int64_t n = obs.size(0), K = shape().num_tasks, M = config_.modules;
   SelectorOutputs out;
   out.tasks = batch.tasks;

@@ -126,9 +126,9 @@ PPOTrainer::PPOTrainer(envs::Env& env, const PPOConfig& config, std::string out_
   if (config.pitch_index >= spec.observation_size)
     throw std::invalid_argument("PPOTrainer: pitch_index " + std::to_string(config.pitch_index) +
                                 " is past the observation size " + std::to_string(spec.observation_size));
-  if (!(config.end_episode_at_pitch >= 0.0 && config.end_episode_at_pitch <= std::numbers::pi) ||
+  if (!(config.end_episode_at_pitch >= 0.0 && config.end_episode_at_pitch < std::numbers::pi) ||
       (config.end_episode_at_pitch > 0.0 && config.pitch_index < 0))
-    throw std::invalid_argument("PPOTrainer: end_episode_at_pitch must be in [0, pi] radians (got " +
+    throw std::invalid_argument("PPOTrainer: end_episode_at_pitch must be in [0, pi) radians (got " +
                                 std::to_string(config.end_episode_at_pitch) +
                                 ") and needs pitch_index, the observation entry holding the torso's pitch "
                                 "(HalfCheetah: 1)");
@@ -193,8 +193,10 @@ void PPOTrainer::collect(Rollout& r) {
     ++steps_done_;
     episode_return_ += result.reward;
     // cos compares angles that may have wound past pi (the pitch is an unwrapped hinge angle).
-    const bool ended_flipped = config_.end_episode_at_pitch > 0.0 && !result.done() &&
-                               std::cos(result.observation(config_.pitch_index)) < end_cos_;
+    // A step past the angle ends the episode as terminated even when it is also the time limit's last step: the
+    // tilted-over state must not be bootstrapped from.
+    const bool ended_flipped =
+        config_.end_episode_at_pitch > 0.0 && std::cos(result.observation(config_.pitch_index)) < end_cos_;
     const bool terminated = result.terminated || ended_flipped;
     const bool done = result.done() || ended_flipped;
     r.rewards(t) = config_.scale_rewards ? reward_scaler_.scale(result.reward, done) : result.reward;
@@ -495,6 +497,20 @@ void PPOTrainer::warm_start_from(const std::string& path) {
   if (log_) *log_ << "warm start from " << path << " (weights and normalisers)" << std::endl;
 }
 
+// A resumed run must continue the same recipe; only the step budget and the logging/checkpoint cadence may change.
+// A key the checkpoint lacks (written before the key existed) counts as that key's default.
+void PPOTrainer::check_same_recipe(const std::string& path, const Json& saved) const {
+  const Json current = config_json(config_), defaults = config_json(PPOConfig{});
+  for (const auto& [key, value] : current.items()) {
+    if (key == "total_steps" || key == "checkpoint_every" || key == "recent_episodes") continue;
+    const Json& before = saved.contains(key) ? saved.at(key) : defaults.at(key);
+    if (before != value)
+      throw std::runtime_error("PPO checkpoint " + path + " was trained with " + key + " = " + before.dump() +
+                               ", this run asks for " + value.dump() +
+                               "; resume with the same settings, or start a new folder (--init warm-starts from it)");
+  }
+}
+
 bool PPOTrainer::resume() {
   resume_checked_ = true;
   if (out_dir_.empty() || !std::filesystem::exists(checkpoint_path())) return false;
@@ -503,6 +519,7 @@ bool PPOTrainer::resume() {
   if (j.value("task", "") != env_.spec().task)
     throw std::runtime_error("PPO checkpoint " + path + " was trained on task '" + j.value("task", "") + "', not '" +
                              env_.spec().task + "'");
+  check_same_recipe(path, j.value("config", Json::object()));
   steps_done_ = j.at("steps_done");
   iteration_ = j.at("iteration");
   adam_t_ = j.at("adam_step");

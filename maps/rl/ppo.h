@@ -6,6 +6,7 @@
 #include <functional>
 #include <iosfwd>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -46,9 +47,12 @@ struct PPOConfig {
   // of its rollout's steps spent turned over (cos(pitch) < 0), to catch a policy learning to run on its back.
   int pitch_index = -1;
   // When > 0 (needs pitch_index): a training episode ends as terminated (no bootstrap, so the value of what follows
-  // is 0) at the first step whose |pitch| exceeds this angle in radians (pi/2: turned over; less: tilted too far
-  // to recover). On HalfCheetah, where running earns positive reward, that makes tilting over cost the rest of the
-  // episode's return, instead of leaving it to luck whether a seed avoids it.
+  // is 0) at the first step whose pitch, wrapped to [-pi, pi], exceeds this angle in magnitude (radians, < pi;
+  // pi/2: turned over; less: tilted too far to recover). On HalfCheetah, where running earns positive reward and
+  // the value estimate is positive, that makes tilting over cost the rest of the episode's return, instead of
+  // leaving it to luck whether a seed avoids it; early in a cold start, when returns are still negative, ending
+  // early can pay, so use it to fine-tune or warm-start. With an angle <= pi/2 no action is ever taken turned over,
+  // so PPOIterationStats::flipped_fraction stays 0; the progress line's return then averages the cut episodes.
   double end_episode_at_pitch = 0.0;
 };
 
@@ -119,6 +123,7 @@ class PPOTrainer {
   // Loads model, Adam moments (when `with_optimizer`) and normaliser statistics; returns the state text's JSON.
   std::string load_tensors_from(const std::string& path, bool with_optimizer);
   void load_state_text(const std::string& text);
+  void check_same_recipe(const std::string& path, const nlohmann::json& saved_config) const;
 
   envs::Env& env_;
   PPOConfig config_;

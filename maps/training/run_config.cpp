@@ -103,12 +103,22 @@ RunConfig parse_run_config(const Json& json) {
   if (json.contains("baselines")) {
     const Json& b = json["baselines"];
     check_keys(b, "baselines", {"hidden"});
-    read(b, "baselines", "hidden", c.baseline_hidden);
-    if (c.baseline_hidden.empty())
-      throw std::invalid_argument("config baselines.hidden: expected at least one hidden layer size");
-    for (std::int64_t size : c.baseline_hidden)
-      if (size < 1)
-        throw std::invalid_argument("config baselines.hidden: sizes must be >= 1, got " + std::to_string(size));
+    if (b.contains("hidden")) {
+      const Json& hidden = b["hidden"];
+      if (!hidden.is_array() || hidden.empty())
+        throw std::invalid_argument("config baselines.hidden: expected a non-empty array of layer sizes, got " +
+                                    hidden.dump());
+      c.baseline_hidden.clear();
+      for (const Json& size : hidden) {
+        if (!size.is_number_integer() || size.get<std::int64_t>() < 1)
+          throw std::invalid_argument("config baselines.hidden: sizes must be integers >= 1, got " + size.dump());
+        c.baseline_hidden.push_back(size.get<std::int64_t>());
+      }
+    }
+    if (c.method == "maps" && c.baseline_hidden != detail::default_hidden_sizes())
+      throw std::invalid_argument(
+          "config baselines.hidden: MAPS has no baseline MLP (its sizes are maps.module_hidden and "
+          "maps.selector_hidden)");
   }
   if (json.contains("eval")) {
     const Json& e = json["eval"];

@@ -470,6 +470,9 @@ TEST(Evaluator, SelectorEntropyAndTopScoreTellRoutingPerStateFromMixing) {
   config.episodes = 5;
   config.dtype = ag::Dtype::Float64;
   const EvaluationResult result = evaluate_with_envs(make_toy_env, policy, standardizer, tasks, {}, config, &usage);
+  // Task a's states pick different modules (x0 takes both signs), so its mean usage is mixed, yet its routing is
+  // decisive: only the per-state numbers tell it from task b.
+  EXPECT_GT(result.tasks[0].module_usage.minCoeff(), 0.1);
   EXPECT_NEAR(result.tasks[0].selector_entropy, 0.0, 1e-12);
   EXPECT_NEAR(result.tasks[0].selector_top_score, 1.0, 1e-12);
   EXPECT_NEAR(result.tasks[1].selector_entropy, std::log(2.0), 1e-12);

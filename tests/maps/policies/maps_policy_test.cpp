@@ -139,12 +139,27 @@ TEST(MAPSPolicy, BadInputIsNamed) {
       [&] {
         policy.act(ag::zeros({2, 5}), {0, 1});
       },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy::scores: expected observations [n, 4]")));
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy::act: expected observations [n, 4]")));
   EXPECT_THAT(
       [&] {
         policy.act(ag::zeros({2, 4}), {0, 3});
       },
       ::testing::ThrowsMessage<std::out_of_range>(HasSubstr("task 3 at row 1")));
+  EXPECT_THAT([&] { policy.act(ag::Tensor(), {}); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy::act: expected observations")));
+  EXPECT_THAT(
+      [&] {
+        policy.scores(ag::zeros({1, 3}), {0});
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy::scores")));
+  Batch wrong_actions = random_batch(2, 3, 4, 2, gen);
+  wrong_actions.actions = ag::zeros({6, 3});
+  EXPECT_THAT([&] { policy.loss(wrong_actions); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPSPolicy::loss: expected actions [6, 2]")));
+  Batch no_previous = random_batch(2, 3, 4, 2, gen);
+  no_previous.previous_observations = ag::Tensor();
+  EXPECT_THAT([&] { policy.loss(no_previous); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("previous_observations")));
   MAPSConfig bad = tiny_config();
   bad.selector_losses = {{"novelty", 1.0}};
   EXPECT_THAT(

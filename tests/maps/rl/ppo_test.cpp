@@ -49,22 +49,22 @@ TEST(PPO, ImprovesTheReturnOnAToyTask) {
   EXPECT_GT(after, 35.0);  // moving straight to the target and staying scores about 47
 }
 
-TEST(PPO, ResumedRunMatchesAnUninterruptedOne) {
-  const std::string dir_a = fresh_dir("a"), dir_b = fresh_dir("b");
-  rl::PPOConfig config = toy_config(4 * 512);
-  config.steps_per_rollout = 512;
+// Trains a run of 4 iterations straight through and one stopped after 3 and resumed, and expects them identical.
+template <typename EnvT>
+void expect_resume_matches_an_uninterrupted_run(rl::PPOConfig config, const std::string& name) {
+  const std::string dir_a = fresh_dir(name + "_a"), dir_b = fresh_dir(name + "_b");
+  config.total_steps = 4 * config.steps_per_rollout;
   config.checkpoint_every = 1;
-  // The rollouts straddle episodes (512 is not a multiple of 50), so the resume must rebuild one in progress.
-  PointEnv env_a;
+  EnvT env_a;
   rl::PPOTrainer a(env_a, config, dir_a);
   EXPECT_EQ(a.train(), 4);
 
   {
-    PointEnv env_b1;
+    EnvT env_b1;
     rl::PPOTrainer b1(env_b1, config, dir_b);
     EXPECT_EQ(b1.train(3), 3);
   }
-  PointEnv env_b2;
+  EnvT env_b2;
   std::ostringstream log;
   rl::PPOTrainer b2(env_b2, config, dir_b, &log);
   EXPECT_EQ(b2.train(), 1);
@@ -80,12 +80,47 @@ TEST(PPO, ResumedRunMatchesAnUninterruptedOne) {
   EXPECT_EQ(a.recent_mean_return(), b2.recent_mean_return());
 
   // A finished run resumes to nothing left to do.
-  PointEnv env_c;
+  EnvT env_c;
   rl::PPOTrainer c(env_c, config, dir_a);
   EXPECT_EQ(c.train(), 0);
   EXPECT_EQ(c.iterations_done(), 4);
   std::filesystem::remove_all(dir_a);
   std::filesystem::remove_all(dir_b);
+}
+
+TEST(PPO, ResumedRunMatchesAnUninterruptedOne) {
+  // The rollouts straddle episodes (512 is not a multiple of 50), so the resume must rebuild one in progress.
+  expect_resume_matches_an_uninterrupted_run<PointEnv>(toy_config(512), "point");
+}
+
+TEST(PPO, ResumedRunMatchesAnUninterruptedOneWhenEpisodesEndAtAPitch) {
+  rl::PPOConfig config = toy_config(512);
+  config.pitch_index = 0;
+  config.end_episode_at_pitch = 0.8;
+  expect_resume_matches_an_uninterrupted_run<TiltEnv>(config, "tilt");
+}
+
+TEST(PPO, ResumingWithAnotherRecipeIsRefusedNamingTheSetting) {
+  const std::string dir = fresh_dir("recipe");
+  rl::PPOConfig config = toy_config(2 * 512);
+  config.pitch_index = 0;
+  {
+    TiltEnv env;
+    rl::PPOTrainer t(env, config, dir);
+    t.train(1);
+  }
+  config.end_episode_at_pitch = 0.8;
+  TiltEnv env;
+  rl::PPOTrainer t(env, config, dir);
+  EXPECT_THAT([&] { t.train(); },
+              ::testing::ThrowsMessage<std::runtime_error>(::testing::HasSubstr("end_episode_at_pitch = 0.0")));
+  // The step budget may change (a run extended further).
+  config.end_episode_at_pitch = 0.0;
+  config.total_steps = 3 * 512;
+  TiltEnv env_longer;
+  rl::PPOTrainer longer(env_longer, config, dir);
+  EXPECT_EQ(longer.train(), 2);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(PPO, CheckpointOfAnotherTaskIsRefused) {
@@ -140,33 +175,6 @@ TEST(PPO, NonFiniteLossStopsAndKeepsTheLastGoodCheckpoint) {
   std::filesystem::remove_all(dir);
 }
 
-// A pole whose angle the action tilts by 0.3 a per step; reward 1 per step, 50 steps; obs = (angle, 0).
-// The angle sits at observation index 0, standing in for HalfCheetah's torso pitch.
-class TiltEnv : public maps::envs::Env {
- public:
-  TiltEnv() : spec_(maps::envs::unit_box_spec("toy/tilt", 0, 2, 1, 50)) {}
-  const maps::envs::EnvSpec& spec() const override { return spec_; }
-  Eigen::VectorXd reset(std::uint64_t seed) override {
-    std::mt19937_64 rng(seed);
-    angle_ = std::uniform_real_distribution<double>(-0.5, 0.5)(rng);
-    t_ = 0;
-    return Eigen::Vector2d(angle_, 0.0);
-  }
-  maps::envs::StepResult step(const Eigen::VectorXd& action) override {
-    angle_ += 0.3 * std::clamp(action(0), -1.0, 1.0);
-    maps::envs::StepResult r;
-    r.observation = Eigen::Vector2d(angle_, 0.0);
-    r.reward = 1.0;
-    r.truncated = ++t_ >= spec_.horizon;
-    return r;
-  }
-
- private:
-  maps::envs::EnvSpec spec_;
-  double angle_ = 0.0;
-  int t_ = 0;
-};
-
 rl::PPOConfig tilt_config(bool end_when_flipped) {
   rl::PPOConfig c = toy_config(512);
   c.pitch_index = 0;
@@ -217,10 +225,13 @@ TEST(PPO, EndingEpisodesAtAPitchNeedsThePitchIndexAndAnAngleUpToPi) {
   config.pitch_index = -1;
   EXPECT_THAT([&] { rl::PPOTrainer t(env, config); },
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("pitch_index")));
-  config = tilt_config(true);
-  config.end_episode_at_pitch = 4.0;
-  EXPECT_THAT([&] { rl::PPOTrainer t(env, config); },
-              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("[0, pi]")));
+  for (double angle : {-0.1, std::numbers::pi, 4.0, std::nan("")}) {
+    config = tilt_config(true);
+    config.end_episode_at_pitch = angle;
+    EXPECT_THAT([&] { rl::PPOTrainer t(env, config); },
+                ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("[0, pi)")))
+        << angle;
+  }
 }
 
 }  // namespace

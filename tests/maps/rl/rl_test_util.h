@@ -53,4 +53,31 @@ class PointEnv : public maps::envs::Env {
   bool active_ = false;
 };
 
+// A pole whose angle the action tilts by 0.3 a per step; reward 1 per step, 50 steps; obs = (angle, 0).
+// The angle sits at observation index 0, standing in for HalfCheetah's torso pitch.
+class TiltEnv : public maps::envs::Env {
+ public:
+  TiltEnv() : spec_(maps::envs::unit_box_spec("toy/tilt", 0, 2, 1, 50)) {}
+  const maps::envs::EnvSpec& spec() const override { return spec_; }
+  Eigen::VectorXd reset(std::uint64_t seed) override {
+    std::mt19937_64 rng(seed);
+    angle_ = std::uniform_real_distribution<double>(-0.5, 0.5)(rng);
+    t_ = 0;
+    return Eigen::Vector2d(angle_, 0.0);
+  }
+  maps::envs::StepResult step(const Eigen::VectorXd& action) override {
+    angle_ += 0.3 * std::clamp(action(0), -1.0, 1.0);
+    maps::envs::StepResult r;
+    r.observation = Eigen::Vector2d(angle_, 0.0);
+    r.reward = 1.0;
+    r.truncated = ++t_ >= spec_.horizon;
+    return r;
+  }
+
+ private:
+  maps::envs::EnvSpec spec_;
+  double angle_ = 0.0;
+  int t_ = 0;
+};
+
 }  // namespace rltest

@@ -186,6 +186,36 @@ TEST(RunConfig, BaselineHiddenSizesReachEveryBaselineAndAreChecked) {
             nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"width": 64}})"));
       },
       ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("unknown key 'width'")));
+  // A fractional size is an error, not a silent truncation.
+  EXPECT_THAT(
+      [] {
+        parse_run_config(
+            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"hidden": [64.5]}})"));
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("64.5")));
+  // MAPS has no baseline MLP: a width for it would silently do nothing.
+  EXPECT_THAT(
+      [] {
+        parse_run_config(
+            nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x"}, "baselines": {"hidden": [430]}})"));
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPS has no baseline MLP")));
+  // A MAPS run's own resolved config (which lists the default) parses.
+  RunConfig maps_run = c;
+  maps_run.method = "maps";
+  maps_run.baseline_hidden = detail::default_hidden_sizes();
+  EXPECT_NO_THROW(parse_run_config(to_json(maps_run)));
+}
+
+// A run folder written before "baselines" existed resolves to the same config as today's request for the same run,
+// so it resumes (experiments/train_run.cpp compares resolved configs).
+TEST(RunConfig, AConfigWithoutANewerKeyResolvesAsItsDefault) {
+  const nlohmann::json request = nlohmann::json::parse(
+      R"({"method": "mt_bc", "seed": 2, "data": {"file": "x.h5", "demos_per_task": 5, "subsample": 10}})");
+  nlohmann::json older = to_json(parse_run_config(request));
+  older.erase("baselines");
+  EXPECT_NE(older, to_json(parse_run_config(request)));
+  EXPECT_EQ(to_json(parse_run_config(older)), to_json(parse_run_config(request)));
 }
 
 }  // namespace
