@@ -168,38 +168,20 @@ TEST(RunConfig, BaselineHiddenSizesReachEveryBaselineAndAreChecked) {
   }
   EXPECT_EQ(parse_run_config(nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}})")).baseline_hidden,
             (std::vector<std::int64_t>{128, 128, 128}));
-  EXPECT_THAT(
-      [] {
-        parse_run_config(
-            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"hidden": []}})"));
-      },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("baselines.hidden")));
-  EXPECT_THAT(
-      [] {
-        parse_run_config(
-            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"hidden": [64, 0]}})"));
-      },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("baselines.hidden")));
-  EXPECT_THAT(
-      [] {
-        parse_run_config(
-            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"width": 64}})"));
-      },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("unknown key 'width'")));
-  // A fractional size is an error, not a silent truncation.
-  EXPECT_THAT(
-      [] {
-        parse_run_config(
-            nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x"}, "baselines": {"hidden": [64.5]}})"));
-      },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("64.5")));
-  // MAPS has no baseline MLP: a width for it would silently do nothing.
-  EXPECT_THAT(
-      [] {
-        parse_run_config(
-            nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x"}, "baselines": {"hidden": [430]}})"));
-      },
-      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("MAPS has no baseline MLP")));
+  // Each bad "baselines" section, and the words its error must hold.
+  const std::vector<std::pair<const char*, const char*>> bad = {
+      {R"({"method": "mt_bc", "baselines": {"hidden": []}})", "baselines.hidden"},
+      {R"({"method": "mt_bc", "baselines": {"hidden": [64, 0]}})", "baselines.hidden"},
+      {R"({"method": "mt_bc", "baselines": {"width": 64}})", "unknown key 'width'"},
+      {R"({"method": "mt_bc", "baselines": {"hidden": [64.5]}})", "64.5"},                    // not silently truncated
+      {R"({"method": "maps", "baselines": {"hidden": [430]}})", "MAPS has no baseline MLP"},  // would do nothing
+  };
+  for (const auto& [text, words] : bad) {
+    nlohmann::json json = nlohmann::json::parse(text);
+    json["data"] = {{"file", "x"}};
+    EXPECT_THAT([&] { parse_run_config(json); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr(words)))
+        << text;
+  }
   // A MAPS run's own resolved config (which lists the default) parses.
   RunConfig maps_run = c;
   maps_run.method = "maps";
