@@ -126,10 +126,22 @@ StepResult MujocoEnv::step(const Eigen::VectorXd& action) {
   }
   clipped_ = action.cwiseMax(spec_.action_low).cwiseMin(spec_.action_high);
   StepResult result = step_clipped(clipped_);
+  check_capacity();
   ++elapsed_steps_;
   if (spec_.horizon > 0 && elapsed_steps_ >= spec_.horizon) result.truncated = true;
   if (result.done()) needs_reset_ = true;
   return result;
+}
+
+void MujocoEnv::check_capacity() const {
+  // MuJoCo drops what does not fit and only counts a warning: the physics would silently differ.
+  const int contacts = data_->warning[mjWARN_CONTACTFULL].number, rows = data_->warning[mjWARN_CNSTRFULL].number;
+  if (contacts == 0 && rows == 0) return;
+  throw std::runtime_error("task '" + spec_.task + "': MuJoCo ran out of room for " +
+                           (contacts > 0 ? "contacts (nconmax " + std::to_string(model_->nconmax) + ")"
+                                         : "constraint rows (njmax " + std::to_string(model_->njmax) + ")") +
+                           " at step " + std::to_string(elapsed_steps_ + 1) +
+                           "; raise <size> in the task's model, or the physics would silently drop them");
 }
 
 void MujocoEnv::set_state(const Eigen::VectorXd& qpos, const Eigen::VectorXd& qvel) {

@@ -77,6 +77,8 @@ class MujocoEnv : public Env {
   void do_simulation(const Eigen::VectorXd& ctrl);
 
  private:
+  // Throws when the last step overflowed the model's contact or constraint capacity.
+  void check_capacity() const;
   EnvSpec spec_;
   MjModelPtr model_;
   MjDataPtr data_;

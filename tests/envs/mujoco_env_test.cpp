@@ -9,6 +9,7 @@
 namespace maps::envs {
 namespace {
 
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 
 TEST(MujocoLoad, CompilesModelFromString) {
@@ -44,6 +45,47 @@ TEST(MujocoLoad, FindsHalfCheetahAssetAndLoadsIt) {
 TEST(MujocoLoad, MissingAssetErrorNamesIt) {
   EXPECT_THAT([] { asset_path("no_such_model.xml"); },
               ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("no_such_model.xml")));
+}
+
+// Three balls dropped onto a floor: three contacts once they land, one more than the model has room for when
+// `nconmax` is 2.
+class DropEnv : public MujocoEnv {
+ public:
+  explicit DropEnv(int nconmax)
+      : MujocoEnv(unit_box_spec("toy/drop", 0, 1, 1, 200),
+                  load_model_from_string("<mujoco><size nconmax='" + std::to_string(nconmax) +
+                                             "' njmax='50'/><worldbody><geom type='plane' size='5 5 0.1'/>"
+                                             "<body pos='0 0 0.3'><freejoint/><geom size='0.1'/></body>"
+                                             "<body pos='1 0 0.3'><freejoint/><geom size='0.1'/></body>"
+                                             "<body pos='2 0 0.3'><freejoint/><geom size='0.1'/></body>"
+                                             "</worldbody></mujoco>",
+                                         "toy/drop"),
+                  1) {}
+
+ protected:
+  Eigen::VectorXd reset_model(std::mt19937_64&) override { return Eigen::VectorXd::Zero(1); }
+  StepResult step_clipped(const Eigen::VectorXd&) override {
+    mj_step(model(), mutable_data());
+    StepResult r;
+    r.observation = Eigen::VectorXd::Constant(1, data()->qpos[2]);
+    return r;
+  }
+};
+
+TEST(MujocoEnv, RunningOutOfContactRoomIsAnErrorNotSilentlyDroppedContacts) {
+  DropEnv roomy(10), cramped(2);
+  roomy.reset(0);
+  cramped.reset(0);
+  for (int t = 0; t < 199; ++t) roomy.step(Eigen::VectorXd::Zero(1));
+  EXPECT_EQ(roomy.data()->ncon, 3);
+  EXPECT_THAT(
+      [&] {
+        for (int t = 0; t < 199; ++t) cramped.step(Eigen::VectorXd::Zero(1));
+      },
+      ::testing::ThrowsMessage<std::runtime_error>(AllOf(HasSubstr("toy/drop"), HasSubstr("nconmax 2"))));
+  // A reset starts clean: the steps before the balls land are fine again.
+  cramped.reset(0);
+  EXPECT_NO_THROW(cramped.step(Eigen::VectorXd::Zero(1)));
 }
 
 }  // namespace
