@@ -59,10 +59,10 @@ def total_variation(p, q):
 
 def usage_tables(by_cell, tasks):
     for (label, demos, k), runs in sorted(by_cell.items(), key=lambda item: (item[0][1], item[0][2])):
-        if label != "maps" or "module_usage" not in runs[0].eval["tasks"][0]:
+        if runs[0].method != "maps" or "module_usage" not in runs[0].eval["tasks"][0]:
             continue
         modules = len(runs[0].eval["tasks"][0]["module_usage"])
-        print(f"\nMAPS, {demos} demos, k = {k}, {len(runs)} seeds: module usage (mean selector score over the"
+        print(f"\n{label}, {demos} demos, k = {k}, {len(runs)} seeds: module usage (mean selector score over the"
               f" task's evaluation states; seed {runs[0].seed}, then the range over seeds of each task's most"
               f" used module's share)\n")
         print("| task | " + " | ".join(f"m{i}" for i in range(modules)) + " | top module, all seeds |")

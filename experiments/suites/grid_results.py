@@ -25,7 +25,7 @@ def ci95(values):
 @dataclass
 class Run:
     folder: pathlib.Path
-    label: str  # the method, with the baseline's width when it is not the default (e.g. "mt_bc (3x430)")
+    label: str  # the cell's name: run_grid.sh's folder name without _d<demos>_k<k>_s<seed> ("mt_bc_w430")
     method: str
     seed: int
     demos: int
@@ -50,7 +50,16 @@ class Run:
         return steps, valid
 
 
-def label_of(method, config):
+def label_of(folder_name, method, config, demos, subsample, seed):
+    """run_grid.sh names a cell METHOD[_wW | _VARIANT]_d<demos>_k<k>_s<seed>; other folders get the method, with
+    the baseline's width when it is not the default."""
+    suffix = f"_d{demos}_k{subsample}_s{seed}"
+    if folder_name.endswith(suffix) and folder_name.startswith(method):
+        return folder_name[: -len(suffix)]
+    return method_label(method, config)
+
+
+def method_label(method, config):
     hidden = config.get("baselines", {}).get("hidden", DEFAULT_HIDDEN)
     if method != "maps" and hidden != DEFAULT_HIDDEN:
         return f"{method} ({'x'.join(map(str, hidden)) if len(set(hidden)) > 1 else f'{len(hidden)}x{hidden[0]}'})"
@@ -65,8 +74,10 @@ def load_runs(root):
             result = json.loads(path.read_text())
             config_path = path.parent / "config.json"
             config = json.loads(config_path.read_text()) if config_path.exists() else {}
-            runs.append(Run(path.parent, label_of(result["method"], config), result["method"], result["seed"],
-                            result["demos_per_task"], result["subsample"], result, config))
+            label = label_of(path.parent.name, result["method"], config, result["demos_per_task"],
+                             result["subsample"], result["seed"])
+            runs.append(Run(path.parent, label, result["method"], result["seed"], result["demos_per_task"],
+                            result["subsample"], result, config))
         except (json.JSONDecodeError, KeyError) as error:
             raise SystemExit(f"{path}: unreadable run result ({error}); delete the run folder to redo it")
     if not runs:

@@ -91,13 +91,17 @@ class Aggregate(unittest.TestCase):
         # -0.2 and -0.1: mean -0.15, CI 12.706 * 0.0707 / sqrt(2) = 0.64.
         self.assertEqual(row_of(paired, ["mt_bc", "5", "10", "2"])[4], "-0.15 +- 0.64")
         # One pair only: no interval.
-        self.assertEqual(row_of(paired, ["mt_bc (3x64)", "5", "10", "1"])[4], "+0.20 +- nan")
+        self.assertEqual(row_of(paired, ["mt_bc_w64", "5", "10", "1"])[4], "+0.20 +- nan")
 
     def test_a_widened_baseline_is_its_own_row(self):
         text = run_aggregate(self.root)
-        self.assertEqual(row_of(text, ["mt_bc (3x64)", "5", "10", "1"])[7], "**0.90 +- nan**")
-        self.assertEqual(grid_results.label_of("mt_bc", {"baselines": {"hidden": [64, 32]}}), "mt_bc (64x32)")
-        self.assertEqual(grid_results.label_of("mt_bc", {"baselines": {"hidden": [128, 128, 128]}}), "mt_bc")
+        self.assertEqual(row_of(text, ["mt_bc_w64", "5", "10", "1"])[7], "**0.90 +- nan**")
+        # Cells named by run_grid.sh keep their name; other folders are labelled from the config.
+        self.assertEqual(grid_results.label_of("maps_sparse05_d5_k10_s3", "maps", {}, 5, 10, 3), "maps_sparse05")
+        self.assertEqual(grid_results.label_of("run7", "mt_bc", {"baselines": {"hidden": [64, 32]}}, 5, 10, 3),
+                         "mt_bc (64x32)")
+        self.assertEqual(grid_results.label_of("run7", "mt_bc", {"baselines": {"hidden": [128] * 3}}, 5, 10, 3),
+                         "mt_bc")
 
     def test_routing_is_computed_per_seed(self):
         text = run_aggregate(self.root)
