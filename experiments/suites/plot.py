@@ -24,16 +24,22 @@ except ImportError:
     sys.exit("plot.py: matplotlib is missing (apt-get install python3-matplotlib, or bash scripts/setup.sh)")
 
 
+def colors_of(by_cell):
+    """One colour per method label, the same in every plot."""
+    palette = plt.get_cmap("tab10").colors
+    return {label: palette[i % len(palette)] for i, label in enumerate(sorted({lab for lab, _, _ in by_cell}))}
+
+
 def plot_scores(by_cell, out):
     fig, ax = plt.subplots(figsize=(6, 4))
-    labels = sorted({label for label, _, _ in by_cell})
-    for label in labels:
+    colors = colors_of(by_cell)
+    for label in sorted(colors):
         keys = sorted((d, k) for lab, d, k in by_cell if lab == label)
         xs = [d for d, _ in keys]
         means = [statistics.mean(r.eval["mean_score"] for r in by_cell[(label, d, k)]) for d, k in keys]
         errs = [ci95([r.eval["mean_score"] for r in by_cell[(label, d, k)]]) for d, k in keys]
         errs = [0.0 if e != e else e for e in errs]  # one seed: no interval
-        ax.errorbar(xs, means, yerr=errs, marker="o", capsize=3, label=label)
+        ax.errorbar(xs, means, yerr=errs, marker="o", capsize=3, label=label, color=colors[label])
     ax.set_xlabel("demonstrations per task")
     ax.set_ylabel("normalised score (mean over tasks)")
     ax.set_ylim(bottom=0)
@@ -46,6 +52,7 @@ def plot_scores(by_cell, out):
 
 def plot_validation(by_cell, out):
     counts = sorted({(d, k) for _, d, k in by_cell})
+    colors = colors_of(by_cell)
     fig, axes = plt.subplots(1, len(counts), figsize=(5 * len(counts), 4), squeeze=False)
     for ax, (demos, k) in zip(axes[0], counts):
         for label in sorted({lab for lab, d, kk in by_cell if (d, kk) == (demos, k)}):
@@ -56,7 +63,7 @@ def plot_validation(by_cell, out):
             length = min(len(steps) for steps, _ in curves)
             steps = curves[0][0][:length]
             mean = [statistics.mean(valid[i] for _, valid in curves) for i in range(length)]
-            ax.plot(steps, mean, label=label)
+            ax.plot(steps, mean, label=label, color=colors[label])
         ax.set_yscale("log")
         ax.set_title(f"{demos} demos per task, k = {k}")
         ax.set_xlabel("training step")
