@@ -130,6 +130,9 @@ int run_collect(const CollectOptions& options) {
       {"discarded_total", discarded_total},
       {"tasks",
        per_task}}.dump();
+  // The demo file's folder is made if missing (data/ is not in a fresh clone: its files are regenerated).
+  const std::filesystem::path parent = std::filesystem::path(options.out).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
   envs::write_demo_file(options.out, file);
   std::printf("wrote %s: %zu demos (%zu train, %zu valid), %lld samples, %d episodes discarded, %.0f s\n",
               options.out.c_str(), file.demos.size(), file.train.size(), file.valid.size(),
