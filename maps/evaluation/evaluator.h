@@ -29,7 +29,7 @@ struct EvalConfig {
   // next pending one, so the policy sees batches of up to this many rows. Fewer envs mostly save building them:
   // an MT10 env held ~48 MB and took ~50-80 ms to build while its model asked for njmax 2000, which made 100 envs
   // per task 5x slower overall than 10 (MT10, 100 episodes: 101 s and 4.8 GB per thread vs 18 s and 0.5 GB). Since
-  // njmax 500 an MT10 env takes ~10 MB and ~10 ms; HalfCheetah (~3 MB, ~1 ms per env) ran as fast with 10 as with
+  // njmax 500 an MT10 env takes ~10 MB and ~0.6 ms; HalfCheetah (~3 MB, ~1 ms per env) ran as fast with 10 as with
   // 100 (env steps take 95% of the time either way).
   int max_envs_per_task = 10;
 };
