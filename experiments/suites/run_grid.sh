@@ -46,18 +46,20 @@ run_cell() {
   [[ -f "$dir/eval.json" ]] && return 0
   mkdir -p "$dir"
   # The request: the grid's settings, with the variant's keys merged in (objects merged key by key).
-  /usr/bin/python3 - "$dir/request.json" "$extra" <<PY || { echo "run_grid: method '$1': bad variant JSON" >&2; return 2; }
+  /usr/bin/python3 - "$dir/request.json" "$extra" "$method" "$seed" "$data" "$count" "$subsample" "$steps" "$episodes" <<'PY' ||
 import json, sys
-def merge(base, extra):
-    for key, value in extra.items():
+out, extra, method, seed, data, count, subsample, steps, episodes = sys.argv[1:]
+def merge(base, more):
+    for key, value in more.items():
         base[key] = merge(base.get(key, {}), value) if isinstance(value, dict) else value
     return base
-request = {"method": "$method", "seed": $seed,
-           "data": {"file": "$data", "demos_per_task": $count, "subsample": $subsample},
-           "train": {"steps": $steps, "validate_every": 250, "checkpoint_every": 500},
-           "eval": {"episodes": $episodes, "threads": 1}}
-json.dump(merge(request, json.loads(sys.argv[2])), open(sys.argv[1], "w"), indent=1)
+request = {"method": method, "seed": int(seed),
+           "data": {"file": data, "demos_per_task": int(count), "subsample": int(subsample)},
+           "train": {"steps": int(steps), "validate_every": 250, "checkpoint_every": 500},
+           "eval": {"episodes": int(episodes), "threads": 1}}
+json.dump(merge(request, json.loads(extra)), open(out, "w"), indent=1)
 PY
+    { echo "run_grid: method '$1': cannot write the request (bad variant JSON, or a count/seed/steps not a number)" >&2; return 2; }
   # A failed step must not leave a cell that looks finished (eval.json from a half-trained run).
   "$maps" train --config "$dir/request.json" --out "$dir" > "$dir/train.log" 2>&1 ||
     { echo "$(date +%T) $dir: training failed, see $dir/train.log: $(tail -1 "$dir/train.log")" >&2; return 1; }

@@ -54,6 +54,10 @@ ag::Tensor MAPSPolicy::selector_input(const ag::Tensor& observations, const std:
 
 ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("MAPSPolicy::scores", shape(), observations, tasks);
+  return checked_scores(observations, tasks);
+}
+
+ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   return ag::softmax(child_at<nn::MLP>(selector_).forward(selector_input(observations, tasks)), 1);
 }
 
@@ -66,7 +70,7 @@ ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores
 
 ag::Tensor MAPSPolicy::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("MAPSPolicy::act", shape(), observations, tasks);
-  return head(features(observations), scores(observations, tasks));
+  return head(features(observations), checked_scores(observations, tasks));
 }
 
 LossTerms MAPSPolicy::loss(const Batch& batch) {
@@ -89,7 +93,7 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
       child_at<nn::MLP>(selector_).forward(selector_input(ag::concat(repeated, 0), every_task)), 1);  // [K n, M]
   out.all_task_scores = all.reshape({K, n, M});
   out.scores = ag::index_select(all, own_task_rows(batch.tasks));
-  out.previous_scores = scores(batch.previous_observations, batch.tasks);
+  out.previous_scores = checked_scores(batch.previous_observations, batch.tasks);
 
   LossTerms result;
   const ag::Tensor bc = ag::mse_loss(head(features(obs), out.scores), batch.actions);

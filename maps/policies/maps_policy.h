@@ -50,6 +50,8 @@ class MAPSPolicy : public Policy {
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<MAPSPolicy>(*this); }
 
  private:
+  // scores() for inputs the caller has already checked (act and loss check theirs once, up front).
+  ag::Tensor checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks);
   ag::Tensor selector_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const;
 
   MAPSConfig config_;
