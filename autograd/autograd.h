@@ -8,5 +8,6 @@
 #include "autograd/gradcheck.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
+#include "autograd/parallel.h"
 #include "autograd/shape.h"
 #include "autograd/tensor.h"

@@ -6,9 +6,19 @@
 #include <string>
 #include <type_traits>
 
+#include "autograd/parallel.h"
 #include "autograd/tensor.h"
 
 namespace maps::ag::detail {
+
+// Elements per thread below which splitting an elementwise pass costs more than it saves.
+constexpr std::int64_t kElementwiseGrain = 16384;
+
+// body(begin, end) over [0, count) split across the op threads (autograd/parallel.h).
+template <typename Body>
+void parallel_elementwise(std::int64_t count, Body&& body) {
+  parallel_for(count, kElementwiseGrain, body);
+}
 
 // The element type of an Eigen expression passed as `const auto&`.
 template <typename Expr>
@@ -66,7 +76,14 @@ Tensor binary_kernel(const Tensor& a, const Tensor& b, const char* op, F f) {
     using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
     auto scalar_f = [&f](T x, T y) { return static_cast<T>(f(x, y)); };
     if (a.shape() == b.shape()) {
-      out.array<T>() = a.array<T>().binaryExpr(b.array<T>(), scalar_f);
+      const T* pa = a.data<T>();
+      const T* pb = b.data<T>();
+      T* po = out.data<T>();
+      parallel_elementwise(out.numel(), [&](std::int64_t begin, std::int64_t end) {
+        Eigen::Map<Array>(po + begin, end - begin) =
+            Eigen::Map<const Array>(pa + begin, end - begin)
+                .binaryExpr(Eigen::Map<const Array>(pb + begin, end - begin), scalar_f);
+      });
       return;
     }
     const T* pa = a.data<T>();
@@ -105,7 +122,12 @@ Tensor unary_kernel(const Tensor& x, const char* op, F f) {
   Tensor out = empty(x.shape(), x.dtype());
   dispatch_dtype(x.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
-    out.array<T>() = f(x.array<T>());
+    using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
+    const T* px = x.data<T>();
+    T* po = out.data<T>();
+    parallel_elementwise(out.numel(), [&](std::int64_t begin, std::int64_t end) {
+      Eigen::Map<Array>(po + begin, end - begin) = f(Eigen::Map<const Array>(px + begin, end - begin));
+    });
   });
   return out;
 }

@@ -37,6 +37,8 @@ Tensor clamp_min(const Tensor& x, double min);
 Tensor clamp_max(const Tensor& x, double max);
 Tensor relu(const Tensor& x);
 Tensor tanh(const Tensor& x);
+// grad * (1 - output^2): tanh's backward as one pass over memory (output = tanh(x)); differentiable in both.
+Tensor tanh_backward(const Tensor& grad, const Tensor& output);
 Tensor sigmoid(const Tensor& x);
 Tensor square(const Tensor& x);
 
@@ -46,9 +48,18 @@ Tensor matmul(const Tensor& a, const Tensor& b);
 // op(a) @ op(b), where op transposes the last two dims when asked; same ranks as matmul (a 3-d
 // left operand against a 2-d right one cannot be transposed). No transposed copy is made.
 Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b);
-// x @ weight^T + bias, like torch::nn::functional::linear: x [..., in], weight [out, in],
-// bias [out] or undefined. One GEMM with the bias added in place.
-Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor());
+
+// ----- layers (ops_layer.cpp) -----
+// An activation a layer op applies in its own pass over its output, while the output is still in cache.
+enum class Fused { None, Tanh };
+// act(x @ weight^T + bias), like torch::nn::functional::linear: x [..., in], weight [out, in], bias [out] or
+// undefined. The output starts as the bias and the GEMM adds to it; the activation runs in place.
+Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor(), Fused activation = Fused::None);
+// M independent layers act(x_m @ weight_m + bias_m): x [M, B, in] (one input per layer) or [B, in] (the same input
+// for every layer), weight [M, in, out], bias [M, 1, out] or undefined -> [M, B, out]. The threads share out the
+// layers. Gradients are ops again (create_graph works).
+Tensor parallel_linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor(),
+                       Fused activation = Fused::None);
 
 // ----- shape -----
 Tensor reshape(const Tensor& x, const Shape& shape);  // one dim may be -1

@@ -1,8 +1,10 @@
 // Matrix products through Eigen's GEMM. Transposed operands are read in place (Eigen's
 // .transpose() is a view), so neither the forward pass nor any backward rule copies a transpose.
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
+#include "autograd/gemm_kernel.h"
 #include "autograd/kernels.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
@@ -23,25 +25,6 @@ namespace {
 std::pair<std::int64_t, std::int64_t> op_dims(const Tensor& x, bool transposed) {
   const std::int64_t r = x.size(-2), c = x.size(-1);
   return transposed ? std::pair{c, r} : std::pair{r, c};
-}
-
-// C = op(A) op(B) for one matrix pair; A is ar x ac and B is br x bc as stored.
-template <typename T>
-void gemm_one(const T* a, std::int64_t ar, std::int64_t ac, bool ta, const T* b, std::int64_t br, std::int64_t bc,
-              bool tb, T* c) {
-  Eigen::Map<const RowMatrix<T>> ma(a, ar, ac);
-  Eigen::Map<const RowMatrix<T>> mb(b, br, bc);
-  const std::int64_t n = ta ? ac : ar, m = tb ? br : bc;
-  Eigen::Map<RowMatrix<T>> mc(c, n, m);
-  if (!ta && !tb) {
-    mc.noalias() = ma * mb;
-  } else if (!ta && tb) {
-    mc.noalias() = ma * mb.transpose();
-  } else if (ta && !tb) {
-    mc.noalias() = ma.transpose() * mb;
-  } else {
-    mc.noalias() = ma.transpose() * mb.transpose();
-  }
 }
 
 }  // namespace
@@ -73,15 +56,28 @@ Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_
   Tensor out = empty(ra == 3 ? Shape{batch, n, m} : Shape{n, m}, a.dtype());
   dispatch_dtype(a.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
+    using detail::MatrixRef;
     const std::int64_t ar = a.size(-2), ac = a.size(-1), br = b.size(-2), bc = b.size(-1);
     if (tall) {
-      gemm_one<T>(a.data<T>(), batch * ar, ac, false, b.data<T>(), br, bc, transpose_b, out.data<T>());
+      detail::gemm_parallel(MatrixRef<const T>{a.data<T>(), batch * ar, ac, ac}, false,
+                            MatrixRef<const T>{b.data<T>(), br, bc, bc}, transpose_b,
+                            MatrixRef<T>{out.data<T>(), batch * n, m, m}, false);
       return;
     }
-    for (std::int64_t i = 0; i < batch; ++i) {
-      gemm_one<T>(a.data<T>() + i * ar * ac, ar, ac, transpose_a, b.data<T>() + i * br * bc, br, bc, transpose_b,
-                  out.data<T>() + i * n * m);
+    if (batch == 1) {
+      detail::gemm_parallel(MatrixRef<const T>{a.data<T>(), ar, ac, ac}, transpose_a,
+                            MatrixRef<const T>{b.data<T>(), br, bc, bc}, transpose_b,
+                            MatrixRef<T>{out.data<T>(), n, m, m}, false);
+      return;
     }
+    // Batch entries are independent products: the threads share them out.
+    parallel_for(batch, 1, [&](std::int64_t first, std::int64_t last) {
+      for (std::int64_t i = first; i < last; ++i) {
+        detail::gemm_serial(MatrixRef<const T>{a.data<T>() + i * ar * ac, ar, ac, ac}, transpose_a,
+                            MatrixRef<const T>{b.data<T>() + i * br * bc, br, bc, bc}, transpose_b,
+                            MatrixRef<T>{out.data<T>() + i * n * m, n, m, m}, false);
+      }
+    });
   });
   return record(op, out, {a, b}, [a, b, transpose_a, transpose_b, tall](const Tensor& g, const Needs& need, Node&) {
     Grads grads(2);
@@ -109,46 +105,5 @@ Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b
 }
 
 Tensor matmul(const Tensor& a, const Tensor& b) { return product("matmul", a, b, false, false); }
-
-Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias) {
-  detail::check_defined(x, "linear", "input");
-  detail::check_defined(weight, "linear", "weight");
-  if (weight.dim() != 2) {
-    throw std::invalid_argument("linear: weight must be [out, in], got " + to_string(weight.shape()));
-  }
-  if (x.dim() < 1 || x.size(-1) != weight.size(1)) {
-    throw std::invalid_argument("linear: input of shape " + to_string(x.shape()) + " does not end in in_features " +
-                                std::to_string(weight.size(1)) + " of weight " + to_string(weight.shape()));
-  }
-  if (bias.defined() && bias.shape() != Shape{weight.size(0)}) {
-    throw std::invalid_argument("linear: bias of shape " + to_string(bias.shape()) + " does not match weight " +
-                                to_string(weight.shape()) + " (expected [" + std::to_string(weight.size(0)) + "])");
-  }
-  detail::check_same_dtype(x, weight, "linear");
-  if (bias.defined()) detail::check_same_dtype(x, bias, "linear");
-  Shape out_shape = x.shape();
-  out_shape.back() = weight.size(0);
-  const Tensor x2 = x.dim() == 2 ? x : reshape(x, {-1, x.size(-1)});
-  Tensor out = empty(out_shape, x.dtype());
-  dispatch_dtype(x.dtype(), [&](auto tag) {
-    using T = typename decltype(tag)::type;
-    Eigen::Map<RowMatrix<T>> o(out.data<T>(), x2.size(0), weight.size(0));
-    o.noalias() = x2.detach().matrix<T>() * weight.matrix<T>().transpose();
-    if (bias.defined())
-      o.rowwise() += Eigen::Map<const Eigen::Matrix<T, 1, Eigen::Dynamic>>(bias.data<T>(), bias.numel());
-  });
-  std::vector<Tensor> inputs{x, weight};
-  if (bias.defined()) inputs.push_back(bias);
-  return record(
-      "linear", out, inputs,
-      [x2, weight, has_bias = bias.defined(), in_shape = x.shape()](const Tensor& g, const Needs& need, Node&) {
-        const Tensor g2 = g.dim() == 2 ? g : reshape(g, {-1, g.size(-1)});
-        Grads grads(has_bias ? 3 : 2);
-        if (need[0]) grads[0] = reshape(matmul(g2, weight), in_shape);
-        if (need[1]) grads[1] = gemm(g2, x2, true, false);
-        if (has_bias && need[2]) grads[2] = sum(g2, {0});
-        return grads;
-      });
-}
 
 }  // namespace maps::ag

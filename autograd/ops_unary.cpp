@@ -90,11 +90,32 @@ Tensor tanh(const Tensor& x) {
   Tensor out = unary_kernel(x, "tanh", [](const auto& a) { return a.tanh(); });
   return record(
       "tanh", out, {x},
-      [](const Tensor& g, const Needs&, Node& self) {
-        const Tensor y = self.output();
-        return Grads{mul(g, rsub(1.0, mul(y, y)))};
-      },
-      true);
+      [](const Tensor& g, const Needs&, Node& self) { return Grads{tanh_backward(g, self.output())}; }, true);
+}
+
+Tensor tanh_backward(const Tensor& grad, const Tensor& output) {
+  detail::check_defined(grad, "tanh_backward", "gradient");
+  detail::check_defined(output, "tanh_backward", "output");
+  detail::check_same_dtype(grad, output, "tanh_backward");
+  if (grad.shape() != output.shape())
+    throw std::invalid_argument("tanh_backward: gradient " + to_string(grad.shape()) + " and output " +
+                                to_string(output.shape()) + " must have the same shape");
+  Tensor out = empty(grad.shape(), grad.dtype());
+  dispatch_dtype(grad.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    const T* g = grad.data<T>();
+    const T* y = output.data<T>();
+    T* o = out.data<T>();
+    detail::parallel_elementwise(out.numel(), [&](std::int64_t begin, std::int64_t end) {
+      for (std::int64_t i = begin; i < end; ++i) o[i] = g[i] * (T(1) - y[i] * y[i]);
+    });
+  });
+  return record("tanh_backward", out, {grad, output}, [grad, output](const Tensor& gg, const Needs& need, Node&) {
+    Grads grads(2);
+    if (need[0]) grads[0] = tanh_backward(gg, output);
+    if (need[1]) grads[1] = mul(mul(gg, grad), mul(output, -2.0));
+    return grads;
+  });
 }
 
 Tensor sigmoid(const Tensor& x) {

@@ -12,6 +12,7 @@
 #include "autograd/grad_mode.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
+#include "autograd/storage_pool.h"
 
 namespace maps::ag {
 
@@ -30,13 +31,16 @@ std::shared_ptr<TensorImpl> make_impl(const Shape& shape, Dtype dtype) {
 }
 }  // namespace
 
-Storage::Storage(std::size_t bytes) : data_(nullptr), bytes_(bytes) {
+namespace {
+std::size_t block_bytes(std::size_t bytes) {
   const std::size_t rounded = (bytes + kAlignment - 1) / kAlignment * kAlignment;
-  data_ = std::aligned_alloc(kAlignment, rounded == 0 ? kAlignment : rounded);
-  if (data_ == nullptr) throw std::bad_alloc();
+  return rounded == 0 ? kAlignment : rounded;
 }
+}  // namespace
 
-Storage::~Storage() { std::free(data_); }
+Storage::Storage(std::size_t bytes) : data_(detail::pool_allocate(block_bytes(bytes))), bytes_(bytes) {}
+
+Storage::~Storage() { detail::pool_release(data_, block_bytes(bytes_)); }
 
 void Tensor::check_defined(const char* what) const {
   if (!impl_) throw std::logic_error(std::string(what) + ": the tensor is undefined");

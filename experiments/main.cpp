@@ -6,6 +6,7 @@
 #include <iostream>
 #include <string>
 
+#include "experiments/bench_step.h"
 #include "experiments/collect.h"
 #include "experiments/demo.h"
 #include "experiments/eval_run.h"
@@ -170,6 +171,20 @@ int main(int argc, char** argv) {
   eval_cmd->add_option("--threads", eval_run.threads, "Threads (0: one per core; default: the run config's)")
       ->check(non_negative);
 
+  CLI::App* bench_cmd = app.add_subcommand("bench", "Time the library's hot paths");
+  bench_cmd->require_subcommand(1);
+  maps::experiments::BenchStepOptions bench_step;
+  CLI::App* bench_step_cmd = bench_cmd->add_subcommand(
+      "step", "Time one whole MAPS training step at the paper's shapes against Eigen's GEMM (and PyTorch)");
+  bench_step_cmd->add_option("--set", bench_step.set, "Shapes: gravity, modified or mt10")->capture_default_str();
+  bench_step_cmd->add_option("--threads", bench_step.threads, "Threads")->check(positive)->capture_default_str();
+  bench_step_cmd->add_option("--seconds", bench_step.seconds, "Time spent in timed steps")
+      ->check(positive)
+      ->capture_default_str();
+  bench_step_cmd->add_flag("--json", bench_step.json, "Print one JSON object");
+  bench_step_cmd->add_flag("--vs-pytorch", bench_step.vs_pytorch,
+                           "Also time the same step in PyTorch (experiments/benchmarks/peer_pytorch.py)");
+
   CLI11_PARSE(app, argc, argv);
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
@@ -181,6 +196,7 @@ int main(int argc, char** argv) {
     if (*expert_eval_cmd) return maps::experiments::run_expert_eval(expert_eval);
     if (*train_cmd) return maps::experiments::run_train(train_run);
     if (*eval_cmd) return maps::experiments::run_eval(eval_run);
+    if (*bench_step_cmd) return maps::experiments::run_bench_step(bench_step);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

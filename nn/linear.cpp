@@ -33,13 +33,17 @@ void Linear::reset_parameters(ag::Generator& gen) {
   }
 }
 
-ag::Tensor Linear::forward(const ag::Tensor& x) {
+ag::Tensor Linear::forward(const ag::Tensor& x) { return forward_activated(x, Activation::Identity); }
+
+ag::Tensor Linear::forward_activated(const ag::Tensor& x, Activation activation) {
   if (!x.defined() || (x.dim() != 2 && x.dim() != 3) || x.size(-1) != in_)
     throw std::invalid_argument("Linear(" + std::to_string(in_) + ", " + std::to_string(out_) +
                                 ")::forward: expected input [batch, " + std::to_string(in_) + "] or [b, n, " +
                                 std::to_string(in_) + "], got " +
                                 (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
-  return ag::linear(x, weight(), has_bias_ ? bias() : ag::Tensor());
+  const ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
+  if (activation == Activation::Tanh) return ag::linear(x, weight(), b, ag::Fused::Tanh);
+  return apply_activation(activation, ag::linear(x, weight(), b));
 }
 
 }  // namespace maps::nn

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 
+#include "nn/activation.h"
 #include "nn/module.h"
 
 namespace maps::nn {
@@ -15,6 +16,8 @@ class Linear : public UnaryModule {
 
   // x [..., in] (2-d or 3-d) -> [..., out].
   ag::Tensor forward(const ag::Tensor& x) override;
+  // activation(forward(x)), tanh fused into the layer's op (one pass over the output instead of two).
+  ag::Tensor forward_activated(const ag::Tensor& x, Activation activation);
 
   std::int64_t in_features() const { return in_; }
   std::int64_t out_features() const { return out_; }

@@ -1,6 +1,7 @@
 #include "nn/mlp.h"
 
 #include <stdexcept>
+#include <string>
 
 #include "nn/linear.h"
 #include "nn/module_list.h"
@@ -22,15 +23,24 @@ MLP::MLP(const std::vector<std::int64_t>& sizes, Activation activation, ag::Gene
 MLP::MLP(const std::vector<std::int64_t>& sizes, const std::string& activation, ag::Generator& gen, bool activate_last)
     : MLP(sizes, activation_from_name(activation), gen, activate_last) {}
 
-ag::Tensor MLP::forward(const ag::Tensor& x) {
-  const auto& layers = child_at<ModuleList>(layers_);
-  ag::Tensor y = x;
+ag::Tensor MLP::forward(const ag::Tensor& x) { return forward_from(0, x); }
+
+ag::Tensor MLP::forward_from(std::size_t first, const ag::Tensor& x) {
+  auto& layers = child_at<ModuleList>(layers_);
   const std::size_t n = layers.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    y = layers.at<Linear>(i).forward(y);
-    if (i + 1 < n || activate_last_) y = apply_activation(activation_, y);
-  }
+  if (first >= n)
+    throw std::out_of_range("MLP::forward_from: layer " + std::to_string(first) + " of " + std::to_string(n));
+  ag::Tensor y = x;
+  for (std::size_t i = first; i < n; ++i)
+    y = layers.at<Linear>(i).forward_activated(y, i + 1 < n || activate_last_ ? activation_ : Activation::Identity);
   return y;
+}
+
+Linear& MLP::layer(std::size_t i) {
+  auto& layers = child_at<ModuleList>(layers_);
+  if (i >= layers.size())
+    throw std::out_of_range("MLP::layer: layer " + std::to_string(i) + " of " + std::to_string(layers.size()));
+  return layers.at<Linear>(i);
 }
 
 }  // namespace maps::nn

@@ -9,6 +9,8 @@
 
 namespace maps::nn {
 
+class Linear;
+
 // Linear layers of sizes {in, h1, ..., out} with an activation between them (and after the last one when
 // activate_last). Parameters are "layers.0.weight", "layers.0.bias", "layers.1.weight", ...; layers are
 // initialised in order from `gen`, each like a Linear.
@@ -21,6 +23,10 @@ class MLP : public UnaryModule {
 
   // x [B, sizes.front()] -> [B, sizes.back()] (or [b, n, ...] -> [b, n, ...]).
   ag::Tensor forward(const ag::Tensor& x) override;
+  // The layers from `first` on (with their activations), for a caller that computed the earlier ones itself.
+  ag::Tensor forward_from(std::size_t first, const ag::Tensor& x);
+  // Layer i (0-based).
+  Linear& layer(std::size_t i);
 
   const std::vector<std::int64_t>& sizes() const { return sizes_; }
   Activation activation() const { return activation_; }

@@ -47,7 +47,9 @@ void ParallelLinear::reset_parameters(ag::Generator& gen) {
   });
 }
 
-ag::Tensor ParallelLinear::forward(const ag::Tensor& x) {
+ag::Tensor ParallelLinear::forward(const ag::Tensor& x) { return forward_activated(x, Activation::Identity); }
+
+ag::Tensor ParallelLinear::forward_activated(const ag::Tensor& x, Activation activation) {
   const bool shared = x.defined() && x.dim() == 2 && x.size(1) == in_;
   const bool batched = x.defined() && x.dim() == 3 && x.size(0) == members_ && x.size(2) == in_;
   if (!shared && !batched)
@@ -55,9 +57,9 @@ ag::Tensor ParallelLinear::forward(const ag::Tensor& x) {
                                 std::to_string(out_) + ")::forward: expected input [" + std::to_string(members_) +
                                 ", batch, " + std::to_string(in_) + "] or [batch, " + std::to_string(in_) + "], got " +
                                 (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
-  const ag::Tensor input = shared ? ag::expand(x, {members_, x.size(0), in_}) : x;
-  ag::Tensor y = ag::matmul(input, weight());
-  return has_bias_ ? y + bias() : y;
+  const ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
+  if (activation == Activation::Tanh) return ag::parallel_linear(x, weight(), b, ag::Fused::Tanh);
+  return apply_activation(activation, ag::parallel_linear(x, weight(), b));
 }
 
 }  // namespace maps::nn

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 
+#include "nn/activation.h"
 #include "nn/module.h"
 
 namespace maps::nn {
@@ -11,10 +12,11 @@ namespace maps::nn {
 //
 // forward:
 //   x [M, B, in] -> [M, B, out]: y_m = x_m W_m + b_m, one batched matmul.
-//   x [B, in]    -> [M, B, out]: the same input for every layer; x is expanded to [M, B, in] (one copy of the
-//                   input) and goes through the same batched matmul. The expand's backward sums the M input
-//                   gradients. (A single [B, in] @ [in, M*out] GEMM would need two transposing copies, of the
-//                   weight and of the output, which cost more at MAPS's sizes.)
+//   x [B, in]    -> [M, B, out]: the same input for every layer, read in place by each layer's GEMM. (A single
+//                   [B, in] @ [in, M*out] GEMM would need two transposing copies, of the weight and of the output,
+//                   which cost more at MAPS's sizes.)
+// Both are one ag::parallel_linear op: the bias starts each output and the layers' GEMMs add to it; the threads
+// share out the layers.
 //
 // Init: layer m gets exactly the values a Linear(in, out) would draw next from `gen` (weight [out, in] in
 // row-major order, then bias), layers in order 0..M-1; so ParallelLinear(M, in, out, gen) equals M Linears
@@ -25,6 +27,8 @@ class ParallelLinear : public UnaryModule {
                  bool bias = true);
 
   ag::Tensor forward(const ag::Tensor& x) override;
+  // activation(forward(x)), tanh fused into the layer's op (one pass over the output instead of two).
+  ag::Tensor forward_activated(const ag::Tensor& x, Activation activation);
 
   std::int64_t members() const { return members_; }
   std::int64_t in_features() const { return in_; }

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "maps/policies/baseline_util.h"
+#include "nn/linear.h"
 
 namespace maps::core {
 
@@ -43,13 +44,23 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
 
 ag::Tensor MAPSPolicy::features(const ag::Tensor& observations) {
   ag::Tensor h = observations;
-  for (std::size_t slot : module_layers_)
-    h = nn::apply_activation(activation_, child_at<nn::ParallelLinear>(slot).forward(h));
+  for (std::size_t slot : module_layers_) h = child_at<nn::ParallelLinear>(slot).forward_activated(h, activation_);
   return h;
 }
 
-ag::Tensor MAPSPolicy::selector_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const {
-  return ag::concat({observations, ag::one_hot(tasks, shape().num_tasks, observations.dtype())}, 1);
+MAPSPolicy::SelectorFirstLayer MAPSPolicy::selector_first_layer() {
+  const std::int64_t S = shape().observation_size, K = shape().num_tasks;
+  nn::Linear& first = child_at<nn::MLP>(selector_).layer(0);
+  const ag::Tensor& w = first.weight();  // [H, S + K]
+  ag::Tensor task_rows = ag::narrow(w, 1, S, K).t();
+  if (first.has_bias()) task_rows = task_rows + first.bias();
+  return {ag::narrow(w, 1, 0, S), task_rows};
+}
+
+ag::Tensor MAPSPolicy::selector_logits(const ag::Tensor& first_layer) {
+  auto& selector = child_at<nn::MLP>(selector_);
+  if (selector.num_layers() == 1) return first_layer;
+  return selector.forward_from(1, nn::apply_activation(activation_, first_layer));
 }
 
 ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
@@ -58,7 +69,9 @@ ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<
 }
 
 ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
-  return ag::softmax(child_at<nn::MLP>(selector_).forward(selector_input(observations, tasks)), 1);
+  const auto [state_weight, task_rows] = selector_first_layer();
+  const ag::Tensor first = ag::linear(observations, state_weight) + ag::index_select(task_rows, tasks);
+  return ag::softmax(selector_logits(first), 1);
 }
 
 ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores) {
@@ -83,17 +96,20 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   out.tasks = batch.tasks;
   out.num_tasks = K;
   out.num_modules = M;
-  // One selector pass scores every state under every task (the share loss needs them all); the states' own-task
-  // scores are rows of it.
-  std::vector<ag::Tensor> repeated(static_cast<std::size_t>(K), obs);
-  std::vector<std::int64_t> every_task;
-  every_task.reserve(static_cast<std::size_t>(K * n));
-  for (std::int64_t k = 0; k < K; ++k) every_task.insert(every_task.end(), static_cast<std::size_t>(n), k);
-  const ag::Tensor all = ag::softmax(
-      child_at<nn::MLP>(selector_).forward(selector_input(ag::concat(repeated, 0), every_task)), 1);  // [K n, M]
+  // One selector pass scores every state under every task (the share loss needs them all; the states' own-task
+  // scores are rows of it) and the previous states under their own tasks. The first layer's state part is computed
+  // once per state, then each task's row is added (PAPER.md's G(s, k) on [s, one_hot(k)], factored).
+  const auto [state_weight, task_rows] = selector_first_layer();  // [H, S], [K, H]
+  const std::int64_t H = state_weight.size(0);
+  const ag::Tensor state_parts = ag::linear(ag::concat({obs, batch.previous_observations}, 0), state_weight);
+  const ag::Tensor every_task =
+      (ag::narrow(state_parts, 0, 0, n).reshape({1, n, H}) + task_rows.reshape({K, 1, H})).reshape({K * n, H});
+  const ag::Tensor previous = ag::narrow(state_parts, 0, n, n) + ag::index_select(task_rows, batch.tasks);
+  const ag::Tensor scored = ag::softmax(selector_logits(ag::concat({every_task, previous}, 0)), 1);  // [(K+1) n, M]
+  const ag::Tensor all = ag::narrow(scored, 0, 0, K * n);
   out.all_task_scores = all.reshape({K, n, M});
   out.scores = ag::index_select(all, own_task_rows(batch.tasks));
-  out.previous_scores = checked_scores(batch.previous_observations, batch.tasks);
+  out.previous_scores = ag::narrow(scored, 0, K * n, n);
 
   LossTerms result;
   const ag::Tensor bc = ag::mse_loss(head(features(obs), out.scores), batch.actions);

@@ -52,7 +52,15 @@ class MAPSPolicy : public Policy {
  private:
   // scores() for inputs the caller has already checked (act and loss check theirs once, up front).
   ag::Tensor checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks);
-  ag::Tensor selector_input(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) const;
+  // The selector's first layer is linear in [s, one_hot(k)]: W [s; e_k] + b = W_s s + (W_k + b). state_weight is
+  // W_s [H, S]; task_rows [K, H] holds W_k + b for each task.
+  struct SelectorFirstLayer {
+    ag::Tensor state_weight;
+    ag::Tensor task_rows;
+  };
+  SelectorFirstLayer selector_first_layer();
+  // The selector's logits from its first layer's output (before the activation).
+  ag::Tensor selector_logits(const ag::Tensor& first_layer);
 
   MAPSConfig config_;
   nn::Activation activation_;

@@ -80,6 +80,42 @@ TEST(MAPSPolicy, HeadIsTheLinearMapOfTheConcatenatedScoredFeatures) {
   }
 }
 
+TEST(MAPSPolicy, SelectorScoresAreTheMLPOnTheStateAndTheOneHotTask) {
+  // MAPS computes the selector's first layer as a state part plus a task row (once per state for all K tasks);
+  // this is the paper's G(s, k) on [s, one_hot(k)] written out.
+  ag::Generator gen(7);
+  MAPSPolicy policy({4, 2, 3}, tiny_config(), gen);
+  policy.to(Dtype::Float64);
+  const Batch batch = random_batch(3, 3, 4, 2, gen);
+  auto reference = [&](const Tensor& obs, const std::vector<std::int64_t>& tasks) {
+    const Tensor input = ag::concat({obs, ag::one_hot(tasks, 3, Dtype::Float64)}, 1);
+    const Tensor hidden = ag::tanh(
+        ag::linear(input, policy.parameter("selector.layers.0.weight"), policy.parameter("selector.layers.0.bias")));
+    return ag::softmax(
+        ag::linear(hidden, policy.parameter("selector.layers.1.weight"), policy.parameter("selector.layers.1.bias")),
+        1);
+  };
+  const Tensor scores = policy.scores(batch.observations, batch.tasks);
+  const Tensor expected = reference(batch.observations, batch.tasks);
+  for (std::int64_t i = 0; i < scores.numel(); ++i) EXPECT_NEAR(scores.at(i), expected.at(i), 1e-14);
+  // The loss's share and smooth terms from the same scores under every task and for the previous states.
+  std::vector<Tensor> every_task;
+  for (std::int64_t k = 0; k < 3; ++k)
+    every_task.push_back(reference(batch.observations, std::vector<std::int64_t>(9, k)).reshape({1, 9, 3}));
+  const Tensor all = ag::concat(every_task, 0);  // [K, b, M]
+  double share = 0.0;
+  for (std::int64_t k1 = 0; k1 < 3; ++k1)
+    for (std::int64_t k2 = 0; k2 < 3; ++k2)
+      for (std::int64_t j = 0; j < 27; ++j) share += std::pow(all.at(k1 * 27 + j) - all.at(k2 * 27 + j), 2);
+  share /= 3.0 * 2.0 * 9.0 * 3.0;
+  const double smooth = ag::mean(ag::square(expected - reference(batch.previous_observations, batch.tasks))).item();
+  const LossTerms terms = policy.loss(batch);
+  EXPECT_EQ(terms.terms[1].first, "share");
+  EXPECT_NEAR(terms.terms[1].second.item(), share, 1e-14);
+  EXPECT_EQ(terms.terms[4].first, "smooth");
+  EXPECT_NEAR(terms.terms[4].second.item(), smooth, 1e-14);
+}
+
 TEST(MAPSPolicy, LossIsWeightedSumOfBCAndSelectorTerms) {
   ag::Generator gen(3);
   MAPSConfig config = tiny_config();

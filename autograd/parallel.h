@@ -1,0 +1,20 @@
+#pragma once
+
+#include <cstdint>
+#include <functional>
+
+// The threads ops may use. Off by default (one thread): a tool opts in (`maps bench step --threads 2`, a run
+// config's "threads"), because the evaluator and the grid scripts already run whole tasks and runs side by side.
+// Eigen's own GEMM threading is off (EIGEN_DONT_PARALLELIZE, set for the whole build): ops split their work here.
+namespace maps::ag {
+
+// Sets the threads ops use from now on (>= 1; more than the machine's cores only adds overhead).
+void set_num_threads(int threads);
+int num_threads();
+
+// Calls body(begin, end) on disjoint, contiguous ranges covering [0, count), on up to num_threads() threads, each
+// range at least `grain` long (one range, on the calling thread, when count < 2 grain or when called from inside
+// another parallel_for). The first exception a range throws is rethrown here once every range has finished.
+void parallel_for(std::int64_t count, std::int64_t grain, const std::function<void(std::int64_t, std::int64_t)>& body);
+
+}  // namespace maps::ag

@@ -1,0 +1,21 @@
+#pragma once
+
+#include <string>
+
+namespace maps::experiments {
+
+// `maps bench step --set gravity|modified|mt10`: times one whole MAPS training step (forward, the BC loss and the
+// four selector losses, backward, Adam) at the paper's shapes for the set, counts its GEMM FLOPs analytically, and
+// compares both with Eigen's float32 GEMM timed in the same run (and, with --vs-pytorch, with the same step in
+// PyTorch: experiments/benchmarks/peer_pytorch.py).
+struct BenchStepOptions {
+  std::string set = "gravity";
+  int threads = 1;
+  bool json = false;
+  bool vs_pytorch = false;
+  double seconds = 2.0;  // time spent in timed steps (after warm-up)
+};
+
+int run_bench_step(const BenchStepOptions& options);
+
+}  // namespace maps::experiments

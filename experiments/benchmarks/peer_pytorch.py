@@ -1,0 +1,200 @@
+#!/usr/bin/python3
+"""One MAPS training step in PyTorch: the peer of `maps bench step` (experiments/bench_step.cpp).
+
+The same model, shapes, losses, FLOP count and timing as the C++ tool: M = 10 proto-policy modules (3x128 tanh,
+run as batched matrix products), a 2x128 tanh selector over [state, one-hot task] scoring every state under every
+task (its first layer's state part computed once per state, as maps does), a head over the scored features, the BC
+loss and the share, explore, sparse and smooth selector losses with the paper's HalfCheetah weights, backward, and
+one Adam step. Prints ms/step (median) and GFLOP/s; --json prints one JSON object as the last line.
+
+Run with Debian's python3-torch, one thread: /usr/bin/python3 experiments/benchmarks/peer_pytorch.py --set gravity
+Debian's torch calls the system BLAS; install libopenblas0-pthread (scripts/setup.sh does) for a fair comparison.
+"""
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+
+SETS = {  # S, A, K, states per task (issue 6)
+    "gravity": (17, 6, 5, 128),
+    "modified": (17, 6, 11, 128),
+    "mt10": (39, 4, 10, 32),
+}
+MODULES = 10
+MODULE_HIDDEN = [128, 128, 128]
+SELECTOR_HIDDEN = [128, 128]
+BC_WEIGHT, SELECTOR_WEIGHT = 0.75, 0.25
+LOSS_WEIGHTS = {"share": 1.0, "explore": 0.5, "sparse": 0.001, "smooth": 1.0}
+
+
+def parse_args():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--set", default="gravity", choices=sorted(SETS))
+    parser.add_argument("--threads", type=int, default=1)
+    parser.add_argument("--seconds", type=float, default=2.0)
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    if args.threads < 1:
+        parser.error(f"--threads must be >= 1, got {args.threads}")
+    if not args.seconds > 0:
+        parser.error(f"--seconds must be > 0, got {args.seconds}")
+    return args
+
+
+def step_flops(S, A, K, per_task):
+    """maps_training_step_flops (maps/policies/maps_flops.cpp), term for term."""
+    M, n = MODULES, K * per_task
+    flops, fan_in = 0.0, S
+    for i, h in enumerate(MODULE_HIDDEN):
+        flops += 2.0 * n * M * fan_in * h * (2.0 if i == 0 else 3.0)
+        fan_in = h
+    flops += 3.0 * 2.0 * n * M * fan_in * A
+    sizes = SELECTOR_HIDDEN + [M]
+    rows = (K + 1.0) * n
+    flops += 2.0 * (2.0 * 2.0 * n * S * sizes[0])
+    flops += sum(3.0 * 2.0 * rows * a * b for a, b in zip(sizes, sizes[1:]))
+    return flops
+
+
+def uniform(torch, shape, bound):
+    return (torch.rand(*shape) * 2.0 - 1.0) * bound
+
+
+def build(torch, S, A, K):
+    """Parameters as maps lays them out: module layers [M, in, out], selector layers [in, out]."""
+    params = {}
+    fan_in = S
+    for i, h in enumerate(MODULE_HIDDEN):
+        bound = 1.0 / math.sqrt(fan_in)
+        params[f"module{i}.w"] = uniform(torch, (MODULES, fan_in, h), bound)
+        params[f"module{i}.b"] = uniform(torch, (MODULES, 1, h), bound)
+        fan_in = h
+    bound = 1.0 / math.sqrt(MODULES * fan_in)
+    params["head.w"] = uniform(torch, (MODULES, fan_in, A), bound)
+    params["head.b"] = uniform(torch, (A,), bound)
+    sizes = [S + K] + SELECTOR_HIDDEN + [MODULES]
+    for i, (a, b) in enumerate(zip(sizes, sizes[1:])):
+        bound = 1.0 / math.sqrt(a)
+        params[f"selector{i}.w"] = uniform(torch, (a, b), bound)
+        params[f"selector{i}.b"] = uniform(torch, (b,), bound)
+    for p in params.values():
+        p.requires_grad_(True)
+    return params
+
+
+def selector_scores(torch, p, obs, S, K):
+    """Softmax scores [K, n, M] of every state under every task; the first layer's state part once per state."""
+    w0 = p["selector0.w"]
+    state_part = obs @ w0[:S]  # [n, H]
+    h = torch.tanh(state_part.unsqueeze(0) + (w0[S:] + p["selector0.b"]).unsqueeze(1))  # [K, n, H]
+    layers = len(SELECTOR_HIDDEN) + 1
+    for i in range(1, layers):
+        h = h @ p[f"selector{i}.w"] + p[f"selector{i}.b"]
+        if i + 1 < layers:
+            h = torch.tanh(h)
+    return torch.softmax(h, dim=-1)
+
+
+def own_task_scores(torch, p, obs, tasks, S, K):
+    """Scores [n, M] of each state under its own task."""
+    w0 = p["selector0.w"]
+    h = torch.tanh(obs @ w0[:S] + w0[S:][tasks] + p["selector0.b"])
+    layers = len(SELECTOR_HIDDEN) + 1
+    for i in range(1, layers):
+        h = h @ p[f"selector{i}.w"] + p[f"selector{i}.b"]
+        if i + 1 < layers:
+            h = torch.tanh(h)
+    return torch.softmax(h, dim=-1)
+
+
+def loss(torch, p, batch, S, K):
+    obs, prev, actions, tasks = batch
+    n = obs.shape[0]
+    h = obs.unsqueeze(0).expand(MODULES, n, S)
+    for i in range(len(MODULE_HIDDEN)):
+        h = torch.tanh(torch.baddbmm(p[f"module{i}.b"], h, p[f"module{i}.w"]))  # [M, n, F]
+    all_scores = selector_scores(torch, p, obs, S, K)  # [K, n, M]
+    scores = all_scores[tasks, torch.arange(n)]  # [n, M]
+    previous = own_task_scores(torch, p, prev, tasks, S, K)
+    per_module = torch.bmm(h, p["head.w"])  # [M, n, A]
+    action = (per_module * scores.t().unsqueeze(-1)).sum(0) + p["head.b"]
+    bc = torch.mean((action - actions) ** 2)
+
+    M = float(MODULES)
+    share = (2.0 * K * torch.sum(all_scores**2) - 2.0 * torch.sum(all_scores.sum(0) ** 2)) / (K * (K - 1.0) * n * M)
+    usage = scores.sum(0)
+    explore = torch.sum((usage - n / M) ** 2) * (M / (n * n))
+    safe = scores.clamp_min(1e-30)
+    sparse = torch.sum(safe.pow(1.0 / math.log(M)) * torch.log(safe)) * (-1.0 / (M * n))
+    smooth = torch.mean((scores - previous) ** 2)
+    selector = (LOSS_WEIGHTS["share"] * share + LOSS_WEIGHTS["explore"] * explore + LOSS_WEIGHTS["sparse"] * sparse
+                + LOSS_WEIGHTS["smooth"] * smooth)
+    return BC_WEIGHT * bc + SELECTOR_WEIGHT * selector
+
+
+def main():
+    args = parse_args()
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", str(args.threads))
+    try:
+        import torch
+    except ImportError:
+        message = "PyTorch is not installed (apt-get install python3-torch; run with /usr/bin/python3)"
+        if args.json:
+            print(json.dumps({"skipped": message}))
+            return 0
+        print(f"peer_pytorch: skipped: {message}", file=sys.stderr)
+        return 0
+    torch.set_num_threads(args.threads)
+    torch.manual_seed(0)
+    S, A, K, per_task = SETS[args.set]
+    n = K * per_task
+    params = build(torch, S, A, K)
+    obs = torch.randn(n, S)
+    batch = (obs, obs + 0.1 * torch.randn(n, S), torch.rand(n, A) * 2.0 - 1.0,
+             torch.arange(K).repeat_interleave(per_task))
+    adam = torch.optim.Adam(params.values(), lr=1e-4)
+
+    def step():
+        total = loss(torch, params, batch, S, K)
+        adam.zero_grad()
+        total.backward()
+        adam.step()
+        return total.item()
+
+    for _ in range(5):
+        step()
+    times, start, value = [], time.perf_counter(), 0.0
+    while len(times) < 10 or time.perf_counter() - start < args.seconds:
+        t0 = time.perf_counter()
+        value = step()
+        times.append(time.perf_counter() - t0)
+    if not math.isfinite(value):
+        sys.exit("peer_pytorch: the loss became non-finite")
+    seconds = statistics.median(times)
+    flops = step_flops(S, A, K, per_task)
+    result = {"set": args.set, "threads": args.threads, "torch": torch.__version__,
+              "blas": torch.__config__.show().count("BLAS") and _blas_name(torch), "steps_timed": len(times),
+              "ms_per_step": seconds * 1e3, "gflops": flops / seconds * 1e-9}
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(f"PyTorch {result['torch']} ({result['blas']}), set {args.set}, {args.threads} thread(s): "
+              f"{result['ms_per_step']:.3f} ms/step (median of {len(times)}), {result['gflops']:.1f} GFLOP/s")
+    return 0
+
+
+def _blas_name(torch):
+    """The BLAS library this torch process loaded (Debian's torch uses the system's), from /proc/self/maps."""
+    try:
+        with open("/proc/self/maps") as maps:
+            names = {line.split("/")[-1].strip() for line in maps if "blas" in line.lower()}
+        return ", ".join(sorted(names)) or "unknown BLAS"
+    except OSError:
+        return "unknown BLAS"
+
+
+if __name__ == "__main__":
+    sys.exit(main())

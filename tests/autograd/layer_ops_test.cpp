@@ -1,0 +1,223 @@
+// Layer ops (linear and parallel_linear with a fused tanh, tanh_backward), the GEMM kernel's paths (inner blocks,
+// narrow outputs, the split across threads), parallel_for and the storage pool.
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "autograd/autograd.h"
+#include "autograd/storage_pool.h"
+#include "tests/autograd/test_util.h"
+
+namespace {
+
+namespace ag = maps::ag;
+using ag::Dtype;
+using ag::Fused;
+using ag::Shape;
+using ag::Tensor;
+using agtest::expect_grad_and_gradgrad;
+using agtest::expect_throw_with;
+using agtest::kF64;
+using agtest::randn64;
+
+using Inputs = std::vector<Tensor>;
+
+// Restores one op thread when a test that changed it ends, whatever happens.
+struct ThreadsGuard {
+  explicit ThreadsGuard(int threads) { ag::set_num_threads(threads); }
+  ~ThreadsGuard() { ag::set_num_threads(1); }
+};
+
+void expect_close(const Tensor& actual, const Tensor& expected, double tol, const std::string& what) {
+  ASSERT_EQ(ag::to_string(actual.shape()), ag::to_string(expected.shape())) << what;
+  const std::vector<double> a = actual.to_vector(), e = expected.to_vector();
+  for (std::size_t i = 0; i < a.size(); ++i)
+    ASSERT_NEAR(a[i], e[i], tol * (1.0 + std::abs(e[i]))) << what << " at flat index " << i;
+}
+
+// parallel_linear from ops it fuses: per member x_m @ w_m + b_m, then the activation.
+Tensor parallel_linear_reference(const Tensor& x, const Tensor& w, const Tensor& b, Fused act) {
+  const Tensor input = x.dim() == 2 ? ag::expand(x, {w.size(0), x.size(0), x.size(1)}) : x;
+  Tensor y = ag::matmul(input, w);
+  if (b.defined()) y = y + b;
+  return act == Fused::Tanh ? ag::tanh(y) : y;
+}
+
+TEST(TanhBackward, ValuesAndBothDerivatives) {
+  const Tensor g = randn64({3, 4}, 1), y = ag::tanh(randn64({3, 4}, 2, false)).detach().requires_grad_();
+  expect_close(ag::tanh_backward(g, y), g * (1.0 - y * y), 1e-14, "g (1 - y^2)");
+  expect_grad_and_gradgrad("tanh_backward", [](const Inputs& in) { return ag::tanh_backward(in[0], in[1]); }, {g, y});
+}
+
+TEST(TanhBackward, RejectsMismatchedInputs) {
+  expect_throw_with([] { ag::tanh_backward(ag::zeros({2, 3}), ag::zeros({3, 2})); }, {"same shape"});
+  expect_throw_with([] { ag::tanh_backward(ag::zeros({2}), ag::zeros({2}, kF64)); }, {"dtypes differ"});
+}
+
+TEST(LinearTanh, EqualsLinearThenTanhAndDifferentiates) {
+  // 40 rows: more than one block of 16 rows.
+  for (const Shape& x_shape : {Shape{40, 5}, Shape{2, 3, 5}}) {
+    const Tensor x = randn64(x_shape, 3), w = randn64({4, 5}, 4), b = randn64({4}, 5);
+    expect_close(ag::linear(x, w, b, Fused::Tanh), ag::tanh(ag::linear(x, w, b)), 1e-14, "linear tanh");
+    expect_grad_and_gradgrad("linear tanh",
+                             [](const Inputs& in) { return ag::linear(in[0], in[1], in[2], Fused::Tanh); }, {x, w, b});
+    expect_grad_and_gradgrad("linear tanh, no bias",
+                             [](const Inputs& in) { return ag::linear(in[0], in[1], Tensor(), Fused::Tanh); }, {x, w});
+  }
+}
+
+TEST(ParallelLinear, EqualsItsReferenceForEveryInputBiasAndActivation) {
+  for (const bool shared : {false, true}) {
+    for (const bool bias : {false, true}) {
+      for (const Fused act : {Fused::None, Fused::Tanh}) {
+        const std::string what =
+            std::string(shared ? "shared" : "batched") + (bias ? ", bias" : "") + (act == Fused::Tanh ? ", tanh" : "");
+        const Tensor x = shared ? randn64({6, 3}, 10) : randn64({2, 6, 3}, 10);
+        const Tensor w = randn64({2, 3, 4}, 11);
+        const Tensor b = bias ? randn64({2, 1, 4}, 12) : Tensor();
+        expect_close(ag::parallel_linear(x, w, b, act), parallel_linear_reference(x, w, b, act), 1e-13, what);
+        Inputs inputs{x, w};
+        if (bias) inputs.push_back(b);
+        expect_grad_and_gradgrad(
+            "parallel_linear " + what,
+            [act](const Inputs& in) {
+              return ag::parallel_linear(in[0], in[1], in.size() > 2 ? in[2] : Tensor(), act);
+            },
+            inputs);
+      }
+    }
+  }
+}
+
+TEST(ParallelLinear, FastGradientsEqualTheRecordedOnes) {
+  // backward() without create_graph takes the fused per-layer path; create_graph takes the path made of ops.
+  const Tensor x = randn64({3, 20, 7}, 20), w = randn64({3, 7, 5}, 21), b = randn64({3, 1, 5}, 22);
+  const Tensor g = randn64({3, 20, 5}, 23, false);
+  const Tensor y = ag::parallel_linear(x, w, b, Fused::Tanh);
+  const std::vector<Tensor> fast = ag::grad({y}, {x, w, b}, {g}, true, false);
+  const std::vector<Tensor> recorded = ag::grad({y}, {x, w, b}, {g}, true, true);
+  for (std::size_t i = 0; i < fast.size(); ++i)
+    expect_close(fast[i], recorded[i].detach(), 1e-12, "gradient " + std::to_string(i));
+}
+
+TEST(ParallelLinear, RejectsShapesThatDoNotFit) {
+  const Tensor w = ag::zeros({2, 3, 4});
+  expect_throw_with([&] { ag::parallel_linear(ag::zeros({5, 4}), w); }, {"does not fit weight"});
+  expect_throw_with([&] { ag::parallel_linear(ag::zeros({3, 5, 3}), w); }, {"does not fit weight"});
+  expect_throw_with([&] { ag::parallel_linear(ag::zeros({5, 3}), ag::zeros({3, 4})); }, {"[members, in, out]"});
+  expect_throw_with([&] { ag::parallel_linear(ag::zeros({5, 3}), w, ag::zeros({2, 4})); }, {"expected [2, 1, 4]"});
+}
+
+// The kernel's paths, each against plain loops in float64 and float32, on one thread and two: inner dimensions
+// summed in blocks (k = 600 on a small output), narrow outputs done column-major (6 columns, tall), and products
+// big enough to be split by rows and by columns.
+TEST(GemmKernel, EveryPathMatchesPlainLoops) {
+  struct Case {
+    std::int64_t n, k, m;
+    bool ta, tb;
+  };
+  const std::vector<Case> cases = {
+      {20, 600, 24, true, false},  {24, 600, 20, false, true}, {200, 64, 6, false, false}, {6, 300, 100, true, true},
+      {130, 90, 40, false, false}, {40, 90, 130, true, false}, {70, 70, 70, false, true},
+  };
+  for (const int threads : {1, 2}) {
+    ThreadsGuard guard(threads);
+    for (const Dtype dtype : agtest::kBothDtypes) {
+      for (const Case& c : cases) {
+        const Tensor a = randn64(c.ta ? Shape{c.k, c.n} : Shape{c.n, c.k}, 30, false).to(dtype);
+        const Tensor b = randn64(c.tb ? Shape{c.m, c.k} : Shape{c.k, c.m}, 31, false).to(dtype);
+        const Tensor out = ag::gemm(a, b, c.ta, c.tb);
+        const std::vector<double> av = a.to_vector(), bv = b.to_vector();
+        std::vector<double> expected(static_cast<std::size_t>(c.n * c.m));
+        for (std::int64_t i = 0; i < c.n; ++i)
+          for (std::int64_t j = 0; j < c.m; ++j) {
+            double s = 0;
+            for (std::int64_t q = 0; q < c.k; ++q)
+              s += av[static_cast<std::size_t>(c.ta ? q * c.n + i : i * c.k + q)] *
+                   bv[static_cast<std::size_t>(c.tb ? j * c.k + q : q * c.m + j)];
+            expected[static_cast<std::size_t>(i * c.m + j)] = s;
+          }
+        const double tol = dtype == kF64 ? 1e-12 : 2e-4 * std::sqrt(static_cast<double>(c.k));
+        expect_close(out, ag::from_vector(expected, {c.n, c.m}, kF64), tol,
+                     "gemm " + std::to_string(c.n) + "x" + std::to_string(c.k) + "x" + std::to_string(c.m) + " on " +
+                         std::to_string(threads) + " thread(s)");
+      }
+    }
+  }
+}
+
+TEST(GemmKernel, TwoThreadsGiveTheSameTrainingGradients) {
+  // 200 x 40 x 64 multiply-adds: above the size the kernel splits across threads.
+  const Tensor x = randn64({200, 40}, 40), w = randn64({64, 40}, 41), b = randn64({64}, 42);
+  auto gradients = [&] {
+    const Tensor y = ag::linear(x, w, b, Fused::Tanh);
+    return ag::grad({ag::sum(ag::square(y))}, {x, w, b});
+  };
+  const std::vector<Tensor> one = gradients();
+  ThreadsGuard guard(2);
+  const std::vector<Tensor> two = gradients();
+  for (std::size_t i = 0; i < one.size(); ++i) expect_close(two[i], one[i], 1e-12, "gradient " + std::to_string(i));
+}
+
+TEST(ParallelFor, CoversEveryIndexOnceOnAnyThreadCount) {
+  for (const int threads : {1, 2, 3}) {
+    ThreadsGuard guard(threads);
+    for (const std::int64_t count : {0, 1, 5, 1000}) {
+      std::vector<std::atomic<int>> seen(static_cast<std::size_t>(count));
+      ag::parallel_for(count, 2, [&](std::int64_t begin, std::int64_t end) {
+        ASSERT_LE(0, begin);
+        ASSERT_LE(begin, end);
+        ASSERT_LE(end, count);
+        for (std::int64_t i = begin; i < end; ++i) ++seen[static_cast<std::size_t>(i)];
+      });
+      for (std::int64_t i = 0; i < count; ++i) EXPECT_EQ(seen[static_cast<std::size_t>(i)].load(), 1) << i;
+    }
+  }
+}
+
+TEST(ParallelFor, RethrowsARangesExceptionAndRunsNestedCallsInPlace) {
+  ThreadsGuard guard(2);
+  expect_throw_with(
+      [] {
+        ag::parallel_for(100, 1, [](std::int64_t begin, std::int64_t) {
+          if (begin > 0) throw std::runtime_error("range failed");
+        });
+      },
+      {"range failed"});
+  std::atomic<int> inner_ranges{0};
+  ag::parallel_for(100, 1, [&](std::int64_t, std::int64_t) {
+    ag::parallel_for(100, 1, [&](std::int64_t begin, std::int64_t end) {
+      EXPECT_EQ(begin, 0);
+      EXPECT_EQ(end, 100);
+      ++inner_ranges;
+    });
+  });
+  EXPECT_EQ(inner_ranges.load(), 2);  // one whole inner range per outer range
+}
+
+TEST(ParallelFor, RejectsAThreadCountBelowOne) {
+  expect_throw_with([] { ag::set_num_threads(0); }, {"threads must be >= 1, got 0"});
+  EXPECT_EQ(ag::num_threads(), 1);
+}
+
+#if !defined(__SANITIZE_ADDRESS__)
+TEST(StoragePool, ReusesAFreedBlockOfTheSameSize) {
+  const void* first = nullptr;
+  {
+    const Tensor t = ag::empty({123, 77});
+    first = t.data<float>();
+  }
+  EXPECT_GE(ag::detail::pool_cached_bytes(), 123u * 77u * 4u);
+  const Tensor again = ag::zeros({123, 77});
+  EXPECT_EQ(static_cast<const void*>(again.data<float>()), first);
+  EXPECT_EQ(again.to_vector(), std::vector<double>(123 * 77, 0.0));  // reused memory is still initialised
+}
+#endif
+
+}  // namespace

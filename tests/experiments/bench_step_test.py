@@ -1,0 +1,94 @@
+#!/usr/bin/python3
+"""Tests of `maps bench step` (experiments/bench_step.cpp) and its PyTorch peer
+(experiments/benchmarks/peer_pytorch.py): the JSON keys and their consistency, the errors for a bad set or thread
+count, the peer's factored selector against the plain one on [state, one-hot task], and its skip without torch.
+Run by ctest with the maps binary as the argument (tests/CMakeLists.txt)."""
+import json
+import math
+import pathlib
+import subprocess
+import sys
+import unittest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+PEER = ROOT / "experiments" / "benchmarks" / "peer_pytorch.py"
+MAPS = None  # set from argv
+
+
+def run(*args):
+    return subprocess.run([MAPS, *args], capture_output=True, text=True, timeout=120)
+
+
+class BenchStep(unittest.TestCase):
+    def test_json_has_the_issue_keys_and_they_agree(self):
+        done = run("bench", "step", "--set", "mt10", "--seconds", "0.2", "--json")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        result = json.loads(done.stdout.strip().splitlines()[-1])
+        for key in ("ms_per_step", "gflops", "gemm_gflops", "ratio_to_gemm"):
+            self.assertIn(key, result)
+            self.assertTrue(math.isfinite(result[key]) and result[key] > 0, key)
+        self.assertAlmostEqual(result["gflops"], result["gflop_per_step"] / (result["ms_per_step"] * 1e-3), delta=1e-6 * result["gflops"])
+        self.assertAlmostEqual(result["ratio_to_gemm"], result["gflops"] / result["gemm_gflops"], places=9)
+        self.assertEqual(result["states"], 320)
+        self.assertGreaterEqual(result["steps_timed"], 10)
+
+    def test_text_output_names_the_set_and_the_ceiling(self):
+        done = run("bench", "step", "--set", "gravity", "--seconds", "0.1")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("set gravity: 640 states (5 tasks x 128)", done.stdout)
+        self.assertIn("Eigen float32 GEMM 1024^3", done.stdout)
+
+    def test_bad_set_and_threads_are_named(self):
+        done = run("bench", "step", "--set", "cheetah", "--seconds", "0.1")
+        self.assertNotEqual(done.returncode, 0)
+        self.assertIn("unknown --set 'cheetah'; expected one of gravity, modified, mt10", done.stderr)
+        done = run("bench", "step", "--threads", "0")
+        self.assertNotEqual(done.returncode, 0)
+        self.assertIn("--threads", done.stderr)
+
+
+class PeerPyTorch(unittest.TestCase):
+    def test_without_torch_it_says_so_and_skips(self):
+        # -S leaves out site-packages, where Debian's torch lives.
+        done = subprocess.run([sys.executable, "-S", str(PEER), "--json"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("PyTorch is not installed", json.loads(done.stdout.strip())["skipped"])
+
+    def test_factored_selector_equals_the_plain_one(self):
+        try:
+            import torch
+        except ImportError:
+            self.skipTest("torch is not installed")
+        sys.path.insert(0, str(PEER.parent))
+        import peer_pytorch as peer
+        torch.manual_seed(0)
+        S, A, K, n = 5, 2, 3, 7
+        p = peer.build(torch, S, A, K)
+        obs = torch.randn(n, S)
+        tasks = torch.tensor([0, 1, 2, 2, 1, 0, 0])
+        plain_rows = []
+        for k in range(K):
+            x = torch.cat([obs, torch.nn.functional.one_hot(torch.full((n,), k), K).float()], 1)
+            h = x
+            for i in range(len(peer.SELECTOR_HIDDEN) + 1):
+                h = h @ p[f"selector{i}.w"] + p[f"selector{i}.b"]
+                if i < len(peer.SELECTOR_HIDDEN):
+                    h = torch.tanh(h)
+            plain_rows.append(torch.softmax(h, -1))
+        plain = torch.stack(plain_rows)
+        self.assertTrue(torch.allclose(peer.selector_scores(torch, p, obs, S, K), plain, atol=1e-6))
+        self.assertTrue(torch.allclose(peer.own_task_scores(torch, p, obs, tasks, S, K), plain[tasks, torch.arange(n)], atol=1e-6))
+        total = peer.loss(torch, p, (obs, obs, torch.zeros(n, A), tasks), S, K)
+        self.assertTrue(math.isfinite(total.item()))
+
+    def test_flop_count_matches_the_cpp_count(self):
+        sys.path.insert(0, str(PEER.parent))
+        import peer_pytorch as peer
+        # tests/maps/policies/maps_flops_test.cpp
+        self.assertEqual(peer.step_flops(17, 6, 5, 128), 1761607680)
+        self.assertEqual(peer.step_flops(39, 4, 10, 32), 1088716800)
+
+
+if __name__ == "__main__":
+    MAPS = sys.argv.pop(1)
+    unittest.main()
