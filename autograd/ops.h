@@ -60,6 +60,11 @@ Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor
 // layers. Gradients are ops again (create_graph works).
 Tensor parallel_linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor(),
                        Fused activation = Fused::None);
+// act(a[a_rows[i]] + b[b_rows[i]]) for each i: rows of two 2-d tables with the same row length, summed, with the
+// activation in the same pass -> [a_rows.size(), width] (MAPS's selector first layer: a state's part plus its
+// task's row, for every state under every task). Gradients scatter back with index_add.
+Tensor gather_add(const Tensor& a, const std::vector<std::int64_t>& a_rows, const Tensor& b,
+                  const std::vector<std::int64_t>& b_rows, Fused activation = Fused::None);
 
 // ----- shape -----
 Tensor reshape(const Tensor& x, const Shape& shape);  // one dim may be -1

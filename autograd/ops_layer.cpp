@@ -1,5 +1,6 @@
 // Layer ops: linear and parallel_linear, each one GEMM per layer with the bias and the activation in the same pass.
 #include <algorithm>
+#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -36,6 +37,10 @@ Tensor before_activation(const Tensor& g, Fused activation, Node& self) {
   return activation == Fused::Tanh ? tanh_backward(g, self.output()) : g;
 }
 
+// Rows per block of linear's forward and backward: a block's output and gradient stay in L2 between the passes
+// over them (a [512, 128] float block is 256 KB).
+constexpr std::int64_t kRowBlock = 512;
+
 // Column sums of a contiguous rows x cols matrix into out [cols].
 template <typename T>
 void column_sums(const T* x, std::int64_t rows, std::int64_t cols, T* out) {
@@ -45,9 +50,10 @@ void column_sums(const T* x, std::int64_t rows, std::int64_t cols, T* out) {
     sums += Eigen::Map<const Eigen::Array<T, Eigen::Dynamic, 1>>(x + r * cols, cols);
 }
 
-// parallel_linear's gradients without recording (grad mode off: not create_graph), one layer at a time while its
-// output gradient is in cache: the gradient before the activation, the bias's, the weight's and the input's. The
-// threads share out the layers. Not for a shared input's gradient (a sum over layers): the caller uses ops there.
+// parallel_linear's gradients without recording (grad mode off: not create_graph), one layer at a time and within
+// it blocks of rows while each block's gradient is in cache: the gradient before the activation (in a per-thread
+// scratch block), the bias's and the weight's sums over the blocks, and the input's rows. The threads share out the
+// layers. Not for a shared input's gradient (a sum over layers): the caller uses ops there.
 Grads parallel_linear_gradients(const Tensor& g, const Tensor& output, const Tensor& x, const Tensor& weight,
                                 bool has_bias, bool shared, Fused activation, const Needs& need) {
   const std::int64_t M = weight.size(0), in = weight.size(1), cols = weight.size(2), rows = g.size(1);
@@ -55,30 +61,102 @@ Grads parallel_linear_gradients(const Tensor& g, const Tensor& output, const Ten
   if (need[0]) grads[0] = empty({M, rows, in}, x.dtype());
   if (need[1]) grads[1] = empty(weight.shape(), weight.dtype());
   if (has_bias && need[2]) grads[2] = empty({M, 1, cols}, weight.dtype());
-  const Tensor gz = activation == Fused::Tanh ? empty(g.shape(), g.dtype()) : g;
   dispatch_dtype(g.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     using detail::MatrixRef;
     using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
     const std::int64_t grain = M * rows * cols * in < detail::kParallelGemmWork ? M : 1;
     parallel_for(M, grain, [&](std::int64_t m0, std::int64_t m1) {
+      RowMatrix<T> scratch(std::min(kRowBlock, rows), cols);
+      Array block_sums(cols);
       for (std::int64_t m = m0; m < m1; ++m) {
-        const std::int64_t count = rows * cols;
-        T* gzm = const_cast<T*>(gz.data<T>()) + m * count;
-        if (activation == Fused::Tanh) {
-          const Eigen::Map<const Array> y(output.data<T>() + m * count, count);
-          Eigen::Map<Array>(gzm, count) = Eigen::Map<const Array>(g.data<T>() + m * count, count) * (T(1) - y * y);
+        T* bias_grad = grads.size() > 2 && grads[2].defined() ? grads[2].data<T>() + m * cols : nullptr;
+        if (bias_grad != nullptr) Eigen::Map<Array>(bias_grad, cols).setZero();
+        for (std::int64_t r0 = 0; r0 < rows; r0 += kRowBlock) {
+          const std::int64_t r1 = std::min(rows, r0 + kRowBlock), count = (r1 - r0) * cols;
+          const std::int64_t offset = m * rows * cols + r0 * cols;
+          const T* gz = g.data<T>() + offset;
+          if (activation == Fused::Tanh) {
+            const Eigen::Map<const Array> y(output.data<T>() + offset, count);
+            Eigen::Map<Array>(scratch.data(), count) = Eigen::Map<const Array>(gz, count) * (T(1) - y * y);
+            gz = scratch.data();
+          }
+          const MatrixRef<const T> gz_block{gz, r1 - r0, cols, cols};
+          if (bias_grad != nullptr) {
+            column_sums<T>(gz, r1 - r0, cols, block_sums.data());
+            Eigen::Map<Array>(bias_grad, cols) += block_sums;
+          }
+          if (grads[1].defined())
+            detail::gemm_serial<T>({x.data<T>() + (shared ? 0 : m * rows * in) + r0 * in, r1 - r0, in, in}, true,
+                                   gz_block, false, {grads[1].data<T>() + m * in * cols, in, cols, cols}, r0 > 0);
+          if (grads[0].defined())
+            detail::gemm_serial<T>(gz_block, false, {weight.data<T>() + m * in * cols, in, cols, cols}, true,
+                                   {grads[0].data<T>() + m * rows * in + r0 * in, r1 - r0, in, in}, false);
         }
-        const MatrixRef<const T> gz_m{gzm, rows, cols, cols};
-        if (grads.size() > 2 && grads[2].defined()) column_sums<T>(gzm, rows, cols, grads[2].data<T>() + m * cols);
-        if (grads[1].defined())
-          detail::gemm_serial<T>({x.data<T>() + (shared ? 0 : m * rows * in), rows, in, in}, true, gz_m, false,
-                                 {grads[1].data<T>() + m * in * cols, in, cols, cols}, false);
-        if (grads[0].defined())
-          detail::gemm_serial<T>(gz_m, false, {weight.data<T>() + m * in * cols, in, cols, cols}, true,
-                                 {grads[0].data<T>() + m * rows * in, rows, in, in}, false);
       }
     });
+  });
+  return grads;
+}
+
+// linear's gradients without recording (grad mode off), in blocks of rows while each block's gradient is in cache:
+// the gradient before the activation (in a per-thread scratch block, never written out whole), the input's rows,
+// and each thread's sums for the weight and the bias, added up at the end. g [rows, out], x [rows, in].
+Grads linear_gradients(const Tensor& g, const Tensor& output, const Tensor& x, const Tensor& weight, bool has_bias,
+                       Fused activation, const Needs& need) {
+  const std::int64_t rows = g.size(0), cols = weight.size(0), in = weight.size(1);
+  Grads grads(has_bias ? 3 : 2);
+  if (need[0]) grads[0] = empty({rows, in}, x.dtype());
+  const bool want_weight = need[1], want_bias = has_bias && need[2];
+  dispatch_dtype(g.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    using detail::MatrixRef;
+    using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
+    using Matrix = RowMatrix<T>;
+    const std::int64_t units = (rows + 15) / 16;
+    const std::int64_t grain = rows * cols * in < detail::kParallelGemmWork ? units : 1;
+    const std::int64_t ranges = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), units / grain));
+    // One weight and bias sum per range, each range taking the next slot.
+    std::vector<Matrix> weight_sums(static_cast<std::size_t>(ranges), Matrix::Zero(want_weight ? cols : 0, in));
+    std::vector<Array> bias_sums(static_cast<std::size_t>(ranges), Array::Zero(want_bias ? cols : 0));
+    std::atomic<std::int64_t> next_range{0};
+    parallel_for(units, grain, [&](std::int64_t u0, std::int64_t u1) {
+      const std::size_t range = static_cast<std::size_t>(next_range++);
+      Matrix scratch(std::min(kRowBlock, rows), cols);
+      for (std::int64_t r0 = u0 * 16, last = std::min(rows, u1 * 16); r0 < last; r0 += kRowBlock) {
+        const std::int64_t r1 = std::min(last, r0 + kRowBlock), count = (r1 - r0) * cols;
+        const T* gz = g.data<T>() + r0 * cols;
+        if (activation == Fused::Tanh) {
+          const Eigen::Map<const Array> y(output.data<T>() + r0 * cols, count);
+          Eigen::Map<Array>(scratch.data(), count) = Eigen::Map<const Array>(gz, count) * (T(1) - y * y);
+          gz = scratch.data();
+        }
+        const MatrixRef<const T> gz_block{gz, r1 - r0, cols, cols};
+        if (want_bias) {
+          Array block_sums(cols);
+          column_sums<T>(gz, r1 - r0, cols, block_sums.data());
+          bias_sums[range] += block_sums;
+        }
+        if (want_weight)
+          detail::gemm_serial<T>(gz_block, true, {x.data<T>() + r0 * in, r1 - r0, in, in}, false,
+                                 {weight_sums[range].data(), cols, in, in}, true);
+        if (grads[0].defined())
+          detail::gemm_serial<T>(gz_block, false, {weight.data<T>(), cols, in, in}, false,
+                                 {grads[0].data<T>() + r0 * in, r1 - r0, in, in}, false);
+      }
+    });
+    if (want_weight) {
+      grads[1] = empty(weight.shape(), weight.dtype());
+      Eigen::Map<Matrix> total(grads[1].data<T>(), cols, in);
+      total = weight_sums[0];
+      for (std::size_t r = 1; r < weight_sums.size(); ++r) total += weight_sums[r];
+    }
+    if (want_bias) {
+      grads[2] = empty({cols}, weight.dtype());
+      Eigen::Map<Array> total(grads[2].data<T>(), cols);
+      total = bias_sums[0];
+      for (std::size_t r = 1; r < bias_sums.size(); ++r) total += bias_sums[r];
+    }
   });
   return grads;
 }
@@ -116,8 +194,11 @@ Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias, Fused a
     const std::int64_t units = (rows + 15) / 16;
     const std::int64_t grain = rows * cols * in < detail::kParallelGemmWork ? units : 1;
     parallel_for(units, grain, [&](std::int64_t u0, std::int64_t u1) {
-      const std::int64_t r0 = u0 * 16, r1 = std::min(rows, u1 * 16);
-      affine_block<T>({px + r0 * in, r1 - r0, in, in}, w, true, pb, activation, po + r0 * cols, r1 - r0, cols);
+      const std::int64_t first = u0 * 16, last = std::min(rows, u1 * 16);
+      for (std::int64_t r0 = first; r0 < last; r0 += kRowBlock) {
+        const std::int64_t r1 = std::min(last, r0 + kRowBlock);
+        affine_block<T>({px + r0 * in, r1 - r0, in, in}, w, true, pb, activation, po + r0 * cols, r1 - r0, cols);
+      }
     });
   });
   std::vector<Tensor> inputs{x, weight};
@@ -126,6 +207,13 @@ Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias, Fused a
       activation == Fused::Tanh ? "linear_tanh" : "linear", out, inputs,
       [x2, weight, has_bias = bias.defined(), in_shape = x.shape(), activation](const Tensor& g, const Needs& need,
                                                                                 Node& self) {
+        if (!GradMode::is_enabled()) {
+          Grads grads = linear_gradients(g.dim() == 2 ? g : reshape(g, {-1, g.size(-1)}),
+                                         activation == Fused::Tanh ? self.output() : Tensor(), x2, weight, has_bias,
+                                         activation, need);
+          if (grads[0].defined()) grads[0] = reshape(grads[0], in_shape);
+          return grads;
+        }
         const Tensor gz = before_activation(g, activation, self);
         const Tensor g2 = gz.dim() == 2 ? gz : reshape(gz, {-1, gz.size(-1)});
         Grads grads(has_bias ? 3 : 2);
@@ -166,8 +254,12 @@ Tensor parallel_linear(const Tensor& x, const Tensor& weight, const Tensor& bias
     const std::int64_t grain = M * rows * cols * in < detail::kParallelGemmWork ? M : 1;
     parallel_for(M, grain, [&](std::int64_t m0, std::int64_t m1) {
       for (std::int64_t m = m0; m < m1; ++m) {
-        affine_block<T>({px + (shared ? 0 : m * rows * in), rows, in, in}, {pw + m * in * cols, in, cols, cols}, false,
-                        pb == nullptr ? nullptr : pb + m * cols, activation, po + m * rows * cols, rows, cols);
+        for (std::int64_t r0 = 0; r0 < rows; r0 += kRowBlock) {
+          const std::int64_t r1 = std::min(rows, r0 + kRowBlock);
+          affine_block<T>({px + (shared ? 0 : m * rows * in) + r0 * in, r1 - r0, in, in},
+                          {pw + m * in * cols, in, cols, cols}, false, pb == nullptr ? nullptr : pb + m * cols,
+                          activation, po + m * rows * cols + r0 * cols, r1 - r0, cols);
+        }
       }
     });
   });

@@ -280,10 +280,15 @@ Tensor index_add(const Tensor& source, const std::vector<std::int64_t>& indices,
   dispatch_dtype(source.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
-    for (std::size_t i = 0; i < indices.size(); ++i) {
-      Eigen::Map<Array>(out.data<T>() + indices[i] * row, row) +=
-          Eigen::Map<const Array>(source.data<T>() + static_cast<std::int64_t>(i) * row, row);
-    }
+    // Rows may repeat, so the threads split the columns (each adds its own slice of every row).
+    const std::int64_t work = static_cast<std::int64_t>(indices.size()) * row;
+    const std::int64_t grain = work < 2 * detail::kElementwiseGrain ? row : 16;
+    parallel_for(row, grain, [&](std::int64_t c0, std::int64_t c1) {
+      for (std::size_t i = 0; i < indices.size(); ++i) {
+        Eigen::Map<Array>(out.data<T>() + indices[i] * row + c0, c1 - c0) +=
+            Eigen::Map<const Array>(source.data<T>() + static_cast<std::int64_t>(i) * row + c0, c1 - c0);
+      }
+    });
   });
   return record("index_add", out, {source},
                 [indices](const Tensor& g, const Needs&, Node&) { return Grads{index_select(g, indices)}; });

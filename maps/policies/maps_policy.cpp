@@ -57,10 +57,15 @@ MAPSPolicy::SelectorFirstLayer MAPSPolicy::selector_first_layer() {
   return {ag::narrow(w, 1, 0, S), task_rows};
 }
 
-ag::Tensor MAPSPolicy::selector_logits(const ag::Tensor& first_layer) {
+ag::Tensor MAPSPolicy::selector_logits(const ag::Tensor& state_parts, const std::vector<std::int64_t>& state_rows,
+                                       const ag::Tensor& task_rows, const std::vector<std::int64_t>& tasks) {
   auto& selector = child_at<nn::MLP>(selector_);
-  if (selector.num_layers() == 1) return first_layer;
-  return selector.forward_from(1, nn::apply_activation(activation_, first_layer));
+  if (selector.num_layers() == 1) return ag::gather_add(state_parts, state_rows, task_rows, tasks);
+  const ag::Tensor hidden =
+      activation_ == nn::Activation::Tanh
+          ? ag::gather_add(state_parts, state_rows, task_rows, tasks, ag::Fused::Tanh)
+          : nn::apply_activation(activation_, ag::gather_add(state_parts, state_rows, task_rows, tasks));
+  return selector.forward_from(1, hidden);
 }
 
 ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
@@ -70,8 +75,9 @@ ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<
 
 ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   const auto [state_weight, task_rows] = selector_first_layer();
-  const ag::Tensor first = ag::linear(observations, state_weight) + ag::index_select(task_rows, tasks);
-  return ag::softmax(selector_logits(first), 1);
+  std::vector<std::int64_t> rows(tasks.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) rows[i] = static_cast<std::int64_t>(i);
+  return ag::softmax(selector_logits(ag::linear(observations, state_weight), rows, task_rows, tasks), 1);
 }
 
 ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores) {
@@ -100,12 +106,18 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   // scores are rows of it) and the previous states under their own tasks. The first layer's state part is computed
   // once per state, then each task's row is added (PAPER.md's G(s, k) on [s, one_hot(k)], factored).
   const auto [state_weight, task_rows] = selector_first_layer();  // [H, S], [K, H]
-  const std::int64_t H = state_weight.size(0);
   const ag::Tensor state_parts = ag::linear(ag::concat({obs, batch.previous_observations}, 0), state_weight);
-  const ag::Tensor every_task =
-      (ag::narrow(state_parts, 0, 0, n).reshape({1, n, H}) + task_rows.reshape({K, 1, H})).reshape({K * n, H});
-  const ag::Tensor previous = ag::narrow(state_parts, 0, n, n) + ag::index_select(task_rows, batch.tasks);
-  const ag::Tensor scored = ag::softmax(selector_logits(ag::concat({every_task, previous}, 0)), 1);  // [(K+1) n, M]
+  // Rows 0..Kn-1: state j under task k at k n + j; rows Kn..(K+1)n-1: the previous states under their own tasks.
+  std::vector<std::int64_t> state_rows, row_tasks;
+  state_rows.reserve(static_cast<std::size_t>((K + 1) * n));
+  row_tasks.reserve(static_cast<std::size_t>((K + 1) * n));
+  for (std::int64_t k = 0; k < K; ++k) {
+    for (std::int64_t j = 0; j < n; ++j) state_rows.push_back(j);
+    row_tasks.insert(row_tasks.end(), static_cast<std::size_t>(n), k);
+  }
+  for (std::int64_t j = 0; j < n; ++j) state_rows.push_back(n + j);
+  row_tasks.insert(row_tasks.end(), batch.tasks.begin(), batch.tasks.end());
+  const ag::Tensor scored = ag::softmax(selector_logits(state_parts, state_rows, task_rows, row_tasks), 1);
   const ag::Tensor all = ag::narrow(scored, 0, 0, K * n);
   out.all_task_scores = all.reshape({K, n, M});
   out.scores = ag::index_select(all, own_task_rows(batch.tasks));

@@ -59,8 +59,9 @@ class MAPSPolicy : public Policy {
     ag::Tensor task_rows;
   };
   SelectorFirstLayer selector_first_layer();
-  // The selector's logits from its first layer's output (before the activation).
-  ag::Tensor selector_logits(const ag::Tensor& first_layer);
+  // The selector's logits for rows whose first layer is state_parts[state_rows[i]] + task_rows[tasks[i]].
+  ag::Tensor selector_logits(const ag::Tensor& state_parts, const std::vector<std::int64_t>& state_rows,
+                             const ag::Tensor& task_rows, const std::vector<std::int64_t>& tasks);
 
   MAPSConfig config_;
   nn::Activation activation_;

@@ -114,6 +114,50 @@ TEST(ParallelLinear, RejectsShapesThatDoNotFit) {
   expect_throw_with([&] { ag::parallel_linear(ag::zeros({5, 3}), w, ag::zeros({2, 4})); }, {"expected [2, 1, 4]"});
 }
 
+TEST(LinearAndParallelLinear, FastGradientsEqualTheRecordedOnesOverSeveralRowBlocksAndThreads) {
+  // 1100 rows: three blocks of 512 rows; on two threads the weight and bias sums come from two ranges.
+  for (const int threads : {1, 2}) {
+    ThreadsGuard guard(threads);
+    for (const Fused act : {Fused::None, Fused::Tanh}) {
+      const Tensor x = randn64({1100, 7}, 50), w = randn64({9, 7}, 51), b = randn64({9}, 52);
+      const Tensor g = randn64({1100, 9}, 53, false);
+      const Tensor y = ag::linear(x, w, b, act);
+      const std::vector<Tensor> fast = ag::grad({y}, {x, w, b}, {g}, true, false);
+      const std::vector<Tensor> recorded = ag::grad({y}, {x, w, b}, {g}, true, true);
+      for (std::size_t i = 0; i < fast.size(); ++i)
+        expect_close(fast[i], recorded[i].detach(), 1e-11,
+                     "linear gradient " + std::to_string(i) + " on " + std::to_string(threads) + " thread(s)");
+      const Tensor px = randn64({3, 1100, 5}, 54), pw = randn64({3, 5, 4}, 55), pb = randn64({3, 1, 4}, 56);
+      const Tensor pg = randn64({3, 1100, 4}, 57, false);
+      const Tensor py = ag::parallel_linear(px, pw, pb, act);
+      const std::vector<Tensor> pfast = ag::grad({py}, {px, pw, pb}, {pg}, true, false);
+      const std::vector<Tensor> precorded = ag::grad({py}, {px, pw, pb}, {pg}, true, true);
+      for (std::size_t i = 0; i < pfast.size(); ++i)
+        expect_close(pfast[i], precorded[i].detach(), 1e-11,
+                     "parallel_linear gradient " + std::to_string(i) + " on " + std::to_string(threads) + " thread(s)");
+    }
+  }
+}
+
+TEST(GatherAdd, SumsTheChosenRowsAndDifferentiates) {
+  const Tensor a = randn64({3, 4}, 60), b = randn64({2, 4}, 61);
+  const std::vector<std::int64_t> a_rows = {0, 2, 2, 1, 0}, b_rows = {1, 1, 0, 0, 1};
+  const Tensor plain = ag::index_select(a, a_rows) + ag::index_select(b, b_rows);
+  expect_close(ag::gather_add(a, a_rows, b, b_rows), plain, 1e-15, "gather_add");
+  expect_close(ag::gather_add(a, a_rows, b, b_rows, Fused::Tanh), ag::tanh(plain), 1e-15, "gather_add tanh");
+  for (const Fused act : {Fused::None, Fused::Tanh})
+    expect_grad_and_gradgrad(
+        "gather_add", [&](const Inputs& in) { return ag::gather_add(in[0], a_rows, in[1], b_rows, act); }, {a, b});
+}
+
+TEST(GatherAdd, RejectsMismatchedTablesAndIndices) {
+  const Tensor a = ag::zeros({3, 4}), b = ag::zeros({2, 4});
+  expect_throw_with([&] { ag::gather_add(a, {0}, ag::zeros({2, 5}), {0}); }, {"same row length", "[3, 4]", "[2, 5]"});
+  expect_throw_with([&] { ag::gather_add(a, {0, 1}, b, {0}); }, {"2 rows of the first table but 1 of the second"});
+  expect_throw_with([&] { ag::gather_add(a, {3}, b, {0}); }, {"first table's index 3 at position 0", "[0, 3)"});
+  expect_throw_with([&] { ag::gather_add(a, {0}, b, {-1}); }, {"second table's index -1"});
+}
+
 // The kernel's paths, each against plain loops in float64 and float32, on one thread and two: inner dimensions
 // summed in blocks (k = 600 on a small output), narrow outputs done column-major (6 columns, tall), and products
 // big enough to be split by rows and by columns.
