@@ -236,6 +236,11 @@ void backward(const std::vector<Tensor>& outputs, const std::vector<Tensor>& gra
         using T = typename decltype(tag)::type;
         existing.array<T>() += grad.array<T>();
       });
+    } else if (!existing.defined() && !grad.requires_grad() && grad.impl().use_count() == 1 &&
+               grad.impl()->storage.use_count() == 1) {
+      // A fresh tensor that nothing else holds (not another leaf's, not a view): it becomes the stored gradient
+      // without a copy.
+      leaf.set_grad(grad);
     } else {
       // A copy, never an alias: the engine may hand the same tensor to several leaves (add's
       // rule returns its incoming gradient), and clip_grad_norm_ scales grads in place.

@@ -60,6 +60,18 @@ Tensor linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor
 // layers. Gradients are ops again (create_graph works).
 Tensor parallel_linear(const Tensor& x, const Tensor& weight, const Tensor& bias = Tensor(),
                        Fused activation = Fused::None);
+// A stack of parallel_linear layers with `activation` after every one: x [M, B, in] or [B, in] (shared), weights[l]
+// [M, in_l, out_l] (out_l = in_{l+1}), biases one [M, 1, out_l] per layer or none. Runs member by member, each
+// member's whole stack while its activations are in cache (and so its gradients); the threads share out the
+// members. Gradients are ops again when recorded (create_graph).
+Tensor parallel_mlp(const Tensor& x, const std::vector<Tensor>& weights, const std::vector<Tensor>& biases,
+                    Fused activation);
+// A stack of linear layers: x [rows, in], weights[l] [out_l, in_l] (in_{l+1} = out_l), biases one [out_l] per layer
+// or none; `hidden` after every layer but the last, `last` after the last. Runs in blocks of rows, each block
+// through every layer while its activations are in cache (and so its gradients); the threads share out the blocks.
+// Gradients are ops again when recorded (create_graph).
+Tensor mlp(const Tensor& x, const std::vector<Tensor>& weights, const std::vector<Tensor>& biases, Fused hidden,
+           Fused last = Fused::None);
 // act(a[a_rows[i]] + b[b_rows[i]]) for each i: rows of two 2-d tables with the same row length, summed, with the
 // activation in the same pass -> [a_rows.size(), width] (MAPS's selector first layer: a state's part plus its
 // task's row, for every state under every task). Gradients scatter back with index_add.

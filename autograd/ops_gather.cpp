@@ -3,6 +3,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "autograd/grad_mode.h"
 #include "autograd/kernels.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
@@ -19,6 +20,44 @@ void check_rows(const std::vector<std::int64_t>& rows, std::int64_t size, const 
     if (rows[i] < 0 || rows[i] >= size)
       throw std::out_of_range(std::string("gather_add: ") + which + " index " + std::to_string(rows[i]) +
                               " at position " + std::to_string(i) + " is outside [0, " + std::to_string(size) + ")");
+}
+
+// Both tables' gradients in one pass over the output's gradient, not recorded (grad mode off): each row's
+// gradient before the activation is added to its two source rows. Rows repeat, so the threads split the columns.
+Grads scatter_gradients(const Tensor& g, const Tensor& output, const std::vector<std::int64_t>& a_rows,
+                        std::int64_t a_size, const std::vector<std::int64_t>& b_rows, std::int64_t b_size,
+                        const Needs& need) {
+  const std::int64_t rows = g.size(0), width = g.size(1);
+  Grads grads(2);
+  grads[0] = zeros({a_size, width}, g.dtype());
+  grads[1] = zeros({b_size, width}, g.dtype());
+  dispatch_dtype(g.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
+    const T* pg = g.data<T>();
+    const T* py = output.defined() ? output.data<T>() : nullptr;
+    T* da = grads[0].data<T>();
+    T* db = grads[1].data<T>();
+    const std::int64_t grain = rows * width < 2 * detail::kElementwiseGrain ? width : 16;
+    parallel_for(width, grain, [&](std::int64_t c0, std::int64_t c1) {
+      const std::int64_t n = c1 - c0;
+      Array gz(n);
+      for (std::int64_t r = 0; r < rows; ++r) {
+        const Eigen::Map<const Array> gr(pg + r * width + c0, n);
+        if (py != nullptr) {
+          const Eigen::Map<const Array> y(py + r * width + c0, n);
+          gz = gr * (T(1) - y * y);
+        } else {
+          gz = gr;
+        }
+        Eigen::Map<Array>(da + a_rows[static_cast<std::size_t>(r)] * width + c0, n) += gz;
+        Eigen::Map<Array>(db + b_rows[static_cast<std::size_t>(r)] * width + c0, n) += gz;
+      }
+    });
+  });
+  if (!need[0]) grads[0] = Tensor();
+  if (!need[1]) grads[1] = Tensor();
+  return grads;
 }
 
 }  // namespace
@@ -62,6 +101,9 @@ Tensor gather_add(const Tensor& a, const std::vector<std::int64_t>& a_rows, cons
       activation == Fused::Tanh ? "gather_add_tanh" : "gather_add", out, {a, b},
       [a_rows, b_rows, a_size = a.size(0), b_size = b.size(0), activation](const Tensor& g, const Needs& need,
                                                                            Node& self) {
+        if (!GradMode::is_enabled())
+          return scatter_gradients(g, activation == Fused::Tanh ? self.output() : Tensor(), a_rows, a_size, b_rows,
+                                   b_size, need);
         const Tensor gz = activation == Fused::Tanh ? tanh_backward(g, self.output()) : g;
         Grads grads(2);
         if (need[0]) grads[0] = index_add(gz, a_rows, a_size);

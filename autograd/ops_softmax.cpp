@@ -1,6 +1,8 @@
 // softmax and log_softmax over one dim, computed stably (shifted by the max).
+#include <algorithm>
 #include <cmath>
 
+#include "autograd/grad_mode.h"
 #include "autograd/kernels.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
@@ -22,6 +24,35 @@ Tensor softmax_kernel(const Tensor& x, std::int64_t d, bool log_space, const cha
     using T = typename decltype(tag)::type;
     using Mat = Eigen::Array<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     if (s.size == 0) return;
+    if (s.inner == 1) {
+      // Along the last dim: row by row on raw pointers (MAPS's scores: thousands of rows of M = 10), the threads
+      // sharing out the rows.
+      const T* px = x.data<T>();
+      T* po = out.data<T>();
+      const std::int64_t width = s.size;
+      parallel_for(s.outer, std::max<std::int64_t>(1, detail::kElementwiseGrain / width),
+                   [&](std::int64_t r0, std::int64_t r1) {
+                     for (std::int64_t row = r0; row < r1; ++row) {
+                       const T* in = px + row * width;
+                       T* o = po + row * width;
+                       T max = in[0];
+                       for (std::int64_t i = 1; i < width; ++i) max = std::max(max, in[i]);
+                       T total = 0;
+                       for (std::int64_t i = 0; i < width; ++i) {
+                         o[i] = std::exp(in[i] - max);
+                         total += o[i];
+                       }
+                       if (log_space) {
+                         const T log_total = std::log(total);
+                         for (std::int64_t i = 0; i < width; ++i) o[i] = in[i] - max - log_total;
+                       } else {
+                         const T inverse = T(1) / total;
+                         for (std::int64_t i = 0; i < width; ++i) o[i] *= inverse;
+                       }
+                     }
+                   });
+      return;
+    }
     for (std::int64_t o = 0; o < s.outer; ++o) {
       // Rows of m are positions along the dim; columns are the independent inner slices.
       Eigen::Map<const Mat> m(x.data<T>() + o * s.size * s.inner, s.size, s.inner);
@@ -41,6 +72,29 @@ Tensor softmax_kernel(const Tensor& x, std::int64_t d, bool log_space, const cha
   return out;
 }
 
+// y (g - sum(g y)) along the last dim in one pass, not recorded (the backward of softmax without create_graph).
+Tensor softmax_backward_last_dim(const Tensor& g, const Tensor& y) {
+  Tensor out = empty(y.shape(), y.dtype());
+  const std::int64_t width = y.size(-1), rows = width == 0 ? 0 : y.numel() / width;
+  dispatch_dtype(y.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    const T* pg = g.data<T>();
+    const T* py = y.data<T>();
+    T* po = out.data<T>();
+    parallel_for(rows, std::max<std::int64_t>(1, detail::kElementwiseGrain / std::max<std::int64_t>(width, 1)),
+                 [&](std::int64_t r0, std::int64_t r1) {
+                   for (std::int64_t row = r0; row < r1; ++row) {
+                     const T* gr = pg + row * width;
+                     const T* yr = py + row * width;
+                     T dot = 0;
+                     for (std::int64_t i = 0; i < width; ++i) dot += gr[i] * yr[i];
+                     for (std::int64_t i = 0; i < width; ++i) po[row * width + i] = yr[i] * (gr[i] - dot);
+                   }
+                 });
+  });
+  return out;
+}
+
 }  // namespace
 
 Tensor softmax(const Tensor& x, std::int64_t dim) {
@@ -51,6 +105,7 @@ Tensor softmax(const Tensor& x, std::int64_t dim) {
       "softmax", out, {x},
       [d](const Tensor& g, const Needs&, Node& self) {
         const Tensor y = self.output();
+        if (!GradMode::is_enabled() && d == y.dim() - 1) return Grads{softmax_backward_last_dim(g, y)};
         return Grads{mul(y, sub(g, sum(mul(g, y), {d}, true)))};
       },
       true);

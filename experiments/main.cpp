@@ -6,6 +6,7 @@
 #include <iostream>
 #include <string>
 
+#include "experiments/bench_eval.h"
 #include "experiments/bench_step.h"
 #include "experiments/collect.h"
 #include "experiments/demo.h"
@@ -185,6 +186,21 @@ int main(int argc, char** argv) {
   bench_step_cmd->add_flag("--vs-pytorch", bench_step.vs_pytorch,
                            "Also time the same step in PyTorch (experiments/benchmarks/peer_pytorch.py)");
 
+  maps::experiments::BenchEvalOptions bench_eval;
+  CLI::App* bench_eval_cmd = bench_cmd->add_subcommand(
+      "eval", "Time an evaluation of a MAPS policy on a task set and show where the time goes");
+  bench_eval_cmd->add_option("--set", bench_eval.set, "Task set: gravity, modified or mt10")->capture_default_str();
+  bench_eval_cmd->add_option("--episodes", bench_eval.episodes, "Episodes per task")
+      ->check(positive)
+      ->capture_default_str();
+  bench_eval_cmd->add_option("--threads", bench_eval.threads, "Evaluator threads")
+      ->check(positive)
+      ->capture_default_str();
+  bench_eval_cmd->add_option("--max-envs", bench_eval.max_envs, "Envs alive per task")
+      ->check(positive)
+      ->capture_default_str();
+  bench_eval_cmd->add_flag("--json", bench_eval.json, "Print one JSON object");
+
   CLI11_PARSE(app, argc, argv);
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
@@ -197,6 +213,7 @@ int main(int argc, char** argv) {
     if (*train_cmd) return maps::experiments::run_train(train_run);
     if (*eval_cmd) return maps::experiments::run_eval(eval_run);
     if (*bench_step_cmd) return maps::experiments::run_bench_step(bench_step);
+    if (*bench_eval_cmd) return maps::experiments::run_bench_eval(bench_eval);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

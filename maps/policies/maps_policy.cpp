@@ -43,6 +43,15 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
 }
 
 ag::Tensor MAPSPolicy::features(const ag::Tensor& observations) {
+  if (activation_ == nn::Activation::Tanh) {  // the whole stack as one op, module by module (autograd/ops.h)
+    std::vector<ag::Tensor> weights, biases;
+    for (std::size_t slot : module_layers_) {
+      const auto& layer = child_at<nn::ParallelLinear>(slot);
+      weights.push_back(layer.weight());
+      biases.push_back(layer.bias());
+    }
+    return ag::parallel_mlp(observations, weights, biases, ag::Fused::Tanh);
+  }
   ag::Tensor h = observations;
   for (std::size_t slot : module_layers_) h = child_at<nn::ParallelLinear>(slot).forward_activated(h, activation_);
   return h;

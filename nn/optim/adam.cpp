@@ -1,5 +1,6 @@
 #include "nn/optim/adam.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -100,23 +101,35 @@ void Adam::step() {
 
     ag::dispatch_dtype(param.dtype(), [&](auto tag) {
       using T = typename decltype(tag)::type;
-      auto p = param.array<T>();
-      auto g = grad.array<T>();
-      auto m = s.exp_avg.array<T>();
-      auto v = s.exp_avg_sq.array<T>();
+      T* p = param.data<T>();
+      const T* g = grad.data<T>();
+      T* m = s.exp_avg.data<T>();
+      T* v = s.exp_avg_sq.data<T>();
       const T b1 = static_cast<T>(o.beta1), one_minus_b1 = static_cast<T>(1.0 - o.beta1);
       const T b2 = static_cast<T>(o.beta2), one_minus_b2 = static_cast<T>(1.0 - o.beta2);
-      // PyTorch's order of operations (addcmul is (value * g) * g): the Release build matches it bit for bit.
-      auto update_moments = [&](const auto& gd) {
-        m = b1 * m + one_minus_b1 * gd;
-        v = b2 * v + (one_minus_b2 * gd) * gd;
-      };
-      if (o.weight_decay != 0.0) {
-        update_moments(g + static_cast<T>(o.weight_decay) * p);
-      } else {
-        update_moments(g);
-      }
-      p -= static_cast<T>(step_size) * m / (v.sqrt() / static_cast<T>(bias_correction2_sqrt) + static_cast<T>(o.eps));
+      const T decay = static_cast<T>(o.weight_decay), step = static_cast<T>(step_size);
+      const T correction = static_cast<T>(bias_correction2_sqrt), eps = static_cast<T>(o.eps);
+      // The three updates chunk by chunk, so each chunk of the four arrays is read from memory once, in PyTorch's
+      // order of operations (addcmul is (value * g) * g): the Release build matches it bit for bit.
+      using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
+      constexpr std::int64_t kChunk = 2048;
+      ag::parallel_for((param.numel() + kChunk - 1) / kChunk, 8, [&](std::int64_t c0, std::int64_t c1) {
+        for (std::int64_t begin = c0 * kChunk; begin < std::min(param.numel(), c1 * kChunk); begin += kChunk) {
+          const std::int64_t n = std::min(kChunk, param.numel() - begin);
+          Eigen::Map<Array> pc(p + begin, n), mc(m + begin, n), vc(v + begin, n);
+          const Eigen::Map<const Array> gc(g + begin, n);
+          auto update_moments = [&](const auto& gd) {
+            mc = b1 * mc + one_minus_b1 * gd;
+            vc = b2 * vc + (one_minus_b2 * gd) * gd;
+          };
+          if (o.weight_decay != 0.0) {
+            update_moments(gc + decay * pc);
+          } else {
+            update_moments(gc);
+          }
+          pc -= step * mc / (vc.sqrt() / correction + eps);
+        }
+      });
     });
   }
 }
