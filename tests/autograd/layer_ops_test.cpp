@@ -158,6 +158,110 @@ TEST(GatherAdd, RejectsMismatchedTablesAndIndices) {
   expect_throw_with([&] { ag::gather_add(a, {0}, b, {-1}); }, {"second table's index -1"});
 }
 
+// parallel_mlp and mlp against the layer ops they stack.
+TEST(ParallelMlp, EqualsStackedParallelLinearsAndDifferentiates) {
+  for (const bool shared : {false, true}) {
+    for (const bool bias : {false, true}) {
+      for (const Fused act : {Fused::None, Fused::Tanh}) {
+        const std::string what =
+            std::string(shared ? "shared" : "batched") + (bias ? ", bias" : "") + (act == Fused::Tanh ? ", tanh" : "");
+        const Tensor x = shared ? randn64({5, 3}, 70) : randn64({2, 5, 3}, 70);
+        const std::vector<Tensor> w = {randn64({2, 3, 4}, 71), randn64({2, 4, 2}, 72)};
+        const std::vector<Tensor> b =
+            bias ? std::vector<Tensor>{randn64({2, 1, 4}, 73), randn64({2, 1, 2}, 74)} : std::vector<Tensor>{};
+        const Tensor stacked = ag::parallel_linear(ag::parallel_linear(x, w[0], bias ? b[0] : Tensor(), act), w[1],
+                                                   bias ? b[1] : Tensor(), act);
+        expect_close(ag::parallel_mlp(x, w, b, act), stacked, 1e-13, what);
+        Inputs inputs{x, w[0], w[1]};
+        if (bias) inputs.insert(inputs.end(), b.begin(), b.end());
+        expect_grad_and_gradgrad(
+            "parallel_mlp " + what,
+            [act, bias](const Inputs& in) {
+              return ag::parallel_mlp(in[0], {in[1], in[2]},
+                                      bias ? std::vector<Tensor>{in[3], in[4]} : std::vector<Tensor>{}, act);
+            },
+            inputs);
+      }
+    }
+  }
+}
+
+TEST(ParallelMlp, FastGradientsEqualTheRecordedOnes) {
+  for (const int threads : {1, 2}) {
+    ThreadsGuard guard(threads);
+    const Tensor x = randn64({1100, 6}, 80);  // shared input, as MAPS's modules see the observations
+    const std::vector<Tensor> w = {randn64({3, 6, 8}, 81), randn64({3, 8, 8}, 82), randn64({3, 8, 5}, 83)};
+    const std::vector<Tensor> b = {randn64({3, 1, 8}, 84), randn64({3, 1, 8}, 85), randn64({3, 1, 5}, 86)};
+    const Tensor g = randn64({3, 1100, 5}, 87, false);
+    const Tensor y = ag::parallel_mlp(x.detach(), w, b, Fused::Tanh);  // the input needs no gradient: fast path
+    const std::vector<Tensor> params{w[0], w[1], w[2], b[0], b[1], b[2]};
+    const std::vector<Tensor> fast = ag::grad({y}, params, {g}, true, false);
+    const std::vector<Tensor> recorded = ag::grad({y}, params, {g}, true, true);
+    for (std::size_t i = 0; i < fast.size(); ++i)
+      expect_close(fast[i], recorded[i].detach(), 1e-12, "gradient " + std::to_string(i));
+  }
+}
+
+TEST(Mlp, EqualsStackedLinearsAndDifferentiatesOverRowBlocksAndThreads) {
+  for (const int threads : {1, 2}) {
+    ThreadsGuard guard(threads);
+    for (const bool bias : {false, true}) {
+      // 1100 rows: three blocks of 512 on one thread, two ranges on two.
+      const Tensor x = randn64({1100, 6}, 90);
+      const std::vector<Tensor> w = {randn64({8, 6}, 91), randn64({3, 8}, 92)};
+      const std::vector<Tensor> b =
+          bias ? std::vector<Tensor>{randn64({8}, 93), randn64({3}, 94)} : std::vector<Tensor>{};
+      for (const Fused last : {Fused::None, Fused::Tanh}) {
+        const Tensor stacked =
+            ag::linear(ag::linear(x, w[0], bias ? b[0] : Tensor(), Fused::Tanh), w[1], bias ? b[1] : Tensor(), last);
+        const Tensor y = ag::mlp(x, w, b, Fused::Tanh, last);
+        expect_close(y, stacked, 1e-13, "mlp");
+        const Tensor g = randn64({1100, 3}, 95, false);
+        Inputs inputs{x, w[0], w[1]};
+        if (bias) inputs.insert(inputs.end(), b.begin(), b.end());
+        const std::vector<Tensor> fast = ag::grad({y}, inputs, {g}, true, false);
+        const std::vector<Tensor> recorded = ag::grad({y}, inputs, {g}, true, true);
+        const std::vector<Tensor> reference = ag::grad({stacked}, inputs, {g});
+        for (std::size_t i = 0; i < fast.size(); ++i) {
+          expect_close(fast[i], recorded[i].detach(), 1e-11, "mlp gradient " + std::to_string(i));
+          expect_close(fast[i], reference[i], 1e-11, "mlp gradient vs linears " + std::to_string(i));
+        }
+      }
+    }
+  }
+  const Tensor x = randn64({4, 3}, 96), w0 = randn64({5, 3}, 97), w1 = randn64({2, 5}, 98), b0 = randn64({5}, 99),
+               b1 = randn64({2}, 100);
+  expect_grad_and_gradgrad("mlp",
+                           [](const Inputs& in) {
+                             return ag::mlp(in[0], {in[1], in[2]}, {in[3], in[4]}, Fused::Tanh);
+                           },
+                           {x, w0, w1, b0, b1});
+}
+
+TEST(Mlp, RejectsLayersThatDoNotChain) {
+  expect_throw_with(
+      [] {
+        ag::mlp(ag::zeros({4, 3}), {ag::zeros({5, 3}), ag::zeros({2, 4})}, {}, Fused::Tanh);
+      },
+      {"weight 1", "[2, 4]", "does not fit [out, 5]"});
+  expect_throw_with(
+      [] {
+        ag::mlp(ag::zeros({4, 3}), {ag::zeros({5, 3})}, {ag::zeros({4})}, Fused::Tanh);
+      },
+      {"bias 0", "[4]"});
+  expect_throw_with([] { ag::mlp(ag::zeros({4, 3}), {}, {}, Fused::Tanh); }, {"at least one layer"});
+  expect_throw_with(
+      [] {
+        ag::parallel_mlp(ag::zeros({4, 3}), {ag::zeros({2, 3, 5}), ag::zeros({2, 4, 1})}, {}, Fused::Tanh);
+      },
+      {"weight 1", "does not follow [2, ., 5]"});
+  expect_throw_with(
+      [] {
+        ag::parallel_mlp(ag::zeros({4, 3}), {ag::zeros({2, 3, 5})}, {ag::zeros({2, 5})}, Fused::Tanh);
+      },
+      {"bias 0", "[2, 5]"});
+}
+
 // The kernel's paths, each against plain loops in float64 and float32, on one thread and two: inner dimensions
 // summed in blocks (k = 600 on a small output), narrow outputs done column-major (6 columns, tall), and products
 // big enough to be split by rows and by columns.

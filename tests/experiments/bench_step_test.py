@@ -47,6 +47,23 @@ class BenchStep(unittest.TestCase):
         self.assertIn("--threads", done.stderr)
 
 
+class BenchEval(unittest.TestCase):
+    def test_the_time_split_adds_up(self):
+        done = run("bench", "eval", "--set", "gravity", "--episodes", "1", "--json")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        result = json.loads(done.stdout.strip().splitlines()[-1])
+        self.assertEqual((result["tasks"], result["horizon"]), (5, 1000))
+        parts = result["setup_seconds"] + result["env_seconds"] + result["policy_seconds"]
+        self.assertGreater(result["env_seconds"], 0)
+        self.assertGreater(result["policy_seconds"], 0)
+        self.assertLessEqual(parts, result["wall_seconds"] * 1.05)  # one evaluator thread: the parts fit the wall time
+
+    def test_bad_set_is_named(self):
+        done = run("bench", "eval", "--set", "cheetah")
+        self.assertNotEqual(done.returncode, 0)
+        self.assertIn("cheetah", done.stderr)
+
+
 class PeerPyTorch(unittest.TestCase):
     def test_without_torch_it_says_so_and_skips(self):
         # -S leaves out site-packages, where Debian's torch lives.
