@@ -161,6 +161,9 @@ int main(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   train_cmd->add_option("--out", train_run.out, "Run folder (resumes a run of the same config)")->required();
+  train_cmd->add_option("--threads", train_run.threads, "Op threads for the training steps (docs/performance.md)")
+      ->check(positive)
+      ->capture_default_str();
 
   maps::experiments::EvalRunOptions eval_run;
   CLI::App* eval_cmd = app.add_subcommand("eval", "Evaluate a trained run on held-out initial states");

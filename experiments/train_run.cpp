@@ -32,6 +32,7 @@ int run_train(const TrainRunOptions& options) {
               config.data.subsample, static_cast<unsigned long long>(config.seed),
               static_cast<long long>(config.train.steps), options.out.c_str());
   std::fflush(stdout);
+  ag::set_num_threads(options.threads);
   const core::TrainSummary summary = core::train_policy(*policy, data, config.train, options.out, &std::cout);
 
   nlohmann::json seeds = nlohmann::json::object();

@@ -70,6 +70,10 @@ class PeerPyTorch(unittest.TestCase):
         done = subprocess.run([sys.executable, "-S", str(PEER), "--json"], capture_output=True, text=True, timeout=60)
         self.assertEqual(done.returncode, 0, done.stderr)
         self.assertIn("PyTorch is not installed", json.loads(done.stdout.strip())["skipped"])
+        done = subprocess.run([sys.executable, "-S", str(PEER), "--threads", "2", "--json"], capture_output=True,
+                              text=True, timeout=60)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertIn("skipped", json.loads(done.stdout.strip()))
 
     def test_factored_selector_equals_the_plain_one(self):
         try:
