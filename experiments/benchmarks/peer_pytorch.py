@@ -91,29 +91,29 @@ def build(torch, S, A, K):
     return params
 
 
-def selector_scores(torch, p, obs, S, K):
-    """Softmax scores [K, n, M] of every state under every task; the first layer's state part once per state."""
-    w0 = p["selector0.w"]
-    state_part = obs @ w0[:S]  # [n, H]
-    h = torch.tanh(state_part.unsqueeze(0) + (w0[S:] + p["selector0.b"]).unsqueeze(1))  # [K, n, H]
+def selector_rest(torch, p, h):
+    """The selector's layers after the first, on its first layer's output h, then the softmax over modules."""
     layers = len(SELECTOR_HIDDEN) + 1
     for i in range(1, layers):
         h = h @ p[f"selector{i}.w"] + p[f"selector{i}.b"]
         if i + 1 < layers:
             h = torch.tanh(h)
     return torch.softmax(h, dim=-1)
+
+
+def selector_scores(torch, p, obs, S, K):
+    """Softmax scores [K, n, M] of every state under every task; the first layer's state part once per state."""
+    w0 = p["selector0.w"]
+    state_part = obs @ w0[:S]  # [n, H]
+    h = torch.tanh(state_part.unsqueeze(0) + (w0[S:] + p["selector0.b"]).unsqueeze(1))  # [K, n, H]
+    return selector_rest(torch, p, h)
 
 
 def own_task_scores(torch, p, obs, tasks, S, K):
     """Scores [n, M] of each state under its own task."""
     w0 = p["selector0.w"]
     h = torch.tanh(obs @ w0[:S] + w0[S:][tasks] + p["selector0.b"])
-    layers = len(SELECTOR_HIDDEN) + 1
-    for i in range(1, layers):
-        h = h @ p[f"selector{i}.w"] + p[f"selector{i}.b"]
-        if i + 1 < layers:
-            h = torch.tanh(h)
-    return torch.softmax(h, dim=-1)
+    return selector_rest(torch, p, h)
 
 
 def loss(torch, p, batch, S, K):
