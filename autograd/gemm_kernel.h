@@ -26,10 +26,11 @@ using ConstStridedMap = Eigen::Map<const RowMatrix<T>, 0, Eigen::OuterStride<>>;
 
 // Eigen 3.4's blocking heuristic keeps the whole inner dimension as one block for small outputs, and for inner
 // dimensions from about 384 to 1000 then runs at 40% of its speed, its packed panels no longer in L1 (measured on a
-// [128, 128] output: X^T G at 62-70 GFLOP/s for k = 384..896, 144-147 in blocks of 256). A small output is re-read
-// cheaply, so its products are summed in inner blocks; a large output (the 1024^3 reference) is left to Eigen,
-// whose own blocking does well there and loses 8% to the extra passes.
-constexpr std::int64_t kInnerBlock = 256;
+// [128, 128] output: X^T G at 62-70 GFLOP/s for k = 384..896, 144-147 in blocks of 256; k = 320 in one block ran
+// at 150). A small output is re-read cheaply, so its products are summed in equal inner blocks of at most 320; a
+// large output (the 1024^3 reference) is left to Eigen, whose own blocking does well there and loses 8% to the
+// extra passes.
+constexpr std::int64_t kInnerBlock = 320;
 constexpr std::int64_t kInnerBlockedOutput = 256 * 256;
 
 // A row-major output this narrow (a policy's 4-10 actions or modules) and at least this many times as tall is
@@ -72,7 +73,9 @@ void gemm_serial(MatrixRef<const T> a, bool ta, MatrixRef<const T> b, bool tb, M
     }
     return;
   }
-  const std::int64_t block = c.rows * c.cols <= kInnerBlockedOutput ? kInnerBlock : k;
+  // Equal blocks of at most kInnerBlock: an inner dimension of 320 stays one block, 640 makes two of 320.
+  const std::int64_t blocks = c.rows * c.cols <= kInnerBlockedOutput ? (k + kInnerBlock - 1) / kInnerBlock : 1;
+  const std::int64_t block = (k + blocks - 1) / blocks;
   for (std::int64_t start = 0; start < k; start += block) {
     const std::int64_t len = std::min(block, k - start);
     const bool add = accumulate || start > 0;

@@ -1,6 +1,5 @@
 // Layer ops: linear and parallel_linear, each one GEMM per layer with the bias and the activation in the same pass.
 #include <algorithm>
-#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -36,7 +35,8 @@ Grads parallel_linear_gradients(const Tensor& g, const Tensor& output, const Ten
   const std::int64_t M = weight.size(0), in = weight.size(1), cols = weight.size(2), rows = g.size(1);
   Grads grads(has_bias ? 3 : 2);
   if (need[0]) grads[0] = empty({M, rows, in}, x.dtype());
-  if (need[1]) grads[1] = empty(weight.shape(), weight.dtype());
+  // Written by the first block of rows: without rows, nothing writes them.
+  if (need[1]) grads[1] = rows == 0 ? zeros(weight.shape(), weight.dtype()) : empty(weight.shape(), weight.dtype());
   if (has_bias && need[2]) grads[2] = empty({M, 1, cols}, weight.dtype());
   dispatch_dtype(g.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
@@ -91,14 +91,13 @@ Grads linear_gradients(const Tensor& g, const Tensor& output, const Tensor& x, c
     using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
     using Matrix = RowMatrix<T>;
     const std::int64_t units = (rows + 15) / 16;
-    const std::int64_t grain = rows * cols * in < detail::kParallelGemmWork ? units : 1;
-    const std::int64_t ranges = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), units / grain));
-    // One weight and bias sum per range, each range taking the next slot.
+    const std::int64_t ranges =
+        std::max<std::int64_t>(1, parallel_ranges(units, rows * cols * in < detail::kParallelGemmWork ? units : 1));
+    // One weight and bias sum per range (all zero when there are no rows), added up in range order.
     std::vector<Matrix> weight_sums(static_cast<std::size_t>(ranges), Matrix::Zero(want_weight ? cols : 0, in));
     std::vector<Array> bias_sums(static_cast<std::size_t>(ranges), Array::Zero(want_bias ? cols : 0));
-    std::atomic<std::int64_t> next_range{0};
-    parallel_for(units, grain, [&](std::int64_t u0, std::int64_t u1) {
-      const std::size_t range = static_cast<std::size_t>(next_range++);
+    parallel_for_ranges(units, ranges, [&](std::int64_t r, std::int64_t u0, std::int64_t u1) {
+      const std::size_t range = static_cast<std::size_t>(r);
       Matrix scratch(std::min(kRowBlock, rows), cols);
       for (std::int64_t r0 = u0 * 16, last = std::min(rows, u1 * 16); r0 < last; r0 += kRowBlock) {
         const std::int64_t r1 = std::min(last, r0 + kRowBlock), count = (r1 - r0) * cols;

@@ -1,7 +1,6 @@
 // mlp: a stack of linear layers run block of rows by block of rows, so that each block's activations and gradients
 // pass from layer to layer in cache instead of through memory.
 #include <algorithm>
-#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -83,9 +82,9 @@ Grads fast_gradients(const Layers& s, const Tensor& g, const Tensor& x, const st
     using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
     using Matrix = RowMatrix<T>;
     const std::int64_t units = (s.rows + 15) / 16;
-    const std::int64_t grain = multiply_adds(s) < detail::kParallelGemmWork ? units : 1;
-    const std::int64_t ranges = std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), units / grain));
-    // Per range (each range takes the next slot) and layer: the weight and bias sums.
+    const std::int64_t ranges =
+        std::max<std::int64_t>(1, parallel_ranges(units, multiply_adds(s) < detail::kParallelGemmWork ? units : 1));
+    // Per range and layer: the weight and bias sums (zero when there are no rows), added up in range order.
     std::vector<std::vector<Matrix>> weight_sums(static_cast<std::size_t>(ranges));
     std::vector<std::vector<Array>> bias_sums(static_cast<std::size_t>(ranges));
     for (std::size_t r = 0; r < weight_sums.size(); ++r)
@@ -94,9 +93,8 @@ Grads fast_gradients(const Layers& s, const Tensor& g, const Tensor& x, const st
         weight_sums[r].push_back(Matrix::Zero(need[slot] ? s.widths[l + 1] : 0, s.widths[l]));
         bias_sums[r].push_back(Array::Zero(s.has_bias && need[slot + 1] ? s.widths[l + 1] : 0));
       }
-    std::atomic<std::int64_t> next_range{0};
-    parallel_for(units, grain, [&](std::int64_t u0, std::int64_t u1) {
-      const std::size_t range = static_cast<std::size_t>(next_range++);
+    parallel_for_ranges(units, ranges, [&](std::int64_t r, std::int64_t u0, std::int64_t u1) {
+      const std::size_t range = static_cast<std::size_t>(r);
       Matrix upper(std::min(kRowBlock, s.rows), widest), lower(std::min(kRowBlock, s.rows), widest);
       Array block_sums(widest);
       for (std::int64_t r0 = u0 * 16, last = std::min(s.rows, u1 * 16); r0 < last; r0 += kRowBlock) {
@@ -105,12 +103,13 @@ Grads fast_gradients(const Layers& s, const Tensor& g, const Tensor& x, const st
         for (std::int64_t l = s.count - 1; l >= 0; --l) {
           const std::int64_t in = s.widths[l], out = s.widths[l + 1], count = n * out;
           const std::size_t slot = 1 + per_layer * static_cast<std::size_t>(l);
-          T* gz = upper.data();
+          // The gradient before the activation: computed into the scratch block (over grad_out when that is the
+          // scratch block: the same index is read and written), or grad_out itself without an activation.
+          const T* gz = grad_out;
           if (s.activations[static_cast<std::size_t>(l)] == Fused::Tanh) {
             const Eigen::Map<const Array> y(outputs[static_cast<std::size_t>(l)].data<T>() + r0 * out, count);
-            Eigen::Map<Array>(gz, count) = Eigen::Map<const Array>(grad_out, count) * (T(1) - y * y);
-          } else {
-            Eigen::Map<Array>(gz, count) = Eigen::Map<const Array>(grad_out, count);
+            Eigen::Map<Array>(upper.data(), count) = Eigen::Map<const Array>(grad_out, count) * (T(1) - y * y);
+            gz = upper.data();
           }
           const MatrixRef<const T> gz_block{gz, n, out, out};
           if (s.has_bias && need[slot + 1]) {

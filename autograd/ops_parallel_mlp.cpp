@@ -92,12 +92,13 @@ Grads fast_gradients(const Stack& s, const Tensor& g, const Tensor& x, const std
         for (std::int64_t l = s.layers - 1; l >= 0; --l) {
           const std::int64_t in = s.widths[l], out = s.widths[l + 1], count = s.rows * out;
           const std::size_t slot = 1 + per_layer * static_cast<std::size_t>(l);
-          T* gz = upper.data();
+          // The gradient before the activation: computed into the scratch block (over grad_out when that is the
+          // scratch block: the same index is read and written), or grad_out itself without an activation.
+          const T* gz = grad_out;
           if (activation == Fused::Tanh) {
             const Eigen::Map<const Array> y(outputs[static_cast<std::size_t>(l)].data<T>() + m * count, count);
-            Eigen::Map<Array>(gz, count) = Eigen::Map<const Array>(grad_out, count) * (T(1) - y * y);
-          } else {
-            Eigen::Map<Array>(gz, count) = Eigen::Map<const Array>(grad_out, count);
+            Eigen::Map<Array>(upper.data(), count) = Eigen::Map<const Array>(grad_out, count) * (T(1) - y * y);
+            gz = upper.data();
           }
           const MatrixRef<const T> gz_m{gz, s.rows, out, out};
           if (s.has_bias && grads[slot + 1].defined())

@@ -23,27 +23,41 @@ void set_num_threads(int threads) {
 
 int num_threads() { return g_threads.load(); }
 
-void parallel_for(std::int64_t count, std::int64_t grain, const std::function<void(std::int64_t, std::int64_t)>& body) {
-  if (count <= 0) return;
-  grain = std::max<std::int64_t>(grain, 1);
-  const std::int64_t ranges = std::min<std::int64_t>(num_threads(), count / grain);
-  if (ranges <= 1 || omp_in_parallel()) {
-    body(0, count);
+std::int64_t parallel_ranges(std::int64_t count, std::int64_t grain) {
+  if (count <= 0) return 0;
+  if (omp_in_parallel()) return 1;
+  return std::max<std::int64_t>(1, std::min<std::int64_t>(num_threads(), count / std::max<std::int64_t>(grain, 1)));
+}
+
+void parallel_for_ranges(std::int64_t count, std::int64_t ranges,
+                         const std::function<void(std::int64_t, std::int64_t, std::int64_t)>& body) {
+  if (count <= 0 || ranges <= 0) return;
+  ranges = std::min(ranges, count);
+  if (ranges == 1 || omp_in_parallel()) {
+    for (std::int64_t r = 0; r < ranges; ++r) body(r, count * r / ranges, count * (r + 1) / ranges);
     return;
   }
   std::exception_ptr error;
   std::mutex error_mutex;
 #pragma omp parallel num_threads(static_cast <int>(ranges))
   {
-    const std::int64_t r = omp_get_thread_num(), used = omp_get_num_threads();
-    try {
-      body(count * r / used, count * (r + 1) / used);
-    } catch (...) {
-      const std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = std::current_exception();
+    // OpenMP may start fewer threads than asked for: then a thread takes several ranges.
+    const std::int64_t used = omp_get_num_threads();
+    for (std::int64_t r = omp_get_thread_num(); r < ranges; r += used) {
+      try {
+        body(r, count * r / ranges, count * (r + 1) / ranges);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
     }
   }
   if (error) std::rethrow_exception(error);
+}
+
+void parallel_for(std::int64_t count, std::int64_t grain, const std::function<void(std::int64_t, std::int64_t)>& body) {
+  parallel_for_ranges(count, parallel_ranges(count, grain),
+                      [&](std::int64_t, std::int64_t begin, std::int64_t end) { body(begin, end); });
 }
 
 }  // namespace maps::ag

@@ -17,4 +17,13 @@ int num_threads();
 // another parallel_for). The first exception a range throws is rethrown here once every range has finished.
 void parallel_for(std::int64_t count, std::int64_t grain, const std::function<void(std::int64_t, std::int64_t)>& body);
 
+// The ranges parallel_for(count, grain, ...) uses now: 0 for an empty count, 1 inside another parallel_for.
+std::int64_t parallel_ranges(std::int64_t count, std::int64_t grain);
+// Calls body(range, begin, end) for range = 0 .. ranges - 1 (at most count), range r covering
+// [count r / ranges, count (r + 1) / ranges), on up to `ranges` threads. For per-range partial results: allocate
+// one slot per range from parallel_ranges() and add them in range order afterwards, which keeps sums the same from
+// run to run. Exceptions as parallel_for.
+void parallel_for_ranges(std::int64_t count, std::int64_t ranges,
+                         const std::function<void(std::int64_t, std::int64_t, std::int64_t)>& body);
+
 }  // namespace maps::ag

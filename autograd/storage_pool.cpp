@@ -21,8 +21,9 @@ namespace maps::ag::detail {
 namespace {
 
 constexpr std::size_t kAlignment = 64;
-// Far above a MAPS step's working set at the paper's shapes (tens of MB), far below the machine's memory.
-constexpr std::size_t kMaxCachedBytes = std::size_t{512} << 20;
+// Above a MAPS step's working set at the paper's shapes (tens of MB; the Modified set's largest), far below the
+// machine's memory even with a grid's runs side by side. Blocks past the cap go back to the system.
+constexpr std::size_t kMaxCachedBytes = std::size_t{256} << 20;
 
 struct Pool {
   std::mutex mutex;

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -115,20 +116,21 @@ TEST(ParallelLinear, RejectsShapesThatDoNotFit) {
 }
 
 TEST(LinearAndParallelLinear, FastGradientsEqualTheRecordedOnesOverSeveralRowBlocksAndThreads) {
-  // 1100 rows: three blocks of 512 rows; on two threads the weight and bias sums come from two ranges.
+  // 1100 rows: three blocks of 512 rows; products above the size the kernels split, so on two threads the weight
+  // and bias sums come from two ranges.
   for (const int threads : {1, 2}) {
     ThreadsGuard guard(threads);
     for (const Fused act : {Fused::None, Fused::Tanh}) {
-      const Tensor x = randn64({1100, 7}, 50), w = randn64({9, 7}, 51), b = randn64({9}, 52);
-      const Tensor g = randn64({1100, 9}, 53, false);
+      const Tensor x = randn64({1100, 64}, 50), w = randn64({64, 64}, 51), b = randn64({64}, 52);
+      const Tensor g = randn64({1100, 64}, 53, false);
       const Tensor y = ag::linear(x, w, b, act);
       const std::vector<Tensor> fast = ag::grad({y}, {x, w, b}, {g}, true, false);
       const std::vector<Tensor> recorded = ag::grad({y}, {x, w, b}, {g}, true, true);
       for (std::size_t i = 0; i < fast.size(); ++i)
         expect_close(fast[i], recorded[i].detach(), 1e-11,
                      "linear gradient " + std::to_string(i) + " on " + std::to_string(threads) + " thread(s)");
-      const Tensor px = randn64({3, 1100, 5}, 54), pw = randn64({3, 5, 4}, 55), pb = randn64({3, 1, 4}, 56);
-      const Tensor pg = randn64({3, 1100, 4}, 57, false);
+      const Tensor px = randn64({3, 1100, 32}, 54), pw = randn64({3, 32, 32}, 55), pb = randn64({3, 1, 32}, 56);
+      const Tensor pg = randn64({3, 1100, 32}, 57, false);
       const Tensor py = ag::parallel_linear(px, pw, pb, act);
       const std::vector<Tensor> pfast = ag::grad({py}, {px, pw, pb}, {pg}, true, false);
       const std::vector<Tensor> precorded = ag::grad({py}, {px, pw, pb}, {pg}, true, true);
@@ -206,11 +208,11 @@ TEST(Mlp, EqualsStackedLinearsAndDifferentiatesOverRowBlocksAndThreads) {
   for (const int threads : {1, 2}) {
     ThreadsGuard guard(threads);
     for (const bool bias : {false, true}) {
-      // 1100 rows: three blocks of 512 on one thread, two ranges on two.
-      const Tensor x = randn64({1100, 6}, 90);
-      const std::vector<Tensor> w = {randn64({8, 6}, 91), randn64({3, 8}, 92)};
+      // 1100 rows, 4.7M multiply-adds: three blocks of 512 on one thread, two ranges on two.
+      const Tensor x = randn64({1100, 64}, 90);
+      const std::vector<Tensor> w = {randn64({64, 64}, 91), randn64({3, 64}, 92)};
       const std::vector<Tensor> b =
-          bias ? std::vector<Tensor>{randn64({8}, 93), randn64({3}, 94)} : std::vector<Tensor>{};
+          bias ? std::vector<Tensor>{randn64({64}, 93), randn64({3}, 94)} : std::vector<Tensor>{};
       for (const Fused last : {Fused::None, Fused::Tanh}) {
         const Tensor stacked =
             ag::linear(ag::linear(x, w[0], bias ? b[0] : Tensor(), Fused::Tanh), w[1], bias ? b[1] : Tensor(), last);
@@ -260,6 +262,30 @@ TEST(Mlp, RejectsLayersThatDoNotChain) {
         ag::parallel_mlp(ag::zeros({4, 3}), {ag::zeros({2, 3, 5})}, {ag::zeros({2, 5})}, Fused::Tanh);
       },
       {"bias 0", "[2, 5]"});
+}
+
+TEST(LayerOps, NoRowsGiveZeroWeightGradientsAndNoCrash) {
+  for (const Fused act : {Fused::None, Fused::Tanh}) {
+    const Tensor w = randn64({5, 4}, 110), b = randn64({5}, 111);
+    const std::vector<Tensor> lg = ag::grad({ag::sum(ag::linear(randn64({0, 4}, 112), w, b, act))}, {w, b});
+    agtest::expect_values(lg[0], {5, 4}, std::vector<double>(20, 0.0));
+    agtest::expect_values(lg[1], {5}, std::vector<double>(5, 0.0));
+    const std::vector<Tensor> mw = {randn64({5, 4}, 113), randn64({2, 5}, 114)};
+    const std::vector<Tensor> mg = ag::grad({ag::sum(ag::mlp(randn64({0, 4}, 115), mw, {}, act))}, mw);
+    agtest::expect_values(mg[0], {5, 4}, std::vector<double>(20, 0.0));
+    const Tensor pw = randn64({2, 4, 3}, 116), pb = randn64({2, 1, 3}, 117);
+    for (int reuse = 0; reuse < 2; ++reuse) {  // the second time, the pool hands back the first one's blocks
+      const std::vector<Tensor> pg =
+          ag::grad({ag::sum(ag::parallel_linear(randn64({2, 0, 4}, 118), pw, pb, act))}, {pw, pb});
+      agtest::expect_values(pg[0], {2, 4, 3}, std::vector<double>(24, 0.0));
+      agtest::expect_values(pg[1], {2, 1, 3}, std::vector<double>(6, 0.0));
+    }
+    const std::vector<Tensor> sg =
+        ag::grad({ag::sum(ag::parallel_mlp(randn64({2, 0, 4}, 119), {pw}, {pb}, act))}, {pw});
+    agtest::expect_values(sg[0], {2, 4, 3}, std::vector<double>(24, 0.0));
+  }
+  agtest::expect_values(ag::gemm(randn64({3, 0}, 120, false), randn64({0, 4}, 121, false), false, false), {3, 4},
+                        std::vector<double>(12, 0.0));
 }
 
 // The kernel's paths, each against plain loops in float64 and float32, on one thread and two: inner dimensions
@@ -347,6 +373,28 @@ TEST(ParallelFor, RethrowsARangesExceptionAndRunsNestedCallsInPlace) {
     });
   });
   EXPECT_EQ(inner_ranges.load(), 2);  // one whole inner range per outer range
+}
+
+TEST(ParallelFor, RangesAreFixedByCountAndRangesOnAnyThreadCount) {
+  for (const int threads : {1, 2}) {
+    ThreadsGuard guard(threads);
+    std::vector<std::array<std::int64_t, 2>> seen(3, {-1, -1});
+    ag::parallel_for_ranges(10, 3, [&](std::int64_t r, std::int64_t begin, std::int64_t end) {
+      seen[static_cast<std::size_t>(r)] = {begin, end};
+    });
+    EXPECT_EQ(seen, (std::vector<std::array<std::int64_t, 2>>{{0, 3}, {3, 6}, {6, 10}}));
+    std::atomic<int> calls{0};
+    ag::parallel_for_ranges(2, 5, [&](std::int64_t r, std::int64_t begin, std::int64_t end) {
+      EXPECT_EQ(end - begin, 1) << r;  // more ranges than items: one item each
+      ++calls;
+    });
+    EXPECT_EQ(calls.load(), 2);
+    EXPECT_EQ(ag::parallel_ranges(0, 4), 0);
+    EXPECT_EQ(ag::parallel_ranges(100, 10), threads);
+    EXPECT_EQ(ag::parallel_ranges(100, 60), 1);
+  }
+  ThreadsGuard guard(2);
+  ag::parallel_for(100, 1, [](std::int64_t, std::int64_t) { EXPECT_EQ(ag::parallel_ranges(100, 1), 1); });
 }
 
 TEST(ParallelFor, RejectsAThreadCountBelowOne) {

@@ -116,6 +116,38 @@ TEST(MAPSPolicy, SelectorScoresAreTheMLPOnTheStateAndTheOneHotTask) {
   EXPECT_NEAR(terms.terms[4].second.item(), smooth, 1e-14);
 }
 
+TEST(MAPSPolicy, OtherActivationsAndASelectorWithoutHiddenLayers) {
+  // relu takes the layer-by-layer path (only tanh is fused), and a selector with no hidden layer is one linear map
+  // of [s, one_hot(k)]: both still compute the paper's model with consistent gradients.
+  MAPSConfig config = tiny_config();
+  config.activation = "relu";
+  config.selector_hidden = {};
+  ag::Generator gen(8);
+  MAPSPolicy policy({3, 2, 2}, config, gen);
+  policy.to(Dtype::Float64);
+  Batch batch = random_batch(3, 2, 3, 2, gen);
+  const Tensor input = ag::concat({batch.observations, ag::one_hot(batch.tasks, 2, Dtype::Float64)}, 1);
+  const Tensor expected = ag::softmax(
+      ag::linear(input, policy.parameter("selector.layers.0.weight"), policy.parameter("selector.layers.0.bias")), 1);
+  const Tensor scores = policy.scores(batch.observations, batch.tasks);
+  for (std::int64_t i = 0; i < scores.numel(); ++i) EXPECT_NEAR(scores.at(i), expected.at(i), 1e-14);
+  // 3 modules, 6 states of 3 numbers, hidden sizes 6 then 5.
+  Tensor h = ag::expand(batch.observations, {3, 6, 3});
+  for (const std::string layer : {"modules0", "modules1"})
+    h = ag::relu(ag::matmul(h, policy.parameter(layer + ".weight")) + policy.parameter(layer + ".bias"));
+  const Tensor features = policy.features(batch.observations);
+  for (std::int64_t i = 0; i < features.numel(); ++i) EXPECT_NEAR(features.at(i), h.at(i), 1e-14);
+  const Tensor obs = batch.observations.requires_grad_();
+  const auto result = ag::gradcheck("MAPS loss (relu, no selector hidden layer)",
+                                    ag::SingleFunction([&](const std::vector<Tensor>& in) {
+                                      Batch b = batch;
+                                      b.observations = in[0];
+                                      return policy.loss(b).total;
+                                    }),
+                                    {obs});
+  EXPECT_TRUE(result.ok) << result.message;
+}
+
 TEST(MAPSPolicy, LossIsWeightedSumOfBCAndSelectorTerms) {
   ag::Generator gen(3);
   MAPSConfig config = tiny_config();
