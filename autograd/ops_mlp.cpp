@@ -22,12 +22,7 @@ using detail::column_sums;
 using detail::kRowBlock;
 using detail::MatrixRef;
 
-struct Layers {
-  std::int64_t rows, count;
-  bool has_bias;
-  std::vector<std::int64_t> widths;  // in, out_0, ..., out_{L-1}
-  std::vector<Fused> activations;    // after each layer
-};
+using Layers = detail::LinearStack;
 
 Layers check_layers(const Tensor& x, const std::vector<Tensor>& weights, const std::vector<Tensor>& biases,
                     Fused hidden, Fused last) {
@@ -68,11 +63,58 @@ std::int64_t multiply_adds(const Layers& s) {
   return work;
 }
 
-// The gradients from the recorded outputs without recording (grad mode off), block of rows by block: the gradient
-// flows down the layers through two scratch blocks that stay in cache; each thread sums its own weight and bias
-// gradients, added up at the end. Inputs are ordered x, w_0, [b_0], ...
-Grads fast_gradients(const Layers& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
-                     const std::vector<Tensor>& outputs, const Needs& need) {
+// The same gradients as ops (create_graph): the layers are run again as linear ops so their outputs are on the
+// graph, then the chain rule is written with ops.
+Grads recorded_gradients(const Layers& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
+                         const std::vector<Tensor>& biases, const Needs& need) {
+  std::vector<Tensor> outputs;
+  Tensor h = x;
+  for (std::size_t l = 0; l < weights.size(); ++l) {
+    h = linear(h, weights[l], s.has_bias ? biases[l] : Tensor(), s.activations[l]);
+    outputs.push_back(h);
+  }
+  const std::size_t per_layer = s.has_bias ? 2 : 1;
+  Grads grads(1 + per_layer * weights.size());
+  Tensor grad_out = g;
+  for (std::int64_t l = s.count - 1; l >= 0; --l) {
+    const std::size_t slot = 1 + per_layer * static_cast<std::size_t>(l), li = static_cast<std::size_t>(l);
+    const Tensor gz = s.activations[li] == Fused::Tanh ? tanh_backward(grad_out, outputs[li]) : grad_out;
+    if (s.has_bias && need[slot + 1]) grads[slot + 1] = sum(gz, {0});
+    if (need[slot]) grads[slot] = gemm(gz, l > 0 ? outputs[li - 1] : x, true, false);
+    if (l > 0 || need[0]) grad_out = matmul(gz, weights[li]);
+  }
+  if (need[0]) grads[0] = grad_out;
+  return grads;
+}
+
+}  // namespace
+
+namespace detail {
+
+void linear_stack_forward(const LinearStack& s, const Tensor& x, const std::vector<Tensor>& weights,
+                          const std::vector<Tensor>& biases, std::vector<Tensor> outputs) {
+  dispatch_dtype(x.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    const std::int64_t units = (s.rows + 15) / 16;
+    parallel_for(units, multiply_adds(s) < detail::kParallelGemmWork ? units : 1,
+                 [&](std::int64_t u0, std::int64_t u1) {
+                   for (std::int64_t r0 = u0 * 16, end = std::min(s.rows, u1 * 16); r0 < end; r0 += kRowBlock) {
+                     const std::int64_t r1 = std::min(end, r0 + kRowBlock);
+                     for (std::int64_t l = 0; l < s.count; ++l) {
+                       const std::size_t li = static_cast<std::size_t>(l);
+                       const std::int64_t in = s.widths[l], out = s.widths[l + 1];
+                       const T* input = (l == 0 ? x.data<T>() : outputs[li - 1].data<T>()) + r0 * in;
+                       affine_block<T>({input, r1 - r0, in, in}, {weights[li].data<T>(), out, in, in}, true,
+                                       s.has_bias ? biases[li].data<T>() : nullptr, s.activations[li],
+                                       outputs[li].data<T>() + r0 * out, r1 - r0, out);
+                     }
+                   }
+                 });
+  });
+}
+
+Grads linear_stack_gradients(const LinearStack& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
+                             const std::vector<Tensor>& outputs, const Needs& need) {
   const std::size_t per_layer = s.has_bias ? 2 : 1;
   Grads grads(1 + per_layer * static_cast<std::size_t>(s.count));
   if (need[0]) grads[0] = empty({s.rows, s.widths[0]}, x.dtype());
@@ -149,55 +191,14 @@ Grads fast_gradients(const Layers& s, const Tensor& g, const Tensor& x, const st
   return grads;
 }
 
-// The same gradients as ops (create_graph): the layers are run again as linear ops so their outputs are on the
-// graph, then the chain rule is written with ops.
-Grads recorded_gradients(const Layers& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
-                         const std::vector<Tensor>& biases, const Needs& need) {
-  std::vector<Tensor> outputs;
-  Tensor h = x;
-  for (std::size_t l = 0; l < weights.size(); ++l) {
-    h = linear(h, weights[l], s.has_bias ? biases[l] : Tensor(), s.activations[l]);
-    outputs.push_back(h);
-  }
-  const std::size_t per_layer = s.has_bias ? 2 : 1;
-  Grads grads(1 + per_layer * weights.size());
-  Tensor grad_out = g;
-  for (std::int64_t l = s.count - 1; l >= 0; --l) {
-    const std::size_t slot = 1 + per_layer * static_cast<std::size_t>(l), li = static_cast<std::size_t>(l);
-    const Tensor gz = s.activations[li] == Fused::Tanh ? tanh_backward(grad_out, outputs[li]) : grad_out;
-    if (s.has_bias && need[slot + 1]) grads[slot + 1] = sum(gz, {0});
-    if (need[slot]) grads[slot] = gemm(gz, l > 0 ? outputs[li - 1] : x, true, false);
-    if (l > 0 || need[0]) grad_out = matmul(gz, weights[li]);
-  }
-  if (need[0]) grads[0] = grad_out;
-  return grads;
-}
-
-}  // namespace
+}  // namespace detail
 
 Tensor mlp(const Tensor& x, const std::vector<Tensor>& weights, const std::vector<Tensor>& biases, Fused hidden,
            Fused last) {
   const Layers s = check_layers(x, weights, biases, hidden, last);
   std::vector<Tensor> outputs;
   for (std::int64_t l = 0; l < s.count; ++l) outputs.push_back(empty({s.rows, s.widths[l + 1]}, x.dtype()));
-  dispatch_dtype(x.dtype(), [&](auto tag) {
-    using T = typename decltype(tag)::type;
-    const std::int64_t units = (s.rows + 15) / 16;
-    parallel_for(units, multiply_adds(s) < detail::kParallelGemmWork ? units : 1,
-                 [&](std::int64_t u0, std::int64_t u1) {
-                   for (std::int64_t r0 = u0 * 16, end = std::min(s.rows, u1 * 16); r0 < end; r0 += kRowBlock) {
-                     const std::int64_t r1 = std::min(end, r0 + kRowBlock);
-                     for (std::int64_t l = 0; l < s.count; ++l) {
-                       const std::size_t li = static_cast<std::size_t>(l);
-                       const std::int64_t in = s.widths[l], out = s.widths[l + 1];
-                       const T* input = (l == 0 ? x.data<T>() : outputs[li - 1].data<T>()) + r0 * in;
-                       affine_block<T>({input, r1 - r0, in, in}, {weights[li].data<T>(), out, in, in}, true,
-                                       s.has_bias ? biases[li].data<T>() : nullptr, s.activations[li],
-                                       outputs[li].data<T>() + r0 * out, r1 - r0, out);
-                     }
-                   }
-                 });
-  });
+  detail::linear_stack_forward(s, x, weights, biases, outputs);
   std::vector<Tensor> inputs{x};
   for (std::size_t l = 0; l < weights.size(); ++l) {
     inputs.push_back(weights[l]);
@@ -210,7 +211,7 @@ Tensor mlp(const Tensor& x, const std::vector<Tensor>& weights, const std::vecto
         if (GradMode::is_enabled()) return recorded_gradients(s, g, x, weights, biases, need);
         std::vector<Tensor> all = hidden_outputs;
         all.push_back(self.output());
-        return fast_gradients(s, g, x, weights, all, need);
+        return detail::linear_stack_gradients(s, g, x, weights, all, need);
       },
       true);
 }

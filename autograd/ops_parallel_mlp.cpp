@@ -22,11 +22,7 @@ using detail::column_sums;
 using detail::kRowBlock;
 using detail::MatrixRef;
 
-struct Stack {
-  std::int64_t members, rows, layers;
-  bool shared, has_bias;
-  std::vector<std::int64_t> widths;  // in, out_0, ..., out_{L-1}
-};
+using Stack = detail::ParallelStack;
 
 Stack check_stack(const Tensor& x, const std::vector<Tensor>& weights, const std::vector<Tensor>& biases) {
   detail::check_defined(x, "parallel_mlp", "input");
@@ -69,10 +65,66 @@ Stack check_stack(const Tensor& x, const std::vector<Tensor>& weights, const std
   return s;
 }
 
-// The gradients from the recorded outputs without recording (grad mode off), member by member: the gradient flows
-// down the member's layers through two scratch blocks that stay in cache. Inputs are ordered x, w_0, [b_0], ...
-Grads fast_gradients(const Stack& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
-                     const std::vector<Tensor>& outputs, Fused activation, const Needs& need) {
+// The same gradients as ops (create_graph, or a shared input's gradient): the stack is run again as parallel_linear
+// ops so its outputs are on the graph, then the chain rule is written with ops.
+Grads recorded_gradients(const Stack& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
+                         const std::vector<Tensor>& biases, Fused activation, const Needs& need) {
+  std::vector<Tensor> outputs;
+  Tensor h = x;
+  for (std::size_t l = 0; l < weights.size(); ++l) {
+    h = parallel_linear(h, weights[l], s.has_bias ? biases[l] : Tensor(), activation);
+    outputs.push_back(h);
+  }
+  const std::size_t per_layer = s.has_bias ? 2 : 1;
+  Grads grads(1 + per_layer * weights.size());
+  Tensor grad_out = g;
+  for (std::int64_t l = s.layers - 1; l >= 0; --l) {
+    const std::size_t slot = 1 + per_layer * static_cast<std::size_t>(l);
+    const Tensor gz =
+        activation == Fused::Tanh ? tanh_backward(grad_out, outputs[static_cast<std::size_t>(l)]) : grad_out;
+    if (s.has_bias && need[slot + 1]) grads[slot + 1] = sum(gz, {1}, true);
+    const Tensor input =
+        l > 0 ? outputs[static_cast<std::size_t>(l - 1)] : (s.shared ? expand(x, {s.members, s.rows, s.widths[0]}) : x);
+    if (need[slot]) grads[slot] = gemm(input, gz, true, false);
+    if (l > 0 || need[0]) grad_out = gemm(gz, weights[static_cast<std::size_t>(l)], false, true);
+  }
+  if (need[0]) grads[0] = s.shared ? sum(grad_out, {0}) : grad_out;
+  return grads;
+}
+
+}  // namespace
+
+namespace detail {
+
+void parallel_stack_forward(const ParallelStack& s, const Tensor& x, const std::vector<Tensor>& weights,
+                            const std::vector<Tensor>& biases, Fused activation, std::vector<Tensor> outputs) {
+  dispatch_dtype(x.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    std::int64_t work = 0;
+    for (std::int64_t l = 0; l < s.layers; ++l) work += s.members * s.rows * s.widths[l] * s.widths[l + 1];
+    parallel_for(s.members, work < detail::kParallelGemmWork ? s.members : 1, [&](std::int64_t m0, std::int64_t m1) {
+      for (std::int64_t m = m0; m < m1; ++m) {
+        for (std::int64_t l = 0; l < s.layers; ++l) {
+          const std::int64_t in = s.widths[l], out = s.widths[l + 1];
+          const T* input = l == 0 ? x.data<T>() + (s.shared ? 0 : m * s.rows * in)
+                                  : outputs[static_cast<std::size_t>(l - 1)].data<T>() + m * s.rows * in;
+          const T* bias = s.has_bias ? biases[static_cast<std::size_t>(l)].data<T>() + m * out : nullptr;
+          for (std::int64_t r0 = 0; r0 < s.rows; r0 += kRowBlock) {
+            const std::int64_t r1 = std::min(s.rows, r0 + kRowBlock);
+            affine_block<T>({input + r0 * in, r1 - r0, in, in},
+                            {weights[static_cast<std::size_t>(l)].data<T>() + m * in * out, in, out, out}, false, bias,
+                            activation, outputs[static_cast<std::size_t>(l)].data<T>() + m * s.rows * out + r0 * out,
+                            r1 - r0, out);
+          }
+        }
+      }
+    });
+  });
+}
+
+Grads parallel_stack_gradients(const ParallelStack& s, const Tensor& g, const Tensor& x,
+                               const std::vector<Tensor>& weights, const std::vector<Tensor>& outputs, Fused activation,
+                               const Needs& need) {
   const std::size_t per_layer = s.has_bias ? 2 : 1;
   Grads grads(1 + per_layer * static_cast<std::size_t>(s.layers));
   if (need[0]) grads[0] = empty({s.members, s.rows, s.widths[0]}, x.dtype());
@@ -123,62 +175,14 @@ Grads fast_gradients(const Stack& s, const Tensor& g, const Tensor& x, const std
   return grads;
 }
 
-// The same gradients as ops (create_graph, or a shared input's gradient): the stack is run again as parallel_linear
-// ops so its outputs are on the graph, then the chain rule is written with ops.
-Grads recorded_gradients(const Stack& s, const Tensor& g, const Tensor& x, const std::vector<Tensor>& weights,
-                         const std::vector<Tensor>& biases, Fused activation, const Needs& need) {
-  std::vector<Tensor> outputs;
-  Tensor h = x;
-  for (std::size_t l = 0; l < weights.size(); ++l) {
-    h = parallel_linear(h, weights[l], s.has_bias ? biases[l] : Tensor(), activation);
-    outputs.push_back(h);
-  }
-  const std::size_t per_layer = s.has_bias ? 2 : 1;
-  Grads grads(1 + per_layer * weights.size());
-  Tensor grad_out = g;
-  for (std::int64_t l = s.layers - 1; l >= 0; --l) {
-    const std::size_t slot = 1 + per_layer * static_cast<std::size_t>(l);
-    const Tensor gz =
-        activation == Fused::Tanh ? tanh_backward(grad_out, outputs[static_cast<std::size_t>(l)]) : grad_out;
-    if (s.has_bias && need[slot + 1]) grads[slot + 1] = sum(gz, {1}, true);
-    const Tensor input =
-        l > 0 ? outputs[static_cast<std::size_t>(l - 1)] : (s.shared ? expand(x, {s.members, s.rows, s.widths[0]}) : x);
-    if (need[slot]) grads[slot] = gemm(input, gz, true, false);
-    if (l > 0 || need[0]) grad_out = gemm(gz, weights[static_cast<std::size_t>(l)], false, true);
-  }
-  if (need[0]) grads[0] = s.shared ? sum(grad_out, {0}) : grad_out;
-  return grads;
-}
-
-}  // namespace
+}  // namespace detail
 
 Tensor parallel_mlp(const Tensor& x, const std::vector<Tensor>& weights, const std::vector<Tensor>& biases,
                     Fused activation) {
   const Stack s = check_stack(x, weights, biases);
   std::vector<Tensor> outputs;
   for (std::int64_t l = 0; l < s.layers; ++l) outputs.push_back(empty({s.members, s.rows, s.widths[l + 1]}, x.dtype()));
-  dispatch_dtype(x.dtype(), [&](auto tag) {
-    using T = typename decltype(tag)::type;
-    std::int64_t work = 0;
-    for (std::int64_t l = 0; l < s.layers; ++l) work += s.members * s.rows * s.widths[l] * s.widths[l + 1];
-    parallel_for(s.members, work < detail::kParallelGemmWork ? s.members : 1, [&](std::int64_t m0, std::int64_t m1) {
-      for (std::int64_t m = m0; m < m1; ++m) {
-        for (std::int64_t l = 0; l < s.layers; ++l) {
-          const std::int64_t in = s.widths[l], out = s.widths[l + 1];
-          const T* input = l == 0 ? x.data<T>() + (s.shared ? 0 : m * s.rows * in)
-                                  : outputs[static_cast<std::size_t>(l - 1)].data<T>() + m * s.rows * in;
-          const T* bias = s.has_bias ? biases[static_cast<std::size_t>(l)].data<T>() + m * out : nullptr;
-          for (std::int64_t r0 = 0; r0 < s.rows; r0 += kRowBlock) {
-            const std::int64_t r1 = std::min(s.rows, r0 + kRowBlock);
-            affine_block<T>({input + r0 * in, r1 - r0, in, in},
-                            {weights[static_cast<std::size_t>(l)].data<T>() + m * in * out, in, out, out}, false, bias,
-                            activation, outputs[static_cast<std::size_t>(l)].data<T>() + m * s.rows * out + r0 * out,
-                            r1 - r0, out);
-          }
-        }
-      }
-    });
-  });
+  detail::parallel_stack_forward(s, x, weights, biases, activation, outputs);
   std::vector<Tensor> inputs{x};
   for (std::size_t l = 0; l < weights.size(); ++l) {
     inputs.push_back(weights[l]);
@@ -193,7 +197,7 @@ Tensor parallel_mlp(const Tensor& x, const std::vector<Tensor>& weights, const s
           return recorded_gradients(s, g, x, weights, biases, activation, need);
         std::vector<Tensor> all = hidden;
         all.push_back(self.output());
-        return fast_gradients(s, g, x, weights, all, activation, need);
+        return detail::parallel_stack_gradients(s, g, x, weights, all, activation, need);
       },
       true);
 }
