@@ -40,6 +40,12 @@ ag::Tensor apply_activation(Activation activation, const ag::Tensor& x) {
   throw std::logic_error("apply_activation: invalid Activation value");
 }
 
+std::optional<ag::Fused> fused_activation(Activation activation) {
+  if (activation == Activation::Tanh) return ag::Fused::Tanh;
+  if (activation == Activation::Identity) return ag::Fused::None;
+  return std::nullopt;
+}
+
 std::shared_ptr<UnaryModule> make_activation(Activation activation) {
   switch (activation) {
     case Activation::Identity:

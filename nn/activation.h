@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "nn/module.h"
@@ -51,6 +52,9 @@ Activation activation_from_name(const std::string& name);
 std::string to_string(Activation activation);
 // Applies the activation as a function (no module).
 ag::Tensor apply_activation(Activation activation, const ag::Tensor& x);
+// The activation as the layer ops can run it in their own pass (ag::Fused), or nullopt when they cannot (ReLU,
+// sigmoid: the layer's output then goes through apply_activation).
+std::optional<ag::Fused> fused_activation(Activation activation);
 // The activation as a module.
 std::shared_ptr<UnaryModule> make_activation(Activation activation);
 

@@ -42,7 +42,7 @@ ag::Tensor Linear::forward_activated(const ag::Tensor& x, Activation activation)
                                 std::to_string(in_) + "], got " +
                                 (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
   const ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
-  if (activation == Activation::Tanh) return ag::linear(x, weight(), b, ag::Fused::Tanh);
+  if (const auto fused = fused_activation(activation)) return ag::linear(x, weight(), b, *fused);
   return apply_activation(activation, ag::linear(x, weight(), b));
 }
 

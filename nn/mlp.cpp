@@ -1,5 +1,6 @@
 #include "nn/mlp.h"
 
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -30,8 +31,8 @@ ag::Tensor MLP::forward_from(std::size_t first, const ag::Tensor& x) {
   const std::size_t n = layers.size();
   if (first >= n)
     throw std::out_of_range("MLP::forward_from: layer " + std::to_string(first) + " of " + std::to_string(n));
-  const bool fusable = activation_ == Activation::Tanh || activation_ == Activation::Identity;
-  if (fusable && x.defined() && (x.dim() == 2 || x.dim() == 3) && x.size(-1) == sizes_[first]) {
+  const std::optional<ag::Fused> hidden = fused_activation(activation_);
+  if (hidden && x.defined() && (x.dim() == 2 || x.dim() == 3) && x.size(-1) == sizes_[first]) {
     // The layers as one op, block of rows by block of rows (autograd/ops.h).
     std::vector<ag::Tensor> weights, biases;
     for (std::size_t i = first; i < n; ++i) {
@@ -40,9 +41,8 @@ ag::Tensor MLP::forward_from(std::size_t first, const ag::Tensor& x) {
       if (layer.has_bias()) biases.push_back(layer.bias());
     }
     if (biases.empty() || biases.size() == weights.size()) {
-      const ag::Fused hidden = activation_ == Activation::Tanh ? ag::Fused::Tanh : ag::Fused::None;
       const ag::Tensor rows = x.dim() == 2 ? x : x.reshape({-1, x.size(-1)});
-      const ag::Tensor y = ag::mlp(rows, weights, biases, hidden, activate_last_ ? hidden : ag::Fused::None);
+      const ag::Tensor y = ag::mlp(rows, weights, biases, *hidden, activate_last_ ? *hidden : ag::Fused::None);
       return x.dim() == 2 ? y : y.reshape({x.size(0), x.size(1), sizes_.back()});
     }
   }

@@ -58,7 +58,7 @@ ag::Tensor ParallelLinear::forward_activated(const ag::Tensor& x, Activation act
                                 ", batch, " + std::to_string(in_) + "] or [batch, " + std::to_string(in_) + "], got " +
                                 (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
   const ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
-  if (activation == Activation::Tanh) return ag::parallel_linear(x, weight(), b, ag::Fused::Tanh);
+  if (const auto fused = fused_activation(activation)) return ag::parallel_linear(x, weight(), b, *fused);
   return apply_activation(activation, ag::parallel_linear(x, weight(), b));
 }
 

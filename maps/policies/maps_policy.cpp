@@ -1,6 +1,7 @@
 #include "maps/policies/maps_policy.h"
 
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 
 #include "maps/policies/baseline_util.h"
@@ -43,14 +44,14 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
 }
 
 ag::Tensor MAPSPolicy::features(const ag::Tensor& observations) {
-  if (activation_ == nn::Activation::Tanh) {  // the whole stack as one op, module by module (autograd/ops.h)
+  if (const auto fused = nn::fused_activation(activation_)) {  // the whole stack as one op, module by module
     std::vector<ag::Tensor> weights, biases;
     for (std::size_t slot : module_layers_) {
       const auto& layer = child_at<nn::ParallelLinear>(slot);
       weights.push_back(layer.weight());
       biases.push_back(layer.bias());
     }
-    return ag::parallel_mlp(observations, weights, biases, ag::Fused::Tanh);
+    return ag::parallel_mlp(observations, weights, biases, *fused);
   }
   ag::Tensor h = observations;
   for (std::size_t slot : module_layers_) h = child_at<nn::ParallelLinear>(slot).forward_activated(h, activation_);
@@ -70,10 +71,10 @@ ag::Tensor MAPSPolicy::selector_logits(const ag::Tensor& state_parts, const std:
                                        const ag::Tensor& task_rows, const std::vector<std::int64_t>& tasks) {
   auto& selector = child_at<nn::MLP>(selector_);
   if (selector.num_layers() == 1) return ag::gather_add(state_parts, state_rows, task_rows, tasks);
+  const auto fused = nn::fused_activation(activation_);
   const ag::Tensor hidden =
-      activation_ == nn::Activation::Tanh
-          ? ag::gather_add(state_parts, state_rows, task_rows, tasks, ag::Fused::Tanh)
-          : nn::apply_activation(activation_, ag::gather_add(state_parts, state_rows, task_rows, tasks));
+      fused ? ag::gather_add(state_parts, state_rows, task_rows, tasks, *fused)
+            : nn::apply_activation(activation_, ag::gather_add(state_parts, state_rows, task_rows, tasks));
   return selector.forward_from(1, hidden);
 }
 
@@ -85,7 +86,7 @@ ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<
 ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   const auto [state_weight, task_rows] = selector_first_layer();
   std::vector<std::int64_t> rows(tasks.size());
-  for (std::size_t i = 0; i < rows.size(); ++i) rows[i] = static_cast<std::int64_t>(i);
+  std::iota(rows.begin(), rows.end(), std::int64_t{0});
   return ag::softmax(selector_logits(ag::linear(observations, state_weight), rows, task_rows, tasks), 1);
 }
 

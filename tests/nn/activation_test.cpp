@@ -15,5 +15,12 @@ TEST(Activation, ModulesAndNames) {
   EXPECT_LT(max_abs_diff(nn::make_activation(nn::Activation::Sigmoid)->forward(x), ag::sigmoid(x)), 1e-15);
 }
 
+TEST(Activation, FusedIntoLayerOpsOnlyWhereTheOpsCanRunIt) {
+  EXPECT_EQ(nn::fused_activation(nn::Activation::Tanh), maps::ag::Fused::Tanh);
+  EXPECT_EQ(nn::fused_activation(nn::Activation::Identity), maps::ag::Fused::None);
+  EXPECT_FALSE(nn::fused_activation(nn::Activation::ReLU).has_value());
+  EXPECT_FALSE(nn::fused_activation(nn::Activation::Sigmoid).has_value());
+}
+
 }  // namespace
 }  // namespace nntest
