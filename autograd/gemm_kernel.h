@@ -6,7 +6,9 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <type_traits>
 
+#include "autograd/gemm_f32.h"
 #include "autograd/parallel.h"
 #include "autograd/tensor.h"
 
@@ -40,9 +42,19 @@ constexpr std::int64_t kInnerBlockedOutput = 256 * 256;
 constexpr std::int64_t kNarrowOutput = 12;
 constexpr std::int64_t kNarrowAspect = 4;
 
-// C (=|+=) op(A) op(B), one thread. A and B as stored; op transposes when asked.
+// op(X) of a stored row-major X as strides.
+inline StridedF32 op_strides(MatrixRef<const float> x, bool transposed) {
+  return transposed ? StridedF32{x.data, 1, x.ld} : StridedF32{x.data, x.ld, 1};
+}
+
+// C (=|+=) op(A) op(B), one thread. A and B as stored; op transposes when asked. float32 runs the own kernel
+// (gemm_f32.h) when the build has it, float64 (gradient checks) Eigen's.
 template <typename T>
 void gemm_serial(MatrixRef<const T> a, bool ta, MatrixRef<const T> b, bool tb, MatrixRef<T> c, bool accumulate) {
+  if constexpr (std::is_same_v<T, float> && kHaveF32Kernel) {
+    gemm_f32(op_strides(a, ta), op_strides(b, tb), c.data, c.ld, c.rows, c.cols, ta ? a.rows : a.cols, accumulate);
+    return;
+  }
   ConstStridedMap<T> ma(a.data, a.rows, a.cols, Eigen::OuterStride<>(a.ld));
   ConstStridedMap<T> mb(b.data, b.rows, b.cols, Eigen::OuterStride<>(b.ld));
   StridedMap<T> mc(c.data, c.rows, c.cols, Eigen::OuterStride<>(c.ld));

@@ -25,8 +25,9 @@ Tensor softmax_kernel(const Tensor& x, std::int64_t d, bool log_space, const cha
     using Mat = Eigen::Array<T, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     if (s.size == 0) return;
     if (s.inner == 1) {
-      // Along the last dim: row by row on raw pointers (MAPS's scores: thousands of rows of M = 10), the threads
-      // sharing out the rows.
+      // Along the last dim (MAPS's scores: thousands of rows of M = 10), the threads sharing out the rows: each
+      // range shifted by its rows' maxima, then one vectorised exp over the whole range (std::exp per element
+      // took 3% of a training step), then each row normalised.
       const T* px = x.data<T>();
       T* po = out.data<T>();
       const std::int64_t width = s.size;
@@ -35,20 +36,27 @@ Tensor softmax_kernel(const Tensor& x, std::int64_t d, bool log_space, const cha
                      for (std::int64_t row = r0; row < r1; ++row) {
                        const T* in = px + row * width;
                        T* o = po + row * width;
-                       T max = in[0];
-                       for (std::int64_t i = 1; i < width; ++i) max = std::max(max, in[i]);
-                       T total = 0;
-                       for (std::int64_t i = 0; i < width; ++i) {
-                         o[i] = std::exp(in[i] - max);
-                         total += o[i];
-                       }
-                       if (log_space) {
-                         const T log_total = std::log(total);
-                         for (std::int64_t i = 0; i < width; ++i) o[i] = in[i] - max - log_total;
-                       } else {
+                       const T max = *std::max_element(in, in + width);
+                       for (std::int64_t i = 0; i < width; ++i) o[i] = in[i] - max;
+                     }
+                     Eigen::Map<Eigen::Array<T, Eigen::Dynamic, 1>> range(po + r0 * width, (r1 - r0) * width);
+                     if (!log_space) {
+                       range = range.exp();
+                       for (std::int64_t row = r0; row < r1; ++row) {
+                         T* o = po + row * width;
+                         T total = 0;
+                         for (std::int64_t i = 0; i < width; ++i) total += o[i];
                          const T inverse = T(1) / total;
                          for (std::int64_t i = 0; i < width; ++i) o[i] *= inverse;
                        }
+                       return;
+                     }
+                     for (std::int64_t row = r0; row < r1; ++row) {
+                       T* o = po + row * width;
+                       T total = 0;
+                       for (std::int64_t i = 0; i < width; ++i) total += std::exp(o[i]);
+                       const T log_total = std::log(total);
+                       for (std::int64_t i = 0; i < width; ++i) o[i] -= log_total;
                      }
                    });
       return;

@@ -20,12 +20,12 @@ mv "$out.partial" "$out"
 /usr/bin/python3 - "$out" <<'PY'
 import json, sys
 rows = [json.loads(line) for line in open(sys.argv[1]) if line.strip()]
-print("| set | threads | ms/step | GFLOP/s | Eigen GEMM GFLOP/s | share of GEMM | PyTorch ms/step | speed-up vs PyTorch |")
-print("|---|---|---|---|---|---|---|---|")
+print("| set | threads | ms/step | GFLOP/s | Eigen GEMM GFLOP/s | share of Eigen GEMM | own GEMM GFLOP/s | share of own GEMM "
+      "| PyTorch ms/step | speed-up vs PyTorch |")
+print("|---|---|---|---|---|---|---|---|---|---|")
 for r in rows:
     torch_ms = r.get("pytorch_ms_per_step")
+    torch = f"{torch_ms:.2f} | {r['speedup_vs_pytorch']:.2f}x" if torch_ms else "(no torch) |"
     print(f"| {r['set']} | {r['threads']} | {r['ms_per_step']:.2f} | {r['gflops']:.1f} | {r['gemm_gflops']:.1f} | "
-          f"{r['ratio_to_gemm']:.2f} | {torch_ms:.2f} | {r['speedup_vs_pytorch']:.2f}x |" if torch_ms else
-          f"| {r['set']} | {r['threads']} | {r['ms_per_step']:.2f} | {r['gflops']:.1f} | {r['gemm_gflops']:.1f} | "
-          f"{r['ratio_to_gemm']:.2f} | (no torch) | |")
+          f"{r['ratio_to_gemm']:.2f} | {r['own_gemm_gflops']:.1f} | {r['ratio_to_own_gemm']:.2f} | {torch} |")
 PY

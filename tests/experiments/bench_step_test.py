@@ -24,11 +24,12 @@ class BenchStep(unittest.TestCase):
         done = run("bench", "step", "--set", "mt10", "--seconds", "0.2", "--json")
         self.assertEqual(done.returncode, 0, done.stderr)
         result = json.loads(done.stdout.strip().splitlines()[-1])
-        for key in ("ms_per_step", "gflops", "gemm_gflops", "ratio_to_gemm"):
+        for key in ("ms_per_step", "gflops", "gemm_gflops", "ratio_to_gemm", "own_gemm_gflops", "ratio_to_own_gemm"):
             self.assertIn(key, result)
             self.assertTrue(math.isfinite(result[key]) and result[key] > 0, key)
         self.assertAlmostEqual(result["gflops"], result["gflop_per_step"] / (result["ms_per_step"] * 1e-3), delta=1e-6 * result["gflops"])
         self.assertAlmostEqual(result["ratio_to_gemm"], result["gflops"] / result["gemm_gflops"], places=9)
+        self.assertAlmostEqual(result["ratio_to_own_gemm"], result["gflops"] / result["own_gemm_gflops"], places=9)
         self.assertEqual(result["states"], 320)
         self.assertGreaterEqual(result["steps_timed"], 10)
 
@@ -37,6 +38,7 @@ class BenchStep(unittest.TestCase):
         self.assertEqual(done.returncode, 0, done.stderr)
         self.assertIn("set gravity: 640 states (5 tasks x 128)", done.stdout)
         self.assertIn("Eigen float32 GEMM 1024^3", done.stdout)
+        self.assertIn("maps's own float32 GEMM 1024^3", done.stdout)
 
     def test_bad_set_and_threads_are_named(self):
         done = run("bench", "step", "--set", "cheetah", "--seconds", "0.1")

@@ -1,0 +1,133 @@
+// The float32 GEMM kernel (autograd/gemm_f32.h) against plain double loops: every tile shape and remainder, both
+// storage orders of both operands, inner blocks, narrow outputs, output strides, accumulation; and through ag::gemm,
+// the same bits on one thread and two.
+
+#include "autograd/gemm_f32.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "autograd/autograd.h"
+
+namespace {
+
+namespace ag = maps::ag;
+using ag::detail::gemm_f32;
+using ag::detail::StridedF32;
+
+struct Product {
+  std::int64_t m, n, k;
+  bool ta, tb;
+};
+
+std::string describe(const Product& p, bool accumulate) {
+  return std::to_string(p.m) + "x" + std::to_string(p.n) + "x" + std::to_string(p.k) + (p.ta ? " A^T" : "") +
+         (p.tb ? " B^T" : "") + (accumulate ? " +=" : " =");
+}
+
+// Runs gemm_f32 on random operands stored as asked, C with 3 spare columns per row, and checks every element
+// against the double sum within float32's bound (k ulps of the sum of |a b|); the spare columns must keep their
+// sentinel, and without accumulate C's old NaNs must not leak in.
+void check(const Product& p, bool accumulate, std::mt19937& rng) {
+  SCOPED_TRACE(describe(p, accumulate));
+  std::normal_distribution<float> normal;
+  const std::int64_t a_rows = p.ta ? p.k : p.m, a_cols = p.ta ? p.m : p.k;
+  const std::int64_t b_rows = p.tb ? p.n : p.k, b_cols = p.tb ? p.k : p.n;
+  std::vector<float> a(static_cast<std::size_t>(a_rows * a_cols)), b(static_cast<std::size_t>(b_rows * b_cols));
+  for (float& v : a) v = normal(rng);
+  for (float& v : b) v = normal(rng);
+  const std::int64_t ldc = p.n + 3;
+  constexpr float kSentinel = 12345.0f;
+  std::vector<float> c(static_cast<std::size_t>(p.m * ldc), kSentinel);
+  std::vector<float> before(c.size());
+  for (std::int64_t i = 0; i < p.m; ++i)
+    for (std::int64_t j = 0; j < p.n; ++j)
+      c[static_cast<std::size_t>(i * ldc + j)] = accumulate ? normal(rng) : std::numeric_limits<float>::quiet_NaN();
+  before = c;
+
+  const StridedF32 sa = p.ta ? StridedF32{a.data(), 1, a_cols} : StridedF32{a.data(), a_cols, 1};
+  const StridedF32 sb = p.tb ? StridedF32{b.data(), 1, b_cols} : StridedF32{b.data(), b_cols, 1};
+  gemm_f32(sa, sb, c.data(), ldc, p.m, p.n, p.k, accumulate);
+
+  for (std::int64_t i = 0; i < p.m; ++i) {
+    for (std::int64_t j = 0; j < ldc; ++j) {
+      const std::size_t at = static_cast<std::size_t>(i * ldc + j);
+      if (j >= p.n) {
+        ASSERT_EQ(c[at], kSentinel) << "wrote past column " << p.n << " at (" << i << ", " << j << ")";
+        continue;
+      }
+      double sum = accumulate ? before[at] : 0.0, magnitude = accumulate ? std::abs(before[at]) : 0.0;
+      for (std::int64_t q = 0; q < p.k; ++q) {
+        const double x = sa.data[i * sa.row_stride + q * sa.col_stride],
+                     y = sb.data[q * sb.row_stride + j * sb.col_stride];
+        sum += x * y;
+        magnitude += std::abs(x * y);
+      }
+      const double tol = 2.0 * static_cast<double>(p.k + 1) * std::numeric_limits<float>::epsilon() * magnitude + 1e-30;
+      ASSERT_NEAR(c[at], sum, tol) << "at (" << i << ", " << j << ")";
+    }
+  }
+}
+
+TEST(GemmF32, EveryTileShapeAndRemainderMatchesPlainLoops) {
+  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  std::mt19937 rng(7);
+  // Rows around the 8- and 12-row tiles, columns around the 16- and 32-column panels, inner sizes within one block,
+  // exactly one, and split in equal blocks (321 -> 2 x 161).
+  for (const std::int64_t m : {1, 7, 8, 9, 13, 24, 33})
+    for (const std::int64_t n : {1, 4, 10, 16, 17, 32, 33, 47})
+      for (const std::int64_t k : {1, 5, 33, 321})
+        for (const bool ta : {false, true})
+          for (const bool tb : {false, true})
+            for (const bool accumulate : {false, true}) check({m, n, k, ta, tb}, accumulate, rng);
+}
+
+TEST(GemmF32, TrainingStepShapesMatchPlainLoops) {
+  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  std::mt19937 rng(8);
+  // Past the 256-row and 256-column chunks and several inner blocks; the narrow outputs of a policy head and the
+  // selector's scores in both orientations; MT10's first layer (39 inputs) and its weight gradient.
+  const std::vector<Product> products = {
+      {300, 260, 700, false, false}, {260, 300, 700, true, true}, {520, 10, 128, false, true},
+      {128, 10, 900, true, false},   {128, 4, 320, true, false},  {320, 128, 4, false, true},
+      {320, 128, 39, false, false},  {39, 128, 320, true, false}, {40, 6, 64, true, true},
+  };
+  for (const Product& p : products)
+    for (const bool accumulate : {false, true}) check(p, accumulate, rng);
+}
+
+TEST(GemmF32, EmptyInnerDimensionZeroesOrKeepsTheOutput) {
+  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  std::vector<float> c(2 * 5, 3.0f);
+  const float none = 0.0f;
+  gemm_f32({&none, 0, 1}, {&none, 3, 1}, c.data(), 5, 2, 3, 0, /*accumulate=*/true);
+  for (std::size_t i = 0; i < c.size(); ++i) EXPECT_EQ(c[i], 3.0f) << i;
+  gemm_f32({&none, 0, 1}, {&none, 3, 1}, c.data(), 5, 2, 3, 0, /*accumulate=*/false);
+  for (std::size_t i = 0; i < c.size(); ++i) EXPECT_EQ(c[i], i % 5 < 3 ? 0.0f : 3.0f) << i;
+  gemm_f32({&none, 0, 1}, {&none, 0, 1}, c.data(), 5, 0, 3, 4, false);  // no rows: nothing read or written
+}
+
+// Each output element is summed in the same order wherever gemm_parallel's split puts its tile.
+TEST(GemmF32, OneAndTwoThreadsGiveTheSameBits) {
+  ag::Generator gen(11);
+  for (const bool ta : {false, true})
+    for (const bool tb : {false, true}) {
+      const ag::Tensor a = ag::randn(ta ? ag::Shape{330, 300} : ag::Shape{300, 330}, gen);
+      const ag::Tensor b = ag::randn(tb ? ag::Shape{140, 330} : ag::Shape{330, 140}, gen);
+      const std::vector<double> one = ag::gemm(a, b, ta, tb).to_vector();
+      ag::set_num_threads(2);
+      const std::vector<double> two = ag::gemm(a, b, ta, tb).to_vector();
+      ag::set_num_threads(1);
+      ASSERT_EQ(one.size(), two.size());
+      for (std::size_t i = 0; i < one.size(); ++i)
+        ASSERT_EQ(one[i], two[i]) << "ta " << ta << " tb " << tb << " at " << i;
+    }
+}
+
+}  // namespace
