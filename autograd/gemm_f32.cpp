@@ -152,14 +152,19 @@ void gemm_f32(StridedF32 a, StridedF32 b, float* c, i64 ldc, i64 m, i64 n, i64 k
   // X^T G), C^T = B^T A^T runs full-width vectors along C's columns over a cheaply packed A; C is written from it.
   // Measured on [128, 320]^T x [320, 4] and [128, 3520]^T x [3520, 10]: 75-125 GFLOP/s this way, 25-70 directly.
   // The choice depends on the operands' layout only, not on m, so gemm_parallel's row split keeps each element's
-  // order of summation.
+  // path.
   if (a.row_stride == 1) {
+    // C^T starts from C when accumulating, so each element is summed as ((C + block 1) + block 2) ..., as on the
+    // other paths (gemm_parallel's column split can send parts of one product down different paths).
     thread_local std::vector<float> transposed;
     transposed.resize(static_cast<std::size_t>(n * m));
+    if (accumulate)
+      for (i64 i = 0; i < m; ++i)
+        for (i64 j = 0; j < n; ++j) transposed[static_cast<std::size_t>(j * m + i)] = c[i * ldc + j];
     blocked_product<12, 2>({b.data, b.col_stride, b.row_stride}, {a.data, a.col_stride, a.row_stride},
-                           transposed.data(), m, n, m, k, false);
+                           transposed.data(), m, n, m, k, accumulate);
     for (i64 i = 0; i < m; ++i)
-      for (i64 j = 0; j < n; ++j) c[i * ldc + j] = (accumulate ? c[i * ldc + j] : 0.0f) + transposed[j * m + i];
+      for (i64 j = 0; j < n; ++j) c[i * ldc + j] = transposed[static_cast<std::size_t>(j * m + i)];
     return;
   }
   blocked_product<12, 1>(a, b, c, ldc, m, n, k, accumulate);

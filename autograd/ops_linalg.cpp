@@ -1,5 +1,5 @@
-// Matrix products through Eigen's GEMM. Transposed operands are read in place (Eigen's
-// .transpose() is a view), so neither the forward pass nor any backward rule copies a transpose.
+// Matrix products through the GEMM kernel (autograd/gemm_kernel.h: the own float32 kernel, else Eigen's).
+// Transposed operands are read in place, so neither the forward pass nor any backward rule copies a transpose.
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -99,6 +99,8 @@ Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_
 }
 
 }  // namespace
+
+const char* float32_gemm_kernel() { return detail::kHaveF32Kernel ? "maps AVX-512" : "Eigen"; }
 
 Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b) {
   return product("gemm", a, b, transpose_a, transpose_b);

@@ -228,7 +228,8 @@ int run_bench_step(const BenchStepOptions& options) {
                         {"gemm_gflops", gemm},
                         {"ratio_to_gemm", gflops / gemm},
                         {"own_gemm_gflops", own_gemm},
-                        {"ratio_to_own_gemm", gflops / own_gemm}};
+                        {"ratio_to_own_gemm", gflops / own_gemm},
+                        {"float32_gemm_kernel", ag::float32_gemm_kernel()}};
   if (options.vs_pytorch) {
     const nlohmann::json peer = run_peer(s.name, options.threads, options.seconds);
     if (!peer.is_null()) {
@@ -257,10 +258,10 @@ int run_bench_step(const BenchStepOptions& options) {
                 "step reaches %.2f of it",
                 gemm_times.size(), gemm, gflops / gemm);
   std::cout << line << "\n";
-  std::snprintf(
-      line, sizeof line,
-      "  maps's own float32 GEMM 1024^3 (the kernel the step runs on): %.1f GFLOP/s; the step reaches %.2f of it",
-      own_gemm, gflops / own_gemm);
+  std::snprintf(line, sizeof line,
+                "  maps's own float32 GEMM 1024^3 (ag::matmul, kernel: %s; what the step runs on): %.1f GFLOP/s; the "
+                "step reaches %.2f of it",
+                ag::float32_gemm_kernel(), own_gemm, gflops / own_gemm);
   std::cout << line << "\n";
   if (result.contains("pytorch_ms_per_step")) {
     std::snprintf(line, sizeof line, "  PyTorch: %.3f ms/step; maps is %.2fx PyTorch",

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <string>
 
 #include "autograd/autograd.h"
 
@@ -34,14 +35,15 @@ Shape shape_of(std::int64_t index) {
   return kShapes[index];
 }
 
-void set_counters(benchmark::State& state, const Shape& s) {
+void set_counters(benchmark::State& state, const Shape& s, const std::string& kernel) {
   state.counters["GFLOP/s"] =
       benchmark::Counter(2.0 * static_cast<double>(s.m * s.n * s.k) * static_cast<double>(state.iterations()) * 1e-9,
                          benchmark::Counter::kIsRate);
   state.SetLabel(std::to_string(s.m) + "x" + std::to_string(s.n) + "x" + std::to_string(s.k) + (s.ta ? " A^T" : "") +
-                 (s.tb ? " B^T" : ""));
+                 (s.tb ? " B^T" : "") + " (" + kernel + ")");
 }
 
+// ag::gemm's float32 kernel: maps's own where the build has AVX-512, else Eigen's (the label says which).
 void BM_GemmOwn(benchmark::State& state) {
   const Shape s = shape_of(state.range(0));
   ag::set_num_threads(1);
@@ -53,7 +55,7 @@ void BM_GemmOwn(benchmark::State& state) {
     ag::Tensor c = ag::gemm(a, b, s.ta, s.tb);
     benchmark::DoNotOptimize(c.data<float>());
   }
-  set_counters(state, s);
+  set_counters(state, s, ag::float32_gemm_kernel());
 }
 
 void BM_GemmEigen(benchmark::State& state) {
@@ -73,7 +75,7 @@ void BM_GemmEigen(benchmark::State& state) {
     }
     benchmark::DoNotOptimize(c.data());
   }
-  set_counters(state, s);
+  set_counters(state, s, "Eigen");
 }
 
 BENCHMARK(BM_GemmOwn)->DenseRange(0, 7)->Unit(benchmark::kMicrosecond);

@@ -37,11 +37,15 @@ std::string describe(const Product& p, bool accumulate) {
 void check(const Product& p, bool accumulate, std::mt19937& rng) {
   SCOPED_TRACE(describe(p, accumulate));
   std::normal_distribution<float> normal;
-  const std::int64_t a_rows = p.ta ? p.k : p.m, a_cols = p.ta ? p.m : p.k;
-  const std::int64_t b_rows = p.tb ? p.n : p.k, b_cols = p.tb ? p.k : p.n;
-  std::vector<float> a(static_cast<std::size_t>(a_rows * a_cols)), b(static_cast<std::size_t>(b_rows * b_cols));
-  for (float& v : a) v = normal(rng);
-  for (float& v : b) v = normal(rng);
+  // The operands are stored with 2 spare NaN columns per row (as gemm_parallel's blocks of a larger matrix are):
+  // reading one would poison the result.
+  const std::int64_t a_rows = p.ta ? p.k : p.m, a_cols = p.ta ? p.m : p.k, lda = a_cols + 2;
+  const std::int64_t b_rows = p.tb ? p.n : p.k, b_cols = p.tb ? p.k : p.n, ldb = b_cols + 2;
+  std::vector<float> a(static_cast<std::size_t>(a_rows * lda)), b(static_cast<std::size_t>(b_rows * ldb));
+  for (std::size_t i = 0; i < a.size(); ++i)
+    a[i] = static_cast<std::int64_t>(i) % lda < a_cols ? normal(rng) : std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < b.size(); ++i)
+    b[i] = static_cast<std::int64_t>(i) % ldb < b_cols ? normal(rng) : std::numeric_limits<float>::quiet_NaN();
   const std::int64_t ldc = p.n + 3;
   constexpr float kSentinel = 12345.0f;
   std::vector<float> c(static_cast<std::size_t>(p.m * ldc), kSentinel);
@@ -51,8 +55,8 @@ void check(const Product& p, bool accumulate, std::mt19937& rng) {
       c[static_cast<std::size_t>(i * ldc + j)] = accumulate ? normal(rng) : std::numeric_limits<float>::quiet_NaN();
   before = c;
 
-  const StridedF32 sa = p.ta ? StridedF32{a.data(), 1, a_cols} : StridedF32{a.data(), a_cols, 1};
-  const StridedF32 sb = p.tb ? StridedF32{b.data(), 1, b_cols} : StridedF32{b.data(), b_cols, 1};
+  const StridedF32 sa = p.ta ? StridedF32{a.data(), 1, lda} : StridedF32{a.data(), lda, 1};
+  const StridedF32 sb = p.tb ? StridedF32{b.data(), 1, ldb} : StridedF32{b.data(), ldb, 1};
   gemm_f32(sa, sb, c.data(), ldc, p.m, p.n, p.k, accumulate);
 
   for (std::int64_t i = 0; i < p.m; ++i) {
@@ -97,6 +101,7 @@ TEST(GemmF32, TrainingStepShapesMatchPlainLoops) {
       {300, 260, 700, false, false}, {260, 300, 700, true, true}, {520, 10, 128, false, true},
       {128, 10, 900, true, false},   {128, 4, 320, true, false},  {320, 128, 4, false, true},
       {320, 128, 39, false, false},  {39, 128, 320, true, false}, {40, 6, 64, true, true},
+      {300, 10, 50, true, false},    {270, 16, 700, true, true},
   };
   for (const Product& p : products)
     for (const bool accumulate : {false, true}) check(p, accumulate, rng);
@@ -113,21 +118,28 @@ TEST(GemmF32, EmptyInnerDimensionZeroesOrKeepsTheOutput) {
   gemm_f32({&none, 0, 1}, {&none, 0, 1}, c.data(), 5, 0, 3, 4, false);  // no rows: nothing read or written
 }
 
-// Each output element is summed in the same order wherever gemm_parallel's split puts its tile.
+// Each output element is summed in the same order wherever gemm_parallel's split puts its tile: split by rows
+// (taller than wide) and by columns (wider than tall, the parts of a transposed-A product then narrow enough for
+// the narrow path).
 TEST(GemmF32, OneAndTwoThreadsGiveTheSameBits) {
+  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
   ag::Generator gen(11);
-  for (const bool ta : {false, true})
-    for (const bool tb : {false, true}) {
-      const ag::Tensor a = ag::randn(ta ? ag::Shape{330, 300} : ag::Shape{300, 330}, gen);
-      const ag::Tensor b = ag::randn(tb ? ag::Shape{140, 330} : ag::Shape{330, 140}, gen);
-      const std::vector<double> one = ag::gemm(a, b, ta, tb).to_vector();
-      ag::set_num_threads(2);
-      const std::vector<double> two = ag::gemm(a, b, ta, tb).to_vector();
-      ag::set_num_threads(1);
-      ASSERT_EQ(one.size(), two.size());
-      for (std::size_t i = 0; i < one.size(); ++i)
-        ASSERT_EQ(one[i], two[i]) << "ta " << ta << " tb " << tb << " at " << i;
-    }
+  struct Sizes {
+    std::int64_t m, n, k;
+  };
+  for (const Sizes s : {Sizes{300, 140, 330}, Sizes{40, 300, 330}, Sizes{20, 2000, 640}})
+    for (const bool ta : {false, true})
+      for (const bool tb : {false, true}) {
+        const ag::Tensor a = ag::randn(ta ? ag::Shape{s.k, s.m} : ag::Shape{s.m, s.k}, gen);
+        const ag::Tensor b = ag::randn(tb ? ag::Shape{s.n, s.k} : ag::Shape{s.k, s.n}, gen);
+        const std::vector<double> one = ag::gemm(a, b, ta, tb).to_vector();
+        ag::set_num_threads(2);
+        const std::vector<double> two = ag::gemm(a, b, ta, tb).to_vector();
+        ag::set_num_threads(1);
+        ASSERT_EQ(one.size(), two.size());
+        for (std::size_t i = 0; i < one.size(); ++i)
+          ASSERT_EQ(one[i], two[i]) << s.m << "x" << s.n << "x" << s.k << " ta " << ta << " tb " << tb << " at " << i;
+      }
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -159,6 +160,32 @@ TEST(Softmax, CrossEntropyCompositeGradgradcheck) {
     return ag::matmul(ag::softmax(ag::matmul(in[0], ag::transpose(in[1], 0, 1)), -1), in[1]);
   };
   expect_grad_and_gradgrad("attention", attention, {randn64({2, 3}, 4), randn64({4, 3}, 5)});
+}
+
+}  // namespace
+
+namespace {
+
+// The last-dim softmax's exp runs on whole ranges of rows: a value's result must not depend on where a thread's
+// range starts (3300 rows of 10 split on two threads), and values far down (-inf, -100) must give 0, as std::exp.
+TEST(Softmax, LastDimSameBitsOnOneAndTwoThreadsAndZeroForMinusInfinity) {
+  for (const Dtype dtype : kBothDtypes) {
+    SCOPED_TRACE(ag::to_string(dtype));
+    const Tensor x = randn64({3300, 10}, 77, false).to(dtype) * 3.0;
+    const std::vector<double> one = ag::softmax(x, -1).to_vector();
+    ag::set_num_threads(2);
+    const std::vector<double> two = ag::softmax(x, -1).to_vector();
+    ag::set_num_threads(1);
+    ASSERT_EQ(one.size(), two.size());
+    for (std::size_t i = 0; i < one.size(); ++i) ASSERT_EQ(one[i], two[i]) << "at " << i;
+
+    const double inf = std::numeric_limits<double>::infinity();
+    const std::vector<double> masked = ag::softmax(tensor({0.0, -inf, -100.0, 0.0}, {1, 4}, dtype), -1).to_vector();
+    EXPECT_EQ(masked[1], 0.0);
+    EXPECT_LT(masked[2], 1e-40);
+    EXPECT_NEAR(masked[0], 0.5, 1e-7);
+    EXPECT_EQ(masked[0], masked[3]);
+  }
 }
 
 }  // namespace
