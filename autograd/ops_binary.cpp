@@ -154,7 +154,8 @@ Tensor rdiv(double a, const Tensor& b) {
 
 Tensor pow(const Tensor& base, double exponent) {
   Tensor out = detail::unary_kernel(
-      base, "pow", [exponent](const auto& x) { return x.pow(static_cast<detail::scalar_of<decltype(x)>>(exponent)); });
+      base, "pow", [exponent](const auto& x) { return x.pow(static_cast<detail::scalar_of<decltype(x)>>(exponent)); },
+      detail::kTranscendentalGrain);
   return record("pow_scalar", out, {base}, [base, exponent](const Tensor& g, const Needs&, Node&) {
     if (exponent == 0.0) return Grads{zeros_like(g)};
     if (exponent == 1.0) return Grads{g};

@@ -10,6 +10,7 @@
 
 namespace maps::ag {
 
+using detail::kTranscendentalGrain;
 using detail::scalar_of;
 using detail::unary_kernel;
 using Grads = std::vector<Tensor>;
@@ -33,13 +34,15 @@ Tensor neg(const Tensor& x) {
 }
 
 Tensor exp(const Tensor& x) {
-  Tensor out = unary_kernel(x, "exp", [](const auto& a) { return a.exp(); });
+  Tensor out = unary_kernel(
+      x, "exp", [](const auto& a) { return a.exp(); }, kTranscendentalGrain);
   return record(
       "exp", out, {x}, [](const Tensor& g, const Needs&, Node& self) { return Grads{mul(g, self.output())}; }, true);
 }
 
 Tensor log(const Tensor& x) {
-  Tensor out = unary_kernel(x, "log", [](const auto& a) { return a.log(); });
+  Tensor out = unary_kernel(
+      x, "log", [](const auto& a) { return a.log(); }, kTranscendentalGrain);
   return record("log", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{div(g, x)}; });
 }
 
@@ -87,7 +90,8 @@ Tensor relu(const Tensor& x) {
 }
 
 Tensor tanh(const Tensor& x) {
-  Tensor out = unary_kernel(x, "tanh", [](const auto& a) { return a.tanh(); });
+  Tensor out = unary_kernel(
+      x, "tanh", [](const auto& a) { return a.tanh(); }, kTranscendentalGrain);
   return record(
       "tanh", out, {x},
       [](const Tensor& g, const Needs&, Node& self) { return Grads{tanh_backward(g, self.output())}; }, true);

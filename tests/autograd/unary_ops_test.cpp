@@ -200,3 +200,28 @@ TEST(UnaryOps, CompositeGradgradcheck) {
 }
 
 }  // namespace
+
+namespace {
+
+// Elementwise ops split their ranges on multiples of 16 elements, so Eigen's vector loops take every element down
+// the same path on any thread count: the same bits on one thread and two (33,001 elements: split off the middle).
+TEST(UnaryOps, SameBitsOnOneAndTwoThreads) {
+  for (const Dtype dtype : kBothDtypes) {
+    SCOPED_TRACE(ag::to_string(dtype));
+    ag::Generator gen(21);
+    const Tensor x = ag::rand({33001}, gen, dtype, 0.1, 3.0);
+    const std::vector<std::function<Tensor(const Tensor&)>> ops = {
+        [](const Tensor& t) { return ag::exp(t); }, [](const Tensor& t) { return ag::log(t); },
+        [](const Tensor& t) { return ag::tanh(t); }, [](const Tensor& t) { return ag::pow(t, 0.4343); },
+        [](const Tensor& t) { return ag::square(t); }};
+    for (std::size_t i = 0; i < ops.size(); ++i) {
+      const std::vector<double> one = ops[i](x).to_vector();
+      ag::set_num_threads(2);
+      const std::vector<double> two = ops[i](x).to_vector();
+      ag::set_num_threads(1);
+      for (std::size_t j = 0; j < one.size(); ++j) ASSERT_EQ(one[j], two[j]) << "op " << i << " at " << j;
+    }
+  }
+}
+
+}  // namespace
