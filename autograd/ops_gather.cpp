@@ -1,7 +1,9 @@
 // gather_add: the sum of two row lookups with an activation in one pass (MAPS's selector first layer for every
 // state under every task: a state's part plus its task's row).
+#include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "autograd/grad_mode.h"
 #include "autograd/kernels.h"
@@ -23,38 +25,50 @@ void check_rows(const std::vector<std::int64_t>& rows, std::int64_t size, const 
 }
 
 // Both tables' gradients in one pass over the output's gradient, not recorded (grad mode off): each row's
-// gradient before the activation is added to its two source rows. Rows repeat, so the threads split the columns.
+// gradient before the activation is added to its two source rows. Rows repeat, so each thread's range of rows
+// adds into tables of its own, summed in range order afterwards. (Split by columns instead, each thread read half
+// of every row and the pass took 2.4x the CPU time of one thread: the Modified set's 16,896 rows x 128.)
 Grads scatter_gradients(const Tensor& g, const Tensor& output, const std::vector<std::int64_t>& a_rows,
                         std::int64_t a_size, const std::vector<std::int64_t>& b_rows, std::int64_t b_size,
                         const Needs& need) {
   const std::int64_t rows = g.size(0), width = g.size(1);
-  Grads grads(2);
-  grads[0] = zeros({a_size, width}, g.dtype());
-  grads[1] = zeros({b_size, width}, g.dtype());
+  const std::int64_t ranges =
+      parallel_ranges(rows, std::max<std::int64_t>(1, detail::kElementwiseGrain / std::max<std::int64_t>(width, 1)));
+  std::vector<Tensor> a_parts(static_cast<std::size_t>(std::max<std::int64_t>(ranges, 1)));
+  std::vector<Tensor> b_parts(a_parts.size());
+  for (std::size_t r = 0; r < a_parts.size(); ++r) {
+    a_parts[r] = zeros({a_size, width}, g.dtype());
+    b_parts[r] = zeros({b_size, width}, g.dtype());
+  }
   dispatch_dtype(g.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     using Array = Eigen::Array<T, Eigen::Dynamic, 1>;
     const T* pg = g.data<T>();
     const T* py = output.defined() ? output.data<T>() : nullptr;
-    T* da = grads[0].data<T>();
-    T* db = grads[1].data<T>();
-    const std::int64_t grain = rows * width < 2 * detail::kElementwiseGrain ? width : 16;
-    parallel_for(width, grain, [&](std::int64_t c0, std::int64_t c1) {
-      const std::int64_t n = c1 - c0;
-      Array gz(n);
-      for (std::int64_t r = 0; r < rows; ++r) {
-        const Eigen::Map<const Array> gr(pg + r * width + c0, n);
+    parallel_for_ranges(rows, ranges, [&](std::int64_t range, std::int64_t r0, std::int64_t r1) {
+      T* da = a_parts[static_cast<std::size_t>(range)].data<T>();
+      T* db = b_parts[static_cast<std::size_t>(range)].data<T>();
+      Array gz(width);
+      for (std::int64_t r = r0; r < r1; ++r) {
+        const Eigen::Map<const Array> gr(pg + r * width, width);
         if (py != nullptr) {
-          const Eigen::Map<const Array> y(py + r * width + c0, n);
+          const Eigen::Map<const Array> y(py + r * width, width);
           gz = gr * (T(1) - y * y);
         } else {
           gz = gr;
         }
-        Eigen::Map<Array>(da + a_rows[static_cast<std::size_t>(r)] * width + c0, n) += gz;
-        Eigen::Map<Array>(db + b_rows[static_cast<std::size_t>(r)] * width + c0, n) += gz;
+        Eigen::Map<Array>(da + a_rows[static_cast<std::size_t>(r)] * width, width) += gz;
+        Eigen::Map<Array>(db + b_rows[static_cast<std::size_t>(r)] * width, width) += gz;
       }
     });
+    for (std::size_t r = 1; r < a_parts.size(); ++r) {
+      Eigen::Map<Array>(a_parts[0].data<T>(), a_size * width) +=
+          Eigen::Map<const Array>(a_parts[r].data<T>(), a_size * width);
+      Eigen::Map<Array>(b_parts[0].data<T>(), b_size * width) +=
+          Eigen::Map<const Array>(b_parts[r].data<T>(), b_size * width);
+    }
   });
+  Grads grads{a_parts[0], b_parts[0]};
   if (!need[0]) grads[0] = Tensor();
   if (!need[1]) grads[1] = Tensor();
   return grads;

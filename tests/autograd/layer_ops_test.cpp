@@ -152,6 +152,29 @@ TEST(GatherAdd, SumsTheChosenRowsAndDifferentiates) {
         "gather_add", [&](const Inputs& in) { return ag::gather_add(in[0], a_rows, in[1], b_rows, act); }, {a, b});
 }
 
+// The unrecorded scatter (each range of rows into tables of its own, summed after) against the recorded ops, on
+// one thread and two, with enough rows to split (600 rows of 64: ranges from 256 rows) and repeated indices.
+TEST(GatherAdd, FastGradientsEqualTheRecordedOnesOnOneAndTwoThreads) {
+  const Tensor a = randn64({7, 64}, 62), b = randn64({50, 64}, 63);
+  std::vector<std::int64_t> a_rows, b_rows;
+  for (std::int64_t r = 0; r < 600; ++r) {
+    a_rows.push_back(r % 7);
+    b_rows.push_back((r * 13) % 50);
+  }
+  const Tensor g = randn64({600, 64}, 64, false);
+  for (const int threads : {1, 2}) {
+    ThreadsGuard guard(threads);
+    for (const Fused act : {Fused::None, Fused::Tanh}) {
+      const Tensor y = ag::gather_add(a, a_rows, b, b_rows, act);
+      const std::vector<Tensor> fast = ag::grad({y}, {a, b}, {g}, true, false);
+      const std::vector<Tensor> recorded = ag::grad({y}, {a, b}, {g}, true, true);
+      for (std::size_t i = 0; i < fast.size(); ++i)
+        expect_close(fast[i], recorded[i].detach(), 1e-11,
+                     "gather_add gradient " + std::to_string(i) + " on " + std::to_string(threads) + " thread(s)");
+    }
+  }
+}
+
 TEST(GatherAdd, RejectsMismatchedTablesAndIndices) {
   const Tensor a = ag::zeros({3, 4}), b = ag::zeros({2, 4});
   expect_throw_with([&] { ag::gather_add(a, {0}, ag::zeros({2, 5}), {0}); }, {"same row length", "[3, 4]", "[2, 5]"});
