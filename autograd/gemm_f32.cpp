@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-#if defined(__AVX512F__)
+#if MAPS_F32_KERNEL
 #include <immintrin.h>
 
 #include <algorithm>
@@ -11,14 +11,59 @@
 
 namespace maps::ag::detail {
 
-#if defined(__AVX512F__)
+#if MAPS_F32_KERNEL
 namespace {
 
 using i64 = std::int64_t;
-constexpr int kLanes = 16;  // floats per AVX-512 register
 
-// Inner dimension summed in equal blocks of at most this many: an 8-row strip of A (10 KB) and a packed
-// 32-column panel of B (40 KB) stay in L1 while a tile is summed.
+// The vector instructions the kernel is written in, and its tile shapes for them: C's tile (rows x vectors) must
+// fit the registers with the vectors of B and a broadcast of A beside it.
+#if defined(__AVX512F__)
+struct Isa {
+  static constexpr int kLanes = 16;                      // floats per register; 32 registers
+  static constexpr int kTileRows = 8, kTileVectors = 2;  // 16 accumulators
+  static constexpr int kNarrowRows = 12;                 // outputs of one register's width: 12 accumulators
+  static constexpr int kTransposedRows = 12, kTransposedVectors = 2;  // C^T of a narrow output: 24 accumulators
+  using V = __m512;
+  static V zero() { return _mm512_setzero_ps(); }
+  static V load(const float* p) { return _mm512_loadu_ps(p); }
+  static V broadcast(float x) { return _mm512_set1_ps(x); }
+  static V fma(V a, V b, V c) { return _mm512_fmadd_ps(a, b, c); }
+  static V add(V a, V b) { return _mm512_add_ps(a, b); }
+  static void store(float* p, V v) { _mm512_storeu_ps(p, v); }
+  // The first n (0..16) floats at p, zero past them; lanes past n are neither read nor written.
+  static __mmask16 mask(int n) {
+    if (n <= 0) return 0;
+    return n >= kLanes ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << n) - 1u);
+  }
+  static V load_first(const float* p, int n) { return _mm512_maskz_loadu_ps(mask(n), p); }
+  static void store_first(float* p, V v, int n) { _mm512_mask_storeu_ps(p, mask(n), v); }
+};
+#else
+struct Isa {
+  static constexpr int kLanes = 8;                                   // floats per register; 16 registers
+  static constexpr int kTileRows = 6, kTileVectors = 2;              // 12 accumulators
+  static constexpr int kNarrowRows = 8;                              // 8 accumulators
+  static constexpr int kTransposedRows = 6, kTransposedVectors = 2;  // 12 accumulators
+  using V = __m256;
+  static V zero() { return _mm256_setzero_ps(); }
+  static V load(const float* p) { return _mm256_loadu_ps(p); }
+  static V broadcast(float x) { return _mm256_set1_ps(x); }
+  static V fma(V a, V b, V c) { return _mm256_fmadd_ps(a, b, c); }
+  static V add(V a, V b) { return _mm256_add_ps(a, b); }
+  static void store(float* p, V v) { _mm256_storeu_ps(p, v); }
+  static __m256i mask(int n) {
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);  // lane i on when i < n
+  }
+  static V load_first(const float* p, int n) { return _mm256_maskload_ps(p, mask(n)); }
+  static void store_first(float* p, V v, int n) { _mm256_maskstore_ps(p, mask(n), v); }
+};
+#endif
+constexpr int kLanes = Isa::kLanes;
+
+// Inner dimension summed in equal blocks of at most this many: a strip of A's rows (10 KB for 8 rows) and a
+// packed panel of B (40 KB for 32 columns) stay in L1 while a tile is summed.
 constexpr i64 kInnerBlock = 320;
 // Rows of A per pass over the packed panels (a [256, 320] strip is 320 KB: it stays in L2 while every panel of B
 // goes by), and columns of B packed at once.
@@ -27,37 +72,31 @@ constexpr i64 kColumnChunk = 256;
 // A row-major B whose rows are fewer floats apart than this is read in place.
 constexpr i64 kInPlaceRowStride = 256;
 
-// The masks of the vectors of a row of a tile holding `cols` valid columns.
-inline __mmask16 lane_mask(int cols) {
-  if (cols <= 0) return 0;
-  return cols >= kLanes ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << cols) - 1u);
-}
-
 // C tile [MR, cols] (=|+=) sum over k < kc of A(r, k) * panel[k, :], the panel's rows `panel_ld` apart and readable
 // to the full tile width, and A(r, k) at a[r * a_rs + k * a_cs]. (Masked reads of the panel, tried for narrow
 // panels read in place, halved the kernel's speed: narrow panels are packed instead.)
 template <int MR, int NV>
 void tile(const float* a, i64 a_rs, i64 a_cs, const float* panel, i64 panel_ld, i64 kc, float* c, i64 ldc, bool add,
           int cols) {
-  __m512 acc[MR][NV];
+  Isa::V acc[MR][NV];
   for (int r = 0; r < MR; ++r)
-    for (int v = 0; v < NV; ++v) acc[r][v] = _mm512_setzero_ps();
+    for (int v = 0; v < NV; ++v) acc[r][v] = Isa::zero();
   for (i64 k = 0; k < kc; ++k) {
-    __m512 b[NV];
-    for (int v = 0; v < NV; ++v) b[v] = _mm512_loadu_ps(panel + k * panel_ld + v * kLanes);
+    Isa::V b[NV];
+    for (int v = 0; v < NV; ++v) b[v] = Isa::load(panel + k * panel_ld + v * kLanes);
     const float* ak = a + k * a_cs;
     for (int r = 0; r < MR; ++r) {
-      const __m512 x = _mm512_set1_ps(ak[r * a_rs]);
-      for (int v = 0; v < NV; ++v) acc[r][v] = _mm512_fmadd_ps(x, b[v], acc[r][v]);
+      const Isa::V x = Isa::broadcast(ak[r * a_rs]);
+      for (int v = 0; v < NV; ++v) acc[r][v] = Isa::fma(x, b[v], acc[r][v]);
     }
   }
   for (int r = 0; r < MR; ++r) {
     float* row = c + r * ldc;
     for (int v = 0; v < NV && v * kLanes < cols; ++v) {
-      const __mmask16 mask = lane_mask(cols - v * kLanes);
-      __m512 sum = acc[r][v];
-      if (add) sum = _mm512_add_ps(sum, _mm512_maskz_loadu_ps(mask, row + v * kLanes));
-      _mm512_mask_storeu_ps(row + v * kLanes, mask, sum);
+      const int left = cols - v * kLanes;
+      Isa::V sum = acc[r][v];
+      if (add) sum = Isa::add(sum, Isa::load_first(row + v * kLanes, left));
+      Isa::store_first(row + v * kLanes, sum, left);
     }
   }
 }
@@ -81,7 +120,7 @@ void pack_panel(StridedF32 b, i64 k0, i64 kc, i64 j0, i64 cols, int width, float
     for (i64 k = 0; k < kc; ++k) {
       const float* src = b.data + (k0 + k) * b.row_stride + j0;
       for (int v = 0; v < width; v += kLanes)
-        _mm512_storeu_ps(panel + k * width + v, _mm512_maskz_loadu_ps(lane_mask(static_cast<int>(cols) - v), src + v));
+        Isa::store(panel + k * width + v, Isa::load_first(src + v, static_cast<int>(cols) - v));
     }
     return;
   }
@@ -145,7 +184,7 @@ void gemm_f32(StridedF32 a, StridedF32 b, float* c, i64 ldc, i64 m, i64 n, i64 k
     return;
   }
   if (n > kLanes) {
-    blocked_product<8, 2>(a, b, c, ldc, m, n, k, accumulate);
+    blocked_product<Isa::kTileRows, Isa::kTileVectors>(a, b, c, ldc, m, n, k, accumulate);
     return;
   }
   // A narrow output (a policy's actions, the selector's scores). When A is stored transposed (a weight gradient,
@@ -161,19 +200,20 @@ void gemm_f32(StridedF32 a, StridedF32 b, float* c, i64 ldc, i64 m, i64 n, i64 k
     if (accumulate)
       for (i64 i = 0; i < m; ++i)
         for (i64 j = 0; j < n; ++j) transposed[static_cast<std::size_t>(j * m + i)] = c[i * ldc + j];
-    blocked_product<12, 2>({b.data, b.col_stride, b.row_stride}, {a.data, a.col_stride, a.row_stride},
-                           transposed.data(), m, n, m, k, accumulate);
+    blocked_product<Isa::kTransposedRows, Isa::kTransposedVectors>({b.data, b.col_stride, b.row_stride},
+                                                                   {a.data, a.col_stride, a.row_stride},
+                                                                   transposed.data(), m, n, m, k, accumulate);
     for (i64 i = 0; i < m; ++i)
       for (i64 j = 0; j < n; ++j) c[i * ldc + j] = transposed[static_cast<std::size_t>(j * m + i)];
     return;
   }
-  blocked_product<12, 1>(a, b, c, ldc, m, n, k, accumulate);
+  blocked_product<Isa::kNarrowRows, 1>(a, b, c, ldc, m, n, k, accumulate);
 }
 
 #else
 
 void gemm_f32(StridedF32, StridedF32, float*, std::int64_t, std::int64_t, std::int64_t, std::int64_t, bool) {
-  throw std::logic_error("gemm_f32: this build has no AVX-512 kernel (kHaveF32Kernel is false)");
+  throw std::logic_error("gemm_f32: this build has no AVX-512 or AVX2 kernel (kHaveF32Kernel is false)");
 }
 
 #endif

@@ -1,6 +1,7 @@
 #pragma once
 
-// The float32 matrix product's own kernel (AVX-512), under gemm_serial. Internal to the autograd layer.
+// The float32 matrix product's own kernel (AVX-512, or AVX2 + FMA), under gemm_serial. Internal to the autograd
+// layer.
 //
 // Eigen 3.4's AVX-512 GEMM packs both operands and runs a 48x4 register tile; on this machine's cores (Zen 5) it
 // reaches about 150-160 GFLOP/s on the training step's products ([320, 128] x [128, 128] and the like) and the
@@ -16,10 +17,20 @@
 
 namespace maps::ag::detail {
 
-#if defined(__AVX512F__)
-inline constexpr bool kHaveF32Kernel = true;
+// AVX-512 (8 x 32 tile) or, on CPUs without it (most laptops' Intel cores), AVX2 with FMA (6 x 16 tile, 12 of the
+// 16 registers); else none and float32 runs Eigen's GEMM.
+#if defined(__AVX512F__) || (defined(__AVX2__) && defined(__FMA__))
+#define MAPS_F32_KERNEL 1
 #else
-inline constexpr bool kHaveF32Kernel = false;
+#define MAPS_F32_KERNEL 0
+#endif
+inline constexpr bool kHaveF32Kernel = MAPS_F32_KERNEL;
+#if defined(__AVX512F__)
+inline constexpr const char* kF32KernelName = "maps AVX-512";
+#elif MAPS_F32_KERNEL
+inline constexpr const char* kF32KernelName = "maps AVX2";
+#else
+inline constexpr const char* kF32KernelName = "Eigen";
 #endif
 
 // A float32 matrix read through strides: element (i, j) at data[i * row_stride + j * col_stride].

@@ -48,8 +48,8 @@ Tensor matmul(const Tensor& a, const Tensor& b);
 // op(a) @ op(b), where op transposes the last two dims when asked; same ranks as matmul (a 3-d
 // left operand against a 2-d right one cannot be transposed). No transposed copy is made.
 Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b);
-// Which kernel runs float32 products in this build: "maps AVX-512" (autograd/gemm_f32.h) or "Eigen" (a CPU or
-// build without AVX-512). float64 products always run Eigen's.
+// Which kernel runs float32 products in this build: "maps AVX-512" or "maps AVX2" (autograd/gemm_f32.h), or
+// "Eigen" (a CPU or build with neither). float64 products always run Eigen's.
 const char* float32_gemm_kernel();
 
 // ----- layers (ops_layer.cpp) -----

@@ -100,7 +100,7 @@ Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_
 
 }  // namespace
 
-const char* float32_gemm_kernel() { return detail::kHaveF32Kernel ? "maps AVX-512" : "Eigen"; }
+const char* float32_gemm_kernel() { return detail::kF32KernelName; }
 
 Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b) {
   return product("gemm", a, b, transpose_a, transpose_b);

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <iostream>
 #include <limits>
 #include <random>
 #include <string>
@@ -79,13 +80,26 @@ void check(const Product& p, bool accumulate, std::mt19937& rng) {
   }
 }
 
+// The kernel follows the build's instruction set (CI checks the line printed here in its AVX2 build).
+TEST(GemmF32, NamesTheKernelThisBuildRuns) {
+  std::cout << "float32 GEMM kernel: " << ag::float32_gemm_kernel() << "\n";
+#if defined(__AVX512F__)
+  EXPECT_STREQ(ag::float32_gemm_kernel(), "maps AVX-512");
+#elif defined(__AVX2__) && defined(__FMA__)
+  EXPECT_STREQ(ag::float32_gemm_kernel(), "maps AVX2");
+#else
+  EXPECT_STREQ(ag::float32_gemm_kernel(), "Eigen");
+#endif
+}
+
 TEST(GemmF32, EveryTileShapeAndRemainderMatchesPlainLoops) {
-  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  if (!ag::detail::kHaveF32Kernel)
+    GTEST_SKIP() << "this build has no own kernel (neither AVX-512 nor AVX2); float32 runs Eigen's GEMM";
   std::mt19937 rng(7);
-  // Rows around the 8- and 12-row tiles, columns around the 16- and 32-column panels, inner sizes within one block,
-  // exactly one, and split in equal blocks (321 -> 2 x 161).
-  for (const std::int64_t m : {1, 7, 8, 9, 13, 24, 33})
-    for (const std::int64_t n : {1, 4, 10, 16, 17, 32, 33, 47})
+  // Rows around the tiles (AVX-512: 8 and 12 rows; AVX2: 6 and 8), columns around the panels (32 and 16; 16 and 8),
+  // inner sizes within one block, exactly one, and split in equal blocks (321 -> 2 x 161).
+  for (const std::int64_t m : {1, 5, 6, 7, 8, 9, 13, 24, 33})
+    for (const std::int64_t n : {1, 4, 8, 9, 10, 16, 17, 32, 33, 47})
       for (const std::int64_t k : {1, 5, 33, 321})
         for (const bool ta : {false, true})
           for (const bool tb : {false, true})
@@ -93,7 +107,8 @@ TEST(GemmF32, EveryTileShapeAndRemainderMatchesPlainLoops) {
 }
 
 TEST(GemmF32, TrainingStepShapesMatchPlainLoops) {
-  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  if (!ag::detail::kHaveF32Kernel)
+    GTEST_SKIP() << "this build has no own kernel (neither AVX-512 nor AVX2); float32 runs Eigen's GEMM";
   std::mt19937 rng(8);
   // Past the 256-row and 256-column chunks and several inner blocks; the narrow outputs of a policy head and the
   // selector's scores in both orientations; MT10's first layer (39 inputs) and its weight gradient.
@@ -108,7 +123,8 @@ TEST(GemmF32, TrainingStepShapesMatchPlainLoops) {
 }
 
 TEST(GemmF32, EmptyInnerDimensionZeroesOrKeepsTheOutput) {
-  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  if (!ag::detail::kHaveF32Kernel)
+    GTEST_SKIP() << "this build has no own kernel (neither AVX-512 nor AVX2); float32 runs Eigen's GEMM";
   std::vector<float> c(2 * 5, 3.0f);
   const float none = 0.0f;
   gemm_f32({&none, 0, 1}, {&none, 3, 1}, c.data(), 5, 2, 3, 0, /*accumulate=*/true);
@@ -122,7 +138,8 @@ TEST(GemmF32, EmptyInnerDimensionZeroesOrKeepsTheOutput) {
 // (taller than wide) and by columns (wider than tall, the parts of a transposed-A product then narrow enough for
 // the narrow path).
 TEST(GemmF32, OneAndTwoThreadsGiveTheSameBits) {
-  if (!ag::detail::kHaveF32Kernel) GTEST_SKIP() << "this build has no AVX-512 kernel; float32 runs Eigen's GEMM";
+  if (!ag::detail::kHaveF32Kernel)
+    GTEST_SKIP() << "this build has no own kernel (neither AVX-512 nor AVX2); float32 runs Eigen's GEMM";
   ag::Generator gen(11);
   struct Sizes {
     std::int64_t m, n, k;
