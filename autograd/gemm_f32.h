@@ -5,10 +5,11 @@
 //
 // Eigen 3.4's AVX-512 GEMM packs both operands and runs a 48x4 register tile; on this machine's cores (Zen 5) it
 // reaches about 150-160 GFLOP/s on the training step's products ([320, 128] x [128, 128] and the like) and the
-// packing of the cold operand costs a further 15% of a step. This kernel keeps an 8 x 32 tile of C in 16 registers,
-// broadcasts op(A)'s elements straight from memory (no packing of A, any strides) and packs only op(B) into
-// 32-column panels; it runs the same products at 210-230 GFLOP/s. Measured by `maps_bench
-// --benchmark_filter=Gemm` (experiments/benchmarks/gemm_bench.cpp); docs/performance.md.
+// packing of the cold operand costs a further 15% of a step. This kernel keeps an 8 x 32 tile of C in 16 registers
+// (on AVX2: 6 x 16 in 12), broadcasts op(A)'s elements straight from memory (no packing of A, any strides) and
+// reads op(B) in place or packs it into panels of the tile's width; it runs the same products at 200-230 GFLOP/s
+// (AVX2: 108-114, Eigen's 98-108). Measured by `maps_bench --benchmark_filter=Gemm`
+// (experiments/benchmarks/gemm_bench.cpp); docs/performance.md.
 //
 // Each element of C is summed in the same order (inner blocks in order, k ascending within a block) wherever its
 // tile falls, so a product's result does not depend on how gemm_parallel splits it across threads.

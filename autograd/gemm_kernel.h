@@ -1,8 +1,9 @@
 #pragma once
 
-// The matrix product kernel under gemm, matmul, linear and parallel_linear: Eigen's GEMM on row-major blocks with
-// leading dimensions, the inner dimension summed in blocks, and a split of the output across the op threads.
-// Internal to the autograd layer.
+// The matrix product kernel under gemm, matmul, linear and parallel_linear: on row-major blocks with leading
+// dimensions, float32 runs maps's own kernel (gemm_f32.h) where the build has one, float64 and the rest Eigen's
+// GEMM with the inner dimension summed in blocks; the output is split across the op threads. Internal to the
+// autograd layer.
 
 #include <algorithm>
 #include <cstdint>

@@ -184,7 +184,7 @@ int run_bench_step(const BenchStepOptions& options) {
   ceiling.time_one();
   ceiling.time_own();
   // Rounds of steps and GEMMs alternate, so both medians see the same clock and load: each round times a GEMM,
-  // runs one step untimed (the GEMM's 12 MB have just pushed the model out of cache; training does no such thing
+  // runs one step untimed (the GEMMs' 12 MB have just pushed the model out of cache; training does no such thing
   // between steps), then times steps for a tenth of the budget (at least 4).
   std::vector<double> times, gemm_times, own_gemm_times;
   std::array<std::vector<double>, 3> phases;
