@@ -7,7 +7,7 @@
 
 namespace maps::envs {
 
-std::filesystem::path find_envs_folder(const std::string& name, const char* env_var) {
+std::filesystem::path find_source_folder(const std::string& relative, const char* env_var) {
   namespace fs = std::filesystem;
   if (const char* from_env = std::getenv(env_var); from_env != nullptr && *from_env != '\0') {
     const fs::path dir(from_env);
@@ -17,21 +17,25 @@ std::filesystem::path find_envs_folder(const std::string& name, const char* env_
     return dir;
   }
   std::vector<fs::path> tried;
-  // The source tree this file was compiled from (CMake passes absolute source paths).
-  const fs::path from_source = fs::path(__FILE__).parent_path() / name;
+  // The source tree this file (envs/source_folders.cpp) was compiled from (CMake passes absolute source paths).
+  const fs::path from_source = fs::path(__FILE__).parent_path().parent_path() / relative;
   tried.push_back(from_source);
   if (from_source.is_absolute() && fs::is_directory(from_source)) return from_source;
   // Walking up from the working directory, for a copied tree or a relocated build.
   std::error_code ec;
   for (fs::path dir = fs::current_path(ec); !ec && !dir.empty(); dir = dir.parent_path()) {
-    const fs::path candidate = dir / "envs" / name;
+    const fs::path candidate = dir / relative;
     tried.push_back(candidate);
     if (fs::is_directory(candidate)) return candidate;
     if (dir == dir.root_path()) break;
   }
-  std::string message = "cannot find the folder envs/" + name + "; set " + env_var + ". Tried:";
+  std::string message = "cannot find the folder " + relative + " of the source tree; set " + env_var + ". Tried:";
   for (const auto& path : tried) message += " '" + path.string() + "'";
   throw std::runtime_error(message);
+}
+
+std::filesystem::path find_envs_folder(const std::string& name, const char* env_var) {
+  return find_source_folder("envs/" + name, env_var);
 }
 
 std::filesystem::path experts_dir() { return find_envs_folder("experts", "MAPS_EXPERTS_DIR"); }

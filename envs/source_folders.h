@@ -7,6 +7,11 @@
 // tool and test wherever it runs from.
 namespace maps::envs {
 
+// <relative> folder of the project's source tree (e.g. "envs/experts", "experiments/suites"): $<env_var> if set (it
+// must then be a directory), else that folder of the source tree this library was built from, else the first
+// <relative> found walking up from the working directory. Throws, listing what was tried, when none exists.
+std::filesystem::path find_source_folder(const std::string& relative, const char* env_var);
+
 // envs/<name> of the project: $<env_var> if set (it must then be a directory), else envs/<name> of the source
 // tree this library was built from, else the first envs/<name> found walking up from the working directory.
 // Throws, listing what was tried, when none exists.

@@ -13,6 +13,9 @@
 #include "experiments/eval_run.h"
 #include "experiments/expert_eval.h"
 #include "experiments/render.h"
+#include "experiments/suite_costs.h"
+#include "experiments/suite_run.h"
+#include "experiments/suite_status.h"
 #include "experiments/train_expert.h"
 #include "experiments/train_run.h"
 
@@ -204,6 +207,80 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   bench_eval_cmd->add_flag("--json", bench_eval.json, "Print one JSON object");
 
+  CLI::App* suite_cmd = app.add_subcommand(
+      "suite", "The comparison suite: a grid of train + eval cells from a suite config (experiments/suites/*.json)");
+  suite_cmd->require_subcommand(1);
+  maps::experiments::SuitePlanOptions suite_plan;
+  CLI::App* suite_plan_cmd =
+      suite_cmd->add_subcommand("plan", "Print a suite's cells, their count and the estimated CPU time");
+  suite_plan_cmd->add_option("config", suite_plan.config_path, "Suite config (JSON)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  suite_plan_cmd->add_option("--shard", suite_plan.shard, "Only the cells with index % N == i")->capture_default_str();
+  suite_plan_cmd->add_option("--jobs", suite_plan.jobs, "Cells at once, for the wall-time estimate (0: cores)")
+      ->check(non_negative);
+  suite_plan_cmd->add_flag("--cells", suite_plan.list_cells, "List every cell");
+  suite_plan_cmd->add_flag("--json", suite_plan.json, "Print one JSON object (every cell and the estimate)");
+  suite_plan_cmd->add_option("--costs", suite_plan.costs, "Cost table (default: experiments/suites/costs.json)");
+
+  maps::experiments::SuiteRunOptions suite_run;
+  CLI::App* suite_run_cmd = suite_cmd->add_subcommand(
+      "run", "Run a suite's cells (resumable: finished cells are skipped, unfinished ones resume)");
+  suite_run_cmd->add_option("config", suite_run.config_path, "Suite config (JSON)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  suite_run_cmd->add_option("--out", suite_run.out, "Suite folder")->required();
+  suite_run_cmd->add_option("--jobs", suite_run.jobs, "Cells at once (0: cores / threads)")
+      ->check(non_negative)
+      ->capture_default_str();
+  suite_run_cmd->add_option("--threads", suite_run.threads, "Op threads per cell")
+      ->check(positive)
+      ->capture_default_str();
+  suite_run_cmd->add_option("--shard", suite_run.shard, "Run only the cells with index % N == i (i/N)")
+      ->capture_default_str();
+  suite_run_cmd->add_option("--costs", suite_run.costs, "Cost table for the ETA");
+
+  std::string prepare_config;
+  int prepare_threads = 0;
+  CLI::App* suite_prepare_cmd =
+      suite_cmd->add_subcommand("prepare", "Collect the suite's missing demonstration files (before a cluster run)");
+  suite_prepare_cmd->add_option("config", prepare_config, "Suite config (JSON)")->required()->check(CLI::ExistingFile);
+  suite_prepare_cmd->add_option("--threads", prepare_threads, "Tasks rolled out at once (0: one per core)")
+      ->check(non_negative);
+
+  maps::experiments::SuiteStatusOptions suite_status;
+  CLI::App* suite_status_cmd =
+      suite_cmd->add_subcommand("status", "Say which cells of a suite folder are done, running, failed or left");
+  suite_status_cmd->add_option("dir", suite_status.dir, "Suite folder")->required()->check(CLI::ExistingDirectory);
+  suite_status_cmd->add_flag("--all", suite_status.all, "One line per cell");
+  suite_status_cmd->add_flag("--json", suite_status.json, "Print one JSON object");
+
+  maps::experiments::SuiteMergeOptions suite_merge;
+  CLI::App* suite_merge_cmd =
+      suite_cmd->add_subcommand("merge", "Copy the finished cells of shard folders of one suite into one folder");
+  suite_merge_cmd->add_option("--out", suite_merge.out, "Merged suite folder")->required();
+  suite_merge_cmd->add_option("shards", suite_merge.shards, "Shard folders")->required()->check(CLI::ExistingDirectory);
+
+  maps::experiments::SuiteCalibrateOptions suite_calibrate;
+  CLI::App* suite_calibrate_cmd = suite_cmd->add_subcommand(
+      "calibrate", "Time a short run of every method on every set and write the cost table plan and run use");
+  suite_calibrate_cmd->add_option("--out", suite_calibrate.out, "Cost table (default: experiments/suites/costs.json)");
+  suite_calibrate_cmd->add_option("--work", suite_calibrate.work, "Folder for the timed runs")->capture_default_str();
+  suite_calibrate_cmd->add_option("--steps", suite_calibrate.steps, "Training steps per timed run")
+      ->check(positive)
+      ->capture_default_str();
+  suite_calibrate_cmd->add_option("--episodes", suite_calibrate.episodes, "Evaluation episodes per task")
+      ->check(positive)
+      ->capture_default_str();
+  suite_calibrate_cmd->add_option("--sets", suite_calibrate.sets, "Task sets to time")
+      ->check(CLI::IsMember({"gravity", "modified", "mt10"}));
+
+  maps::experiments::ReportOptions report;
+  CLI::App* report_cmd = app.add_subcommand(
+      "report", "Write a suite folder's results.csv, report.md and the paper's figures (experiments/suites/report.py)");
+  report_cmd->add_option("dir", report.dir, "Suite folder")->required()->check(CLI::ExistingDirectory);
+  report_cmd->add_option("--out", report.out, "Report folder (default: DIR/report)");
+
   CLI11_PARSE(app, argc, argv);
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
@@ -217,6 +294,13 @@ int main(int argc, char** argv) {
     if (*eval_cmd) return maps::experiments::run_eval(eval_run);
     if (*bench_step_cmd) return maps::experiments::run_bench_step(bench_step);
     if (*bench_eval_cmd) return maps::experiments::run_bench_eval(bench_eval);
+    if (*suite_plan_cmd) return maps::experiments::run_suite_plan(suite_plan);
+    if (*suite_run_cmd) return maps::experiments::run_suite(suite_run);
+    if (*suite_prepare_cmd) return maps::experiments::run_suite_prepare(prepare_config, prepare_threads);
+    if (*suite_status_cmd) return maps::experiments::run_suite_status(suite_status);
+    if (*suite_merge_cmd) return maps::experiments::run_suite_merge(suite_merge);
+    if (*suite_calibrate_cmd) return maps::experiments::run_suite_calibrate(suite_calibrate);
+    if (*report_cmd) return maps::experiments::run_report(report);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

@@ -1,0 +1,253 @@
+#include "experiments/suite_config.h"
+
+#include <algorithm>
+#include <regex>
+#include <set>
+#include <stdexcept>
+
+#include "experiments/run_folder.h"
+#include "maps/training/run_config.h"
+
+namespace maps::experiments {
+namespace {
+
+using Json = nlohmann::json;
+
+const std::vector<std::string> kSets = {"gravity", "modified", "mt10"};
+const std::vector<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"};
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
+  return out;
+}
+
+void check_keys(const Json& json, const std::string& where, const std::vector<std::string>& known) {
+  if (!json.is_object()) throw std::invalid_argument(where + ": expected a JSON object, got " + json.dump());
+  for (const auto& [key, value] : json.items())
+    if (std::find(known.begin(), known.end(), key) == known.end())
+      throw std::invalid_argument(where + ": unknown key '" + key + "' (known: " + joined(known) + ")");
+}
+
+const Json& required(const Json& json, const std::string& where, const std::string& key) {
+  if (!json.contains(key)) throw std::invalid_argument(where + ": \"" + key + "\" is required");
+  return json.at(key);
+}
+
+std::vector<std::string> names_of(const Json& json, const std::string& where) {
+  if (!json.is_array() || json.empty())
+    throw std::invalid_argument(where + ": expected a non-empty array of names, got " + json.dump());
+  std::vector<std::string> out;
+  for (const auto& item : json) {
+    if (!item.is_string()) throw std::invalid_argument(where + ": expected names (strings), got " + item.dump());
+    out.push_back(item.get<std::string>());
+  }
+  return out;
+}
+
+// A non-empty array of integers >= minimum, without repeats.
+template <typename T>
+std::vector<T> integers_of(const Json& json, const std::string& where, long long minimum) {
+  if (!json.is_array() || json.empty())
+    throw std::invalid_argument(where + ": expected a non-empty array of integers, got " + json.dump());
+  std::vector<T> out;
+  for (const auto& item : json) {
+    if (!item.is_number_integer() || item.get<long long>() < minimum)
+      throw std::invalid_argument(where + ": expected integers >= " + std::to_string(minimum) + ", got " + item.dump());
+    const T value = item.get<T>();
+    if (std::find(out.begin(), out.end(), value) != out.end())
+      throw std::invalid_argument(where + ": " + item.dump() + " is listed twice");
+    out.push_back(value);
+  }
+  return out;
+}
+
+int positive_int(const Json& json, const std::string& where) {
+  if (!json.is_number_integer() || json.get<long long>() < 1 || json.get<long long>() > 1000000)
+    throw std::invalid_argument(where + ": expected an integer >= 1, got " + json.dump());
+  return json.get<int>();
+}
+
+bool is_plain_name(const std::string& name) {
+  static const std::regex pattern("[a-z0-9][a-z0-9_]*");
+  return std::regex_match(name, pattern);
+}
+
+SuiteSet parse_set(const std::string& name, const Json& json, const std::string& where) {
+  if (std::find(kSets.begin(), kSets.end(), name) == kSets.end())
+    throw std::invalid_argument(where + ": '" + name + "' is not a task set (known: " + joined(kSets) + ")");
+  check_keys(json, where, {"data", "demos", "config"});
+  SuiteSet set;
+  set.name = name;
+  const Json& data = required(json, where, "data");
+  check_keys(data, where + ".data", {"file", "collect_demos", "subsample"});
+  const Json& file = required(data, where + ".data", "file");
+  if (!file.is_string() || file.get<std::string>().empty())
+    throw std::invalid_argument(where + ".data.file: expected a path, got " + file.dump());
+  set.demo_file = file.get<std::string>();
+  if (data.contains("collect_demos"))
+    set.collect_demos = positive_int(data["collect_demos"], where + ".data.collect_demos");
+  if (data.contains("subsample")) set.subsample = positive_int(data["subsample"], where + ".data.subsample");
+  if (json.contains("demos")) set.demos = integers_of<int>(json["demos"], where + ".demos", 1);
+  if (json.contains("config")) {
+    if (!json["config"].is_object()) throw std::invalid_argument(where + ".config: expected a partial run config");
+    set.config = json["config"];
+  }
+  return set;
+}
+
+std::vector<int> grid_demos(const Json& grid, const SuiteSet& set, const std::string& where) {
+  if (!grid.contains("demos")) {
+    if (set.demos.empty())
+      throw std::invalid_argument(where + ": names no demos, and sets." + set.name + " has no \"demos\" either");
+    return set.demos;
+  }
+  const Json& demos = grid["demos"];
+  if (demos.is_array()) return integers_of<int>(demos, where + ".demos", 1);
+  if (!demos.is_object())
+    throw std::invalid_argument(where + ".demos: expected an array of counts or an object of set: counts");
+  for (const auto& [key, value] : demos.items())
+    if (!std::count(kSets.begin(), kSets.end(), key))
+      throw std::invalid_argument(where + ".demos: '" + key + "' is not a task set (known: " + joined(kSets) + ")");
+  if (!demos.contains(set.name)) {
+    if (set.demos.empty())
+      throw std::invalid_argument(where + ".demos: has no counts for " + set.name + ", nor has sets." + set.name);
+    return set.demos;
+  }
+  return integers_of<int>(demos[set.name], where + ".demos." + set.name, 1);
+}
+
+}  // namespace
+
+Json SuiteCell::identity() const {
+  return {{"index", index},     {"name", name},   {"grid", grid},           {"set", set},  {"method", method},
+          {"variant", variant}, {"demos", demos}, {"subsample", subsample}, {"seed", seed}};
+}
+
+Json merge_json(Json base, const Json& more) {
+  if (!base.is_object() || !more.is_object()) return more;
+  for (const auto& [key, value] : more.items()) base[key] = base.contains(key) ? merge_json(base[key], value) : value;
+  return base;
+}
+
+Suite parse_suite(const Json& json, const std::string& where) {
+  check_keys(json, where, {"description", "defaults", "sets", "variants", "grids"});
+  Suite suite;
+  suite.source = json;
+  const Json defaults = json.value("defaults", Json::object());
+  if (!defaults.is_object()) throw std::invalid_argument(where + ".defaults: expected a partial run config");
+
+  const Json& sets = required(json, where, "sets");
+  if (!sets.is_object() || sets.empty()) throw std::invalid_argument(where + ".sets: expected an object of sets");
+  for (const auto& [name, value] : sets.items())
+    suite.sets.emplace(name, parse_set(name, value, where + ".sets." + name));
+
+  std::map<std::string, Json> variants;
+  if (json.contains("variants")) {
+    if (!json["variants"].is_object()) throw std::invalid_argument(where + ".variants: expected an object");
+    for (const auto& [name, value] : json["variants"].items()) {
+      if (!is_plain_name(name) || name == "base")
+        throw std::invalid_argument(where + ".variants: '" + name +
+                                    "' is not a variant name (lower-case letters, digits and _; not \"base\")");
+      if (!value.is_object())
+        throw std::invalid_argument(where + ".variants." + name + ": expected a partial run config");
+      variants.emplace(name, value);
+    }
+  }
+
+  const Json& grids = required(json, where, "grids");
+  if (!grids.is_array() || grids.empty()) throw std::invalid_argument(where + ".grids: expected a non-empty array");
+  std::map<std::string, std::size_t> by_name;
+  std::set<std::string> grid_names;
+  for (std::size_t g = 0; g < grids.size(); ++g) {
+    const std::string at = where + ".grids[" + std::to_string(g) + "]";
+    const Json& grid = grids[g];
+    check_keys(grid, at, {"name", "sets", "methods", "variants", "demos", "seeds"});
+    const Json& name_json = required(grid, at, "name");
+    if (!name_json.is_string() || !is_plain_name(name_json.get<std::string>()))
+      throw std::invalid_argument(at + ".name: expected a name of lower-case letters, digits and _, got " +
+                                  name_json.dump());
+    const std::string grid_name = name_json.get<std::string>();
+    if (!grid_names.insert(grid_name).second)
+      throw std::invalid_argument(at + ".name: '" + grid_name + "' names two grids");
+    const auto set_names = names_of(required(grid, at, "sets"), at + ".sets");
+    for (const auto& s : set_names)
+      if (!suite.sets.count(s)) throw std::invalid_argument(at + ".sets: '" + s + "' is not defined under \"sets\"");
+    const auto methods = names_of(required(grid, at, "methods"), at + ".methods");
+    for (const auto& m : methods)
+      if (std::find(kMethods.begin(), kMethods.end(), m) == kMethods.end())
+        throw std::invalid_argument(at + ".methods: '" + m + "' is not one of " + joined(kMethods));
+    const auto variant_names =
+        grid.contains("variants") ? names_of(grid["variants"], at + ".variants") : std::vector<std::string>{"base"};
+    for (const auto& v : variant_names)
+      if (v != "base" && !variants.count(v))
+        throw std::invalid_argument(at + ".variants: '" + v + "' is not defined under \"variants\"");
+    const auto seeds = integers_of<std::uint64_t>(required(grid, at, "seeds"), at + ".seeds", 0);
+
+    for (const std::uint64_t seed : seeds)
+      for (const auto& set_name : set_names) {
+        const SuiteSet& set = suite.sets.at(set_name);
+        const std::vector<int> counts = grid_demos(grid, set, at);
+        for (const auto& method : methods)
+          for (const auto& variant : variant_names)
+            for (const int demos : counts) {
+              SuiteCell cell;
+              cell.grid = grid_name;
+              cell.set = set_name;
+              cell.method = method;
+              cell.variant = variant;
+              cell.demos = demos;
+              cell.seed = seed;
+              cell.name = set_name + "/" + method + (variant == "base" ? "" : "-" + variant) + "_d" +
+                          std::to_string(demos) + "_s" + std::to_string(seed);
+              Json request = merge_json(defaults, set.config);
+              request = merge_json(request, {{"data", {{"file", set.demo_file}, {"subsample", set.subsample}}}});
+              if (variant != "base") request = merge_json(request, variants.at(variant));
+              request =
+                  merge_json(request, {{"method", method}, {"seed", seed}, {"data", {{"demos_per_task", demos}}}});
+              try {
+                cell.request = core::to_json(core::parse_run_config(request));
+              } catch (const std::exception& e) {
+                throw std::invalid_argument(at + ": cell " + cell.name + ": " + e.what());
+              }
+              cell.subsample = cell.request["data"]["subsample"].get<int>();
+              if (const auto found = by_name.find(cell.name); found != by_name.end()) {
+                if (suite.cells[found->second].request != cell.request)
+                  throw std::invalid_argument(at + ": cell " + cell.name + " is also in grid '" +
+                                              suite.cells[found->second].grid +
+                                              "' with another run config; give one of them a variant");
+                continue;
+              }
+              cell.index = static_cast<int>(suite.cells.size());
+              by_name.emplace(cell.name, suite.cells.size());
+              suite.cells.push_back(std::move(cell));
+            }
+      }
+  }
+  return suite;
+}
+
+Suite load_suite(const std::string& path) {
+  Suite suite = parse_suite(read_json_file(path), path);
+  suite.path = path;
+  return suite;
+}
+
+std::pair<int, int> parse_shard(const std::string& text) {
+  static const std::regex pattern("([0-9]{1,6})/([0-9]{1,6})");
+  std::smatch match;
+  if (std::regex_match(text, match, pattern)) {
+    const int shard = std::stoi(match[1]), shards = std::stoi(match[2]);
+    if (shards >= 1 && shard < shards) return {shard, shards};
+  }
+  throw std::invalid_argument("--shard: expected i/N with 0 <= i < N (e.g. 0/4), got '" + text + "'");
+}
+
+std::vector<const SuiteCell*> shard_cells(const Suite& suite, int shard, int shards) {
+  std::vector<const SuiteCell*> out;
+  for (const auto& cell : suite.cells)
+    if (cell.index % shards == shard) out.push_back(&cell);
+  return out;
+}
+
+}  // namespace maps::experiments

@@ -1,0 +1,59 @@
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "experiments/suite_config.h"
+
+// Measured costs of training and evaluation (experiments/suites/costs.json, written by `maps suite calibrate`),
+// and the estimate of a cell's CPU time they give:
+//   seconds = overhead + steps * step_seconds * (states_per_task / measured states_per_task)
+//             [* modules / measured modules, for MAPS] + episodes * tasks * episode_seconds
+// Per-step cost grows about linearly in the batch and (for MAPS) in the module count at these shapes; validation
+// is inside step_seconds at the measured validate_every. An estimate, not a promise: `maps suite run` prints how
+// the real times compare.
+namespace maps::experiments {
+
+struct CostTable {
+  nlohmann::json json;  // {"sets": {set: {"collect_seconds": s, "methods": {method: {...}}}}, "cpu": ..., ...}
+  std::string path;
+
+  // One thread per cell. Throws naming the set and method when the table lacks them.
+  double cell_seconds(const SuiteCell& cell) const;
+  double collect_seconds(const std::string& set) const;
+};
+
+// experiments/suites/costs.json of the source tree (override: MAPS_SUITES_DIR) when `path` is empty.
+std::filesystem::path default_costs_path();
+CostTable load_costs(const std::string& path);
+// Like load_costs, but std::nullopt when the file is missing or damaged (saying why on stderr unless quiet).
+std::optional<CostTable> try_load_costs(const std::string& path, bool quiet = false);
+
+// `maps suite plan C.json [--shard i/N] [--jobs N] [--cells] [--json] [--costs F]`.
+struct SuitePlanOptions {
+  std::string config_path;
+  std::string shard = "0/1";
+  int jobs = 0;
+  bool list_cells = false;
+  bool json = false;
+  std::string costs;
+};
+int run_suite_plan(const SuitePlanOptions& options);
+
+// `maps suite calibrate [--out F] [--steps S] [--episodes E] [--sets ...]`: trains and evaluates every method on
+// every set briefly, timing each, and writes the cost table.
+struct SuiteCalibrateOptions {
+  std::string out;  // "" : default_costs_path()
+  std::string work = "runs/calibrate";
+  int steps = 400;
+  int episodes = 2;
+  std::vector<std::string> sets = {"gravity", "modified", "mt10"};
+};
+int run_suite_calibrate(const SuiteCalibrateOptions& options);
+
+// "1h02m", "3m05s", "12s".
+std::string format_duration(double seconds);
+
+}  // namespace maps::experiments

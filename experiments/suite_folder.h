@@ -1,0 +1,64 @@
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "experiments/suite_config.h"
+
+// A suite's output folder (maps suite run --out DIR):
+//   DIR/suite.json                       the config and every cell's identity and run config (maps-suite/1)
+//   DIR/cells/<set>/<cell>/              a run folder (experiments/run_folder.h) plus:
+//       request.json                     the run config the cell was started with
+//       train.log, eval.log              the child processes' output
+//       result.json                      written last, atomically: the cell is finished (maps-suite-cell/1)
+//       error.json                       the last failure (stage, error, the log's tail)
+//       .lock                            flock-ed by the process running the cell (released when it dies)
+// A result counts only when it parses, has the format, and names this cell with this run config; anything else
+// in a cell folder is resumable work or damage, never a result.
+namespace maps::experiments {
+
+inline constexpr const char* kSuiteFormat = "maps-suite/1";
+inline constexpr const char* kCellFormat = "maps-suite-cell/1";
+
+std::filesystem::path cell_dir(const std::filesystem::path& out, const SuiteCell& cell);
+
+// suite.json's content for these cells.
+nlohmann::json suite_manifest(const Suite& suite, const std::vector<SuiteCell>& cells);
+// Writes DIR/suite.json, or checks the one there: a cell of the same name must have the same run config (a suite
+// may grow: more seeds or grids keep the finished cells). Throws naming the first conflicting cell.
+void write_or_check_manifest(const std::filesystem::path& out, const Suite& suite);
+// Reads DIR/suite.json back into a Suite (its cells and config), for status, merge and report.
+Suite read_manifest(const std::filesystem::path& out);
+
+// The cell's result when it is a trustworthy one; std::nullopt when missing. `damage` (when given) gets why a
+// result.json that exists was not trusted ("" when there is none or it is fine).
+std::optional<nlohmann::json> read_result(const std::filesystem::path& dir, const SuiteCell& cell,
+                                          std::string* damage = nullptr);
+
+// An exclusive, non-blocking flock on dir/.lock; the destructor (or the process's death) releases it.
+class CellLock {
+ public:
+  explicit CellLock(const std::filesystem::path& dir);
+  ~CellLock();
+  CellLock(const CellLock&) = delete;
+  CellLock& operator=(const CellLock&) = delete;
+  bool held() const { return fd_ >= 0; }
+
+ private:
+  int fd_ = -1;
+};
+// Whether some process holds dir/.lock now (a running cell).
+bool cell_is_locked(const std::filesystem::path& dir);
+
+// Removes everything in dir but .lock (a damaged cell is redone from nothing).
+void clear_cell(const std::filesystem::path& dir);
+
+// The last `lines` lines of a text file ("" when missing).
+std::string tail_of(const std::filesystem::path& path, int lines);
+
+std::string utc_now();
+std::string host_name();
+
+}  // namespace maps::experiments

@@ -1,0 +1,185 @@
+// `maps suite status`, `maps suite merge` and `maps report`.
+
+#include "experiments/suite_status.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <stdexcept>
+
+#include "envs/source_folders.h"
+#include "experiments/run_folder.h"
+#include "experiments/suite_costs.h"
+#include "experiments/suite_folder.h"
+
+namespace maps::experiments {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+// The last step of a started cell's validation curve ("" when none yet).
+std::string curve_progress(const fs::path& dir, long long steps) {
+  const std::string last = tail_of(dir / "curve.csv", 1);
+  const auto comma = last.find(',');
+  if (last.empty() || comma == std::string::npos || last.rfind("step", 0) == 0) return "";
+  return "step " + last.substr(0, comma) + " of " + std::to_string(steps);
+}
+
+// Whether two results of one cell agree number for number (wall times, hosts and dates aside).
+bool same_numbers(const Json& a, const Json& b) {
+  return a["config"] == b["config"] && a["eval"]["mean_score"] == b["eval"]["mean_score"] &&
+         a["eval"]["tasks"] == b["eval"]["tasks"] && a["train"]["best_step"] == b["train"]["best_step"] &&
+         a["train"]["best_validation_bc"] == b["train"]["best_validation_bc"];
+}
+
+}  // namespace
+
+int run_suite_status(const SuiteStatusOptions& options) {
+  const fs::path out(options.dir);
+  const Suite suite = read_manifest(out);
+  std::map<std::string, int> counts;
+  Json cells = Json::array();
+  std::vector<std::string> lines;
+  for (const auto& cell : suite.cells) {
+    const fs::path dir = cell_dir(out, cell);
+    std::string damage, state, detail;
+    const long long steps = cell.request["train"]["steps"].get<long long>();
+    if (const auto result = read_result(dir, cell, &damage)) {
+      state = "done";
+      char text[128];
+      std::snprintf(text, sizeof(text), "mean score %.3f, best step %lld", result->at("eval").value("mean_score", 0.0),
+                    static_cast<long long>(result->at("eval").value("best_step", -1LL)));
+      detail = text;
+    } else if (cell_is_locked(dir)) {
+      state = "running";
+      detail = curve_progress(dir, steps);
+    } else if (fs::exists(dir / "error.json")) {
+      state = "failed";
+      try {
+        const Json error = read_json_file((dir / "error.json").string());
+        detail = error.value("stage", "?") + ": " + error.value("error", "?") + " (see " +
+                 (dir / error.value("log", "")).string() + ")";
+      } catch (const std::exception& e) {
+        detail = e.what();
+      }
+    } else if (fs::exists(dir / "last.ckpt")) {
+      state = "started";
+      detail = "resumable at its last checkpoint; " + curve_progress(dir, steps);
+    } else {
+      state = "left";
+    }
+    if (!damage.empty()) detail += (detail.empty() ? "" : "; ") + damage;
+    counts[state] += 1;
+    Json entry = cell.identity();
+    entry["state"] = state;
+    entry["detail"] = detail;
+    cells.push_back(entry);
+    if (options.all || state == "failed" || state == "running" || state == "started")
+      lines.push_back(state + "  " + cell.name + (detail.empty() ? "" : ": " + detail));
+  }
+  if (options.json) {
+    std::cout << Json{{"dir", options.dir}, {"counts", counts}, {"cells", cells}}.dump(1) << "\n";
+    return 0;
+  }
+  for (const auto& line : lines) std::printf("%s\n", line.c_str());
+  std::printf("%s: %zu cells: %d done, %d running, %d failed, %d started (resumable), %d left\n", options.dir.c_str(),
+              suite.cells.size(), counts["done"], counts["running"], counts["failed"], counts["started"],
+              counts["left"]);
+  if (const auto costs = try_load_costs("", true)) {
+    double left = 0.0;
+    bool known = true;
+    for (std::size_t i = 0; i < suite.cells.size(); ++i) {
+      if (cells[i]["state"] == "done") continue;
+      try {
+        left += costs->cell_seconds(suite.cells[i]);
+      } catch (const std::exception&) {
+        known = false;
+      }
+    }
+    if (known && counts["done"] < static_cast<int>(suite.cells.size()))
+      std::printf("estimated CPU time left: %s (one thread per cell)\n", format_duration(left).c_str());
+  }
+  return 0;
+}
+
+int run_suite_merge(const SuiteMergeOptions& options) {
+  if (options.shards.empty()) throw std::invalid_argument("maps suite merge: name at least one shard folder");
+  const fs::path out(options.out);
+  Suite first = read_manifest(options.shards.front());
+  const Json manifest = read_json_file((fs::path(options.shards.front()) / "suite.json").string());
+  for (const auto& shard : options.shards) {
+    if (fs::exists(out) && fs::equivalent(shard, out))
+      throw std::invalid_argument("maps suite merge: --out " + options.out + " is also a shard");
+    const Json other = read_json_file((fs::path(shard) / "suite.json").string());
+    if (other.value("cells", Json()) != manifest.value("cells", Json()))
+      throw std::runtime_error(shard + " is a shard of another suite than " + options.shards.front() +
+                               " (their suite.json cells differ)");
+  }
+  fs::create_directories(out);
+  if (fs::exists(out / "suite.json")) {
+    if (read_json_file((out / "suite.json").string()).value("cells", Json()) != manifest.value("cells", Json()))
+      throw std::runtime_error(options.out + " holds another suite; merge into a new folder");
+  } else {
+    write_json_file((out / "suite.json").string(), manifest);
+  }
+  int merged = 0, present = 0;
+  for (const auto& cell : first.cells) {
+    const fs::path target = cell_dir(out, cell);
+    std::optional<Json> have = read_result(target, cell);
+    if (have) ++present;
+    for (const auto& shard : options.shards) {
+      const fs::path source = cell_dir(shard, cell);
+      const auto result = read_result(source, cell);
+      if (!result) continue;
+      if (have) {
+        if (!same_numbers(*have, *result))
+          throw std::runtime_error("cell " + cell.name + " has different results in " + shard +
+                                   " and in another shard or " + options.out + "; not merged");
+        continue;
+      }
+      fs::path staging = target;
+      staging += ".merging";
+      fs::remove_all(staging);
+      fs::create_directories(staging.parent_path());
+      fs::copy(source, staging, fs::copy_options::recursive);
+      fs::remove(staging / ".lock");
+      fs::remove_all(target);
+      fs::rename(staging, target);
+      have = result;
+      ++merged;
+    }
+  }
+  const int finished = present + merged;
+  std::printf("merged %d cells from %zu shards into %s: %d of %zu cells finished\n", merged, options.shards.size(),
+              options.out.c_str(), finished, first.cells.size());
+  return 0;
+}
+
+int run_report(const ReportOptions& options) {
+  const fs::path script = envs::find_source_folder("experiments/suites", "MAPS_SUITES_DIR") / "report.py";
+  if (!fs::exists(script)) throw std::runtime_error("the report script " + script.string() + " is missing");
+  if (!fs::exists(fs::path(options.dir) / "suite.json"))
+    throw std::runtime_error(options.dir + " is not a suite folder: it has no suite.json (maps suite run writes it)");
+  const std::string out = options.out.empty() ? (fs::path(options.dir) / "report").string() : options.out;
+  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  std::fflush(stdout);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("fork failed");
+  if (pid == 0) {
+    ::execlp(python.c_str(), python.c_str(), script.c_str(), options.dir.c_str(), out.c_str(),
+             static_cast<char*>(nullptr));
+    std::perror("maps report: cannot run python3 (bash scripts/setup.sh installs it)");
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+}
+
+}  // namespace maps::experiments

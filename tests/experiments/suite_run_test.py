@@ -1,0 +1,265 @@
+#!/usr/bin/python3
+"""Tests of `maps suite` (plan, run, status, merge) through the real tool on experiments/suites/tiny.json: the grid's
+expansion and order, shards that partition the cells, config errors that name their key, kill -9 of a running suite
+then a rerun equal to an uninterrupted run, damaged cells redone rather than trusted, failed cells reported, and the
+merge of shards equal to a single run. Run by ctest as: suite_run_test.py path/to/maps (from a scratch folder: the
+tiny suite collects its own demo files under data/tiny/ of the working directory)."""
+import copy
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+TINY = ROOT / "experiments" / "suites" / "tiny.json"
+MAPS = None  # set from argv
+WORK = None  # the scratch working directory (demo files are collected here once)
+
+
+def maps(*args, check=True):
+    proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"maps {' '.join(map(str, args))} exited {proc.returncode}:\n{proc.stdout}\n{proc.stderr}")
+    return proc
+
+
+def plan(config, *extra):
+    return json.loads(maps("suite", "plan", config, "--json", *extra).stdout)
+
+
+def write_config(folder, config, name="suite.json"):
+    path = pathlib.Path(folder) / name
+    path.write_text(json.dumps(config))
+    return path
+
+
+def results(out):
+    """{cell name: the numbers a rerun must reproduce} for every result.json under out/cells."""
+    found = {}
+    for path in sorted(pathlib.Path(out, "cells").glob("*/*/result.json")):
+        result = json.loads(path.read_text())
+        found[result["cell"]["name"]] = {
+            "config": result["config"],
+            "mean_score": result["eval"]["mean_score"],
+            "tasks": [{k: t[k] for k in ("task", "score", "return_mean", "success_rate", "returns")}
+                      for t in result["eval"]["tasks"]],
+            "best_step": result["train"]["best_step"],
+            "best_validation_bc": result["train"]["best_validation_bc"],
+        }
+    return found
+
+
+class SuiteTest(unittest.TestCase):
+    reference = None  # an uninterrupted run of tiny.json, made once
+
+    @classmethod
+    def setUpClass(cls):
+        cls.reference = pathlib.Path(WORK) / "reference"
+        if not (cls.reference / "suite.json").exists():
+            maps("suite", "run", TINY, "--out", cls.reference, "--jobs", "2")
+
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory(dir=WORK)
+        self.dir = pathlib.Path(self.tmp.name)
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    # --- the grid ---------------------------------------------------------------------------------------------
+
+    def test_expansion_and_order(self):
+        names = [c["name"] for c in plan(TINY)["cells"]]
+        # Seeds outermost, then sets, methods, variants and demos as the grid lists them; a later grid's cells after.
+        self.assertEqual(names, ["gravity/maps_d2_s0", "gravity/mt_bc_d2_s0", "mt10/maps_d2_s0", "mt10/mt_bc_d2_s0",
+                                 "gravity/maps_d2_s1", "gravity/mt_bc_d2_s1", "mt10/maps_d2_s1", "mt10/mt_bc_d2_s1",
+                                 "mt10/maps-no_share_d2_s0"])
+        self.assertEqual([c["index"] for c in plan(TINY)["cells"]], list(range(9)))
+
+    def test_per_set_settings_and_variants_reach_the_run_config(self):
+        config = json.loads(TINY.read_text())
+        config["grids"].append({"name": "wide", "sets": ["gravity"], "methods": ["maps"], "variants": ["base", "m3"],
+                                "demos": {"gravity": [1, 2]}, "seeds": [0]})
+        config["variants"]["m3"] = {"maps": {"modules": 3}}
+        path = write_config(self.dir, config)
+        cells = {c["name"]: c for c in plan(path)["cells"]}
+        # gravity/maps_d2_s0 is named by two grids with one run config: one cell, the first grid's.
+        self.assertEqual(len(cells), 9 + 3)
+        self.assertEqual(cells["gravity/maps_d2_s0"]["grid"], "comparison")
+        manifest = self.dir / "out"
+        maps("suite", "run", path, "--out", manifest, "--shard", "0/1000")  # cell 0 only, to see the manifest
+        requests = {c["name"]: c["request"] for c in json.loads((manifest / "suite.json").read_text())["cells"]}
+        self.assertEqual(requests["gravity/maps-m3_d1_s0"]["maps"]["modules"], 3)
+        self.assertEqual(requests["gravity/maps_d1_s0"]["maps"]["modules"], 10)
+        self.assertEqual(requests["mt10/maps_d2_s0"]["train"]["states_per_task"], 32)
+        self.assertEqual(requests["gravity/maps_d2_s0"]["train"]["states_per_task"], 128)
+        self.assertEqual(requests["mt10/maps_d2_s0"]["maps"]["selector_losses"],
+                         {"share": 1, "explore": 0.1, "sparse": 0.5, "smooth": 1})
+        self.assertEqual(requests["mt10/maps-no_share_d2_s0"]["maps"]["selector_losses"],
+                         {"share": 0, "explore": 0.1, "sparse": 0.5, "smooth": 1})
+        self.assertEqual(requests["gravity/maps_d2_s0"]["data"], {"file": "data/tiny/gravity.h5", "demos_per_task": 2,
+                                                                  "subsample": 10})
+
+    def test_shards_partition_the_cells(self):
+        config = json.loads(TINY.read_text())
+        config["grids"][0]["seeds"] = [0, 1, 2, 3]  # 17 cells: no N below divides it evenly
+        path = write_config(self.dir, config)
+        everything = [c["index"] for c in plan(path)["cells"]]
+        self.assertEqual(len(everything), 17)
+        for shards in range(1, 8):
+            seen = []
+            for shard in range(shards):
+                part = [c["index"] for c in plan(path, "--shard", f"{shard}/{shards}")["cells"]]
+                self.assertTrue(all(i % shards == shard for i in part))
+                seen += part
+            self.assertEqual(sorted(seen), everything, f"N = {shards}")
+
+    def test_config_errors_name_what_is_wrong(self):
+        base = json.loads(TINY.read_text())
+        cases = [
+            (lambda c: c.update(typo=1), "unknown key 'typo'"),
+            (lambda c: c["grids"][0].update(methods=["mapz"]), "'mapz' is not one of"),
+            (lambda c: c["grids"][0].update(variants=["nope"]), "'nope' is not defined"),
+            (lambda c: c["grids"][0].update(sets=["modified"]), "'modified' is not defined"),
+            (lambda c: c["grids"][0].update(seeds=[0, 0]), "listed twice"),
+            (lambda c: c["grids"][0].update(seeds=[-1]), "expected integers >= 0"),
+            (lambda c: c["defaults"]["train"].update(stepz=1), "unknown key 'stepz'"),
+            (lambda c: c["sets"]["gravity"]["data"].pop("file"), "\"file\" is required"),
+            (lambda c: c["grids"].append(dict(c["grids"][1])), "names two grids"),
+            (lambda c: c["variants"].update(base={}), "is not a variant name"),
+            (lambda c: c["grids"][0].update(demos={"gravity": [2], "mt11": [1]}), "'mt11' is not a task set"),
+        ]
+        for mutate, message in cases:
+            config = copy.deepcopy(base)
+            mutate(config)
+            path = write_config(self.dir, config)
+            proc = maps("suite", "plan", path, check=False)
+            self.assertNotEqual(proc.returncode, 0, message)
+            self.assertIn(message, proc.stderr)
+            self.assertIn(str(path), proc.stderr)
+        for bad in ["1/1", "2/2", "x", "-1/3", "1/0"]:
+            proc = maps("suite", "plan", TINY, "--shard", bad, check=False)
+            self.assertNotEqual(proc.returncode, 0, bad)
+            self.assertIn("--shard", proc.stderr)
+
+    # --- running ----------------------------------------------------------------------------------------------
+
+    def test_a_rerun_of_a_finished_suite_does_nothing(self):
+        proc = maps("suite", "run", TINY, "--out", self.reference)
+        self.assertIn("9 finished before, 0 to run", proc.stdout)
+        status = json.loads(maps("suite", "status", self.reference, "--json").stdout)
+        self.assertEqual(status["counts"], {"done": 9})
+
+    def test_kill_9_then_rerun_equals_an_uninterrupted_run(self):
+        out = self.dir / "killed"
+        for delay in (1.0, 2.5):  # killed twice, at different points
+            proc = subprocess.Popen([MAPS, "suite", "run", TINY, "--out", out, "--jobs", "2"], cwd=WORK,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(delay)
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+        time.sleep(0.2)  # the children die with their parent (PR_SET_PDEATHSIG)
+        leftovers = subprocess.run(["pgrep", "-f", f"--out {out}/cells"], capture_output=True, text=True).stdout
+        self.assertEqual(leftovers.strip(), "", "cell processes outlived the killed suite")
+        status = json.loads(maps("suite", "status", out, "--json").stdout)
+        self.assertLess(status["counts"].get("done", 0), 9, "the kill came after the suite had finished")
+        maps("suite", "run", TINY, "--out", out, "--jobs", "2")
+        self.assertEqual(results(out), results(self.reference))
+        for path in out.glob("cells/*/*"):
+            self.assertFalse(list(path.glob("*.tmp")), f"temporary files left in {path}")
+
+    def test_damaged_cells_are_redone_not_trusted(self):
+        out = self.dir / "damaged"
+        subprocess.run(["cp", "-r", str(self.reference), str(out)], check=True)
+        cells = out / "cells"
+        (cells / "gravity/maps_d2_s0/result.json").write_text('{"format": "maps-suite-cell/1", "cell": {"na')
+        wrong = json.loads((cells / "mt10/mt_bc_d2_s0/result.json").read_text())
+        wrong["config"]["train"]["steps"] = 5  # a result of another run config
+        (cells / "mt10/mt_bc_d2_s0/result.json").write_text(json.dumps(wrong))
+        (cells / "mt10/maps_d2_s1/result.json").unlink()  # a half-done cell whose checkpoint is damaged
+        (cells / "mt10/maps_d2_s1/eval.json").unlink()
+        (cells / "mt10/maps_d2_s1/last.ckpt").write_bytes(b"MAPSCKPT garbage")
+        (cells / "mt10/maps_d2_s1/best.ckpt").write_bytes(b"")
+        # A valid result.json is the cell's whole record (its run config included): damage beside it is not redone.
+        (cells / "gravity/mt_bc_d2_s1/config.json").write_text("{")
+        proc = maps("suite", "run", TINY, "--out", out)
+        self.assertIn("6 finished before, 3 to run", proc.stdout)
+        self.assertIn("gravity/maps_d2_s0", proc.stdout)
+        self.assertIn("mt10/mt_bc_d2_s0: " + str(cells / "mt10/mt_bc_d2_s0/result.json") +
+                      ": was trained with another run config; redoing the cell", proc.stdout)
+        self.assertIn("mt10/maps_d2_s1: resuming failed", proc.stdout)
+        self.assertIn("redoing the cell from nothing", proc.stdout)
+        self.assertEqual(results(out), results(self.reference))
+
+    def test_a_failed_cell_is_reported_and_the_rest_finish(self):
+        config = json.loads(TINY.read_text())
+        config["grids"] = [{"name": "bad", "sets": ["mt10"], "methods": ["mt_bc"], "demos": [2, 400], "seeds": [0]}]
+        path = write_config(self.dir, config)
+        out = self.dir / "failing"
+        proc = maps("suite", "run", path, "--out", out, check=False)
+        self.assertEqual(proc.returncode, 1)
+        self.assertIn("mt10/mt_bc_d400_s0: FAILED: training failed", proc.stdout)
+        status = maps("suite", "status", out)
+        self.assertIn("failed  mt10/mt_bc_d400_s0: train:", status.stdout)
+        self.assertIn("1 done, 0 running, 1 failed", status.stdout)
+        error = json.loads((out / "cells/mt10/mt_bc_d400_s0/error.json").read_text())
+        self.assertEqual(error["stage"], "train")
+        self.assertIn("400", error["error"])
+
+    def test_a_suite_folder_of_another_config_is_refused(self):
+        out = self.dir / "other"
+        maps("suite", "run", TINY, "--out", out, "--shard", "0/1000")
+        config = json.loads(TINY.read_text())
+        config["defaults"]["train"]["steps"] = 61
+        path = write_config(self.dir, config)
+        proc = maps("suite", "run", path, "--out", out, check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("has another run config", proc.stderr)
+        # More seeds: the suite grows, the finished cell stays.
+        config = json.loads(TINY.read_text())
+        config["grids"][0]["seeds"] = [0, 1, 2]
+        path = write_config(self.dir, config)
+        proc = maps("suite", "run", path, "--out", out, "--shard", "0/1000")
+        self.assertIn("1 finished before", proc.stdout)
+
+    def test_merged_shards_equal_a_single_run(self):
+        shards = []
+        for shard in range(3):
+            folder = self.dir / f"shard-{shard}"
+            maps("suite", "run", TINY, "--out", folder, "--shard", f"{shard}/3", "--jobs", "2")
+            shards.append(folder)
+            names = set(results(folder))
+            self.assertEqual(names, {c["name"] for c in plan(TINY, "--shard", f"{shard}/3")["cells"]})
+        merged = self.dir / "merged"
+        proc = maps("suite", "merge", "--out", merged, *shards)
+        self.assertIn("9 of 9 cells finished", proc.stdout)
+        self.assertEqual(results(merged), results(self.reference))
+        # Merging again is a no-op; a shard whose numbers differ is refused.
+        maps("suite", "merge", "--out", merged, *shards)
+        bad = self.dir / "shard-0" / "cells/gravity/maps_d2_s0/result.json"
+        result = json.loads(bad.read_text())
+        result["eval"]["mean_score"] += 0.5
+        bad.write_text(json.dumps(result))
+        proc = maps("suite", "merge", "--out", merged, *shards, check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("gravity/maps_d2_s0 has different results", proc.stderr)
+        proc = maps("suite", "merge", "--out", self.dir / "m2", self.reference, self.dir / "failing", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+
+    def test_status_of_a_folder_that_is_not_a_suite(self):
+        proc = maps("suite", "status", self.dir, check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("has no suite.json", proc.stderr)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
+    with tempfile.TemporaryDirectory(prefix="maps-suite-test-") as scratch:
+        WORK = scratch
+        unittest.main()
