@@ -1,161 +1,334 @@
 #!/usr/bin/python3
-"""Tests of experiments/suites/{grid_results,aggregate,plot}.py on a small hand-made grid whose numbers are
-known: the score table, the paired differences, the labels of widened baselines, the routing table, the plots,
-and the errors for an empty or damaged grid. Run by ctest (tests/CMakeLists.txt)."""
-import contextlib
-import io
+"""Tests of the suite report (experiments/suites/report.py and its modules) on the committed fixture
+tests/experiments/fixtures/suite-small (written by make_suite_small.py, whose hand-chosen scores give the numbers
+below): results.csv, the score table, paired differences, routing, Fig. 3's shares, ablation and module-count
+tables, every figure and its CSV, and the errors (damaged result, no suite.json, nothing finished, no matplotlib).
+Run by ctest (tests/CMakeLists.txt)."""
+import csv
+import filecmp
 import json
 import math
 import pathlib
+import shutil
+import statistics
+import subprocess
 import sys
 import tempfile
 import unittest
 
-SUITES = pathlib.Path(__file__).resolve().parents[2] / "experiments" / "suites"
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SUITES = ROOT / "experiments" / "suites"
+FIXTURE = ROOT / "tests" / "experiments" / "fixtures" / "suite-small"
+REPORT = SUITES / "report.py"
 sys.path.insert(0, str(SUITES))
+sys.path.insert(0, str(FIXTURE.parent))
 
-import aggregate  # noqa: E402
-import grid_results  # noqa: E402
+import suite_stats  # noqa: E402
 
-TASKS = ["gravity/0.5", "gravity/1.0"]
+FIGURES = ["fig2_scores", "fig2_tasks_gravity", "fig2_tasks_mt10", "fig3_vs_single_bc", "fig4_ablations",
+           "fig5_modules_heatmap", "fig6_module_usage", "validation"]
+CSVS = ["results", "fig2_scores", "fig2_tasks", "fig3_vs_single_bc", "fig4_ablations", "fig5_modules_heatmap",
+        "fig6_module_usage", "validation"]
+
+# The fixture's finished cells: set, method, variant, M (MAPS), demos, seed, the two tasks' scores.
+CELLS = """
+gravity maps base 10 5 0 0.8 0.6
+gravity maps base 10 5 1 0.6 0.4
+gravity maps base 10 10 0 0.9 0.7
+gravity maps base 10 10 1 0.9 0.9
+gravity single_bc base - 5 0 0.5 0.3
+gravity single_bc base - 5 1 0.7 0.3
+gravity single_bc base - 10 0 0.8 0.7
+gravity single_bc base - 10 1 0.8 0.5
+gravity mt_bc base - 5 0 0.6 0.4
+gravity mt_bc base - 5 1 0.5 0.3
+gravity mt_bc base - 10 0 0.7 0.8
+mt10 maps base 10 5 0 0.8 0.6
+mt10 maps base 10 5 1 0.6 0.6
+mt10 maps base 10 10 0 1.0 0.8
+mt10 maps base 10 10 1 0.9 0.7
+mt10 maps m5 5 5 0 0.7 0.5
+mt10 maps m5 5 5 1 0.6 0.4
+mt10 maps m5 5 10 0 0.9 0.9
+mt10 maps m5 5 10 1 0.8 0.8
+mt10 maps no_explore 10 5 0 0.4 0.2
+mt10 maps no_explore 10 5 1 0.3 0.3
+mt10 maps no_explore 10 10 0 0.6 0.4
+mt10 maps no_explore 10 10 1 0.5 0.5
+mt10 single_bc base - 5 0 0.6 0.4
+mt10 single_bc base - 5 1 0.7 0.5
+mt10 single_bc base - 10 0 0.9 0.9
+mt10 single_bc base - 10 1 0.8 0.8
+mt10 mt_bc base - 5 0 0.5 0.5
+mt10 mt_bc base - 5 1 0.4 0.2
+mt10 mt_bc base - 10 0 0.9 0.7
+"""
+TASKS = {"gravity": ["gravity/0.5", "gravity/1.0"], "mt10": ["mt10/reach", "mt10/push"]}
+EXPERT_RETURN = {"gravity/0.5": 5000.0, "gravity/1.0": 4000.0}
 
 
-def write_run(root, name, method, seed, scores, hidden=None, usage=None, entropy=None):
-    folder = root / name
-    folder.mkdir(parents=True)
-    tasks = []
-    for i, task in enumerate(TASKS):
-        entry = {"task": task, "score": scores[i]}
-        if usage is not None:
-            entry["module_usage"] = usage[i]
-            entry["selector_entropy"] = entropy[i]
-            entry["selector_top_score"] = max(usage[i])
-        tasks.append(entry)
-    result = {"method": method, "seed": seed, "demos_per_task": 5, "subsample": 10, "best_step": 100 * (seed + 1),
-              "mean_score": sum(scores) / len(scores), "tasks": tasks}
-    (folder / "eval.json").write_text(json.dumps(result))
-    config = {"method": method, "train": {"steps": 2000}}
-    if hidden is not None:
-        config["baselines"] = {"hidden": hidden}
-    (folder / "config.json").write_text(json.dumps(config))
-    (folder / "curve.csv").write_text("step,bc,total,validation_bc,steps_per_second\n"
-                                      f"100,0.5,0.5,{0.4 - 0.01 * seed},10\n200,0.3,0.3,{0.2 - 0.01 * seed},10\n")
+def expected_results():
+    """results.csv's rows, in its order (set, method, base variant first, demos, seed, task)."""
+    rows = []
+    for line in CELLS.strip().splitlines():
+        set_name, method, variant, modules, demos, seed, *scores = line.split()
+        subsample = "10" if set_name == "gravity" else "1"
+        folder = f"{method}{'' if variant == 'base' else '-' + variant}_d{demos}_s{seed}"
+        grid = {"base": "comparison", "no_explore": "ablation", "m5": "modules"}[variant]
+        for task, score in zip(TASKS[set_name], map(float, scores)):
+            success, ret = (score, 500.0 + 4000.0 * score) if set_name == "mt10" else (0.0, score * EXPERT_RETURN[task])
+            rows.append({"set": set_name, "method": method, "variant": variant,
+                         "modules": "" if modules == "-" else modules, "demos": demos, "subsample": subsample,
+                         "seed": seed, "task": task, "score": score, "success": success, "return_mean": ret,
+                         "best_step": "750" if seed == "0" else "1000", "steps": "1000", "grid": grid,
+                         "cell": f"{set_name}/{folder}"})
+    return rows
 
 
-def make_grid(root):
-    # MAPS: task scores (0.8, 0.6) and (0.6, 0.4): means 0.7 and 0.5. MT-BC: means 0.5 and 0.4, so its paired
-    # differences from MAPS are -0.2 and -0.1 (mean -0.15). A widened MT-BC has its own row.
-    usage_a = [[0.5, 0.5], [0.5, 0.5]]
-    write_run(root, "maps_d5_k10_s0", "maps", 0, [0.8, 0.6], usage=usage_a, entropy=[0.1, 0.2])
-    write_run(root, "maps_d5_k10_s1", "maps", 1, [0.6, 0.4], usage=[[0.9, 0.1], [0.1, 0.9]], entropy=[0.3, 0.4])
-    write_run(root, "mt_bc_d5_k10_s0", "mt_bc", 0, [0.6, 0.4])
-    write_run(root, "mt_bc_d5_k10_s1", "mt_bc", 1, [0.5, 0.3])
-    write_run(root, "mt_bc_w64_d5_k10_s0", "mt_bc", 0, [0.9, 0.9], hidden=[64, 64, 64])
+def run_report(*args, env_prelude=None):
+    """(exit code, stdout, stderr) of report.py run as `maps report` runs it."""
+    if env_prelude is None:
+        command = [sys.executable, str(REPORT), *map(str, args)]
+    else:
+        command = [sys.executable, "-c", f"{env_prelude}\nimport sys\nsys.path.insert(0, {str(SUITES)!r})\n"
+                   f"import report\nsys.exit(report.main({[str(a) for a in args]!r}))"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    return done.returncode, done.stdout, done.stderr
 
 
-def run_aggregate(root):
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        aggregate.main(str(root))
-    return out.getvalue()
+def rows_of(text, first_cells):
+    """The cells of every Markdown table row of `text` starting with first_cells."""
+    found = []
+    for line in text.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if line.startswith("|") and cells[:len(first_cells)] == first_cells:
+            found.append(cells)
+    return found
 
 
 def row_of(text, first_cells):
-    for line in text.splitlines():
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        if cells[:len(first_cells)] == first_cells:
-            return cells
-    raise AssertionError(f"no row starting {first_cells} in:\n{text}")
+    found = rows_of(text, first_cells)
+    if len(found) != 1:
+        raise AssertionError(f"{len(found)} rows starting {first_cells} in:\n{text}")
+    return found[0]
 
 
-class Aggregate(unittest.TestCase):
-    def setUp(self):
-        self.tmp = tempfile.TemporaryDirectory()
-        self.root = pathlib.Path(self.tmp.name)
-        make_grid(self.root)
+def between(text, start, end):
+    """The part of text from the heading `start` to the next `end`."""
+    begin = text.index(start)
+    stop = text.find(end, begin + len(start))
+    return text[begin:stop if stop >= 0 else len(text)]
 
-    def tearDown(self):
-        self.tmp.cleanup()
 
-    def test_score_table_means_and_confidence_intervals(self):
-        text = run_aggregate(self.root)
-        maps = row_of(text, ["maps", "5", "10", "2", "2000"])
-        # Task 0: scores 0.8 and 0.6: mean 0.7, CI 12.706 * stdev(0.1414) / sqrt(2) = 1.27.
-        self.assertEqual(maps[5], "0.70 +- 1.27")
-        self.assertEqual(maps[7], "**0.60 +- 1.27**")
-        self.assertEqual(maps[8], "100-200")
+class Report(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.out = pathlib.Path(cls.tmp.name) / "report"
+        cls.code, cls.stdout, cls.stderr = run_report(FIXTURE, cls.out)
+        cls.md = (cls.out / "report.md").read_text() if cls.code == 0 else ""
 
-    def test_paired_differences_use_the_same_seeds(self):
-        text = run_aggregate(self.root)
-        paired = text[text.index("Paired difference"):]
-        # -0.2 and -0.1: mean -0.15, CI 12.706 * 0.0707 / sqrt(2) = 0.64.
-        self.assertEqual(row_of(paired, ["mt_bc", "5", "10", "2"])[4], "-0.15 +- 0.64")
-        # One pair only: no interval.
-        self.assertEqual(row_of(paired, ["mt_bc_w64", "5", "10", "1"])[4], "+0.20 +- nan")
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
 
-    def test_a_widened_baseline_is_its_own_row(self):
-        text = run_aggregate(self.root)
-        self.assertEqual(row_of(text, ["mt_bc_w64", "5", "10", "1"])[7], "**0.90 +- nan**")
-        # Cells named by run_grid.sh keep their name; other folders are labelled from the config.
-        self.assertEqual(grid_results.label_of("maps_sparse05_d5_k10_s3", "maps", {}, 5, 10, 3), "maps_sparse05")
-        self.assertEqual(grid_results.label_of("run7", "mt_bc", {"baselines": {"hidden": [64, 32]}}, 5, 10, 3),
-                         "mt_bc (64x32)")
-        self.assertEqual(grid_results.label_of("run7", "mt_bc", {"baselines": {"hidden": [128] * 3}}, 5, 10, 3),
-                         "mt_bc")
+    def test_runs_and_ends_with_the_report_path(self):
+        self.assertEqual(self.code, 0, self.stderr)
+        self.assertEqual(self.stdout.strip().splitlines()[-1], f"report: {self.out / 'report.md'}")
+        self.assertEqual(row_of(self.stdout, ["gravity", "maps", "5"]), ["gravity", "maps", "5", "10", "2",
+                                                                          "0.60 +- 1.27"])
+        self.assertEqual(row_of(self.stdout, ["mt10", "mt_bc", "10"])[4:], ["1", "0.80 +- nan"])
+
+    def test_writes_every_figure_and_its_csv(self):
+        for name in FIGURES:
+            data = (self.out / f"{name}.png").read_bytes()
+            self.assertTrue(data.startswith(b"\x89PNG"), name)
+            self.assertGreater(len(data), 10000, name)
+            self.assertIn(f"![]({name}.png)", self.md)
+        for name in CSVS:
+            with (self.out / f"{name}.csv").open() as f:
+                self.assertGreater(len(list(csv.reader(f))), 1, name)
+        self.assertNotIn("could not be drawn", self.stderr + self.md)
+
+    def test_results_csv_has_one_row_per_finished_cell_and_task(self):
+        with (self.out / "results.csv").open() as f:
+            reader = csv.DictReader(f)
+            self.assertEqual(reader.fieldnames, ["set", "method", "variant", "modules", "demos", "subsample", "seed",
+                                                 "task", "score", "success", "return_mean", "best_step", "steps",
+                                                 "wall_seconds", "grid", "cell"])
+            rows = list(reader)
+        expected = expected_results()
+        self.assertEqual(len(rows), len(expected))
+        for row, want in zip(rows, expected):
+            for key, value in want.items():
+                if isinstance(value, float):
+                    self.assertAlmostEqual(float(row[key]), value, places=9, msg=(want["cell"], key))
+                else:
+                    self.assertEqual(row[key], value, (want["cell"], key))
+            self.assertGreaterEqual(float(row["wall_seconds"]), 20.0)
+
+    def test_protocol_and_cell_counts(self):
+        self.assertIn("1000 training steps, validation BC loss every 250 steps", self.md)
+        self.assertIn("10 evaluation episodes per task; seeds 0, 1", self.md)
+        self.assertIn("checkpoint = the step of the best validation BC loss", self.md)
+        self.assertIn("at any step of its 150 steps", self.md)
+        self.assertIn("Cells: 30 finished, 1 missing (not run or not finished), 1 failed, 0 damaged, of 32 in"
+                      " suite.json.", self.md)
+        self.assertIn("- `gravity/mt_bc_d10_s1` (train): maps: error: loss is nan at step 250", self.md)
+        self.assertIn("Missing cells: `mt10/mt_bc_d10_s1`", self.md)
+
+    def test_score_tables(self):
+        gravity = between(self.md, "## Set gravity", "### Paired")
+        # Task 0.5: 0.8 and 0.6: mean 0.7, CI 12.706 * stdev 0.1414 / sqrt(2) = 1.27.
+        self.assertEqual(row_of(gravity, ["maps", "5"]), ["maps", "5", "10", "2", "1000", "0.70 +- 1.27",
+                                                          "0.50 +- 1.27", "**0.60 +- 1.27**", "750-1000"])
+        # The failed seed: one seed left, no interval.
+        self.assertEqual(row_of(gravity, ["mt_bc", "10"]), ["mt_bc", "10", "10", "1", "1000", "0.70 +- nan",
+                                                            "0.80 +- nan", "**0.75 +- nan**", "750"])
+        mt10 = between(self.md, "## Set mt10", "### Paired")
+        self.assertEqual(row_of(mt10, ["maps (no_explore)", "5"])[5:], ["0.35 +- 0.64", "0.25 +- 0.64",
+                                                                        "**0.30 +- 0.00**", "750-1000"])
+        self.assertEqual(row_of(mt10, ["maps (m5)", "10"])[5:8], ["0.85 +- 0.64", "0.85 +- 0.64", "**0.85 +- 0.64**"])
+
+    def test_paired_differences_from_maps_use_the_same_seeds(self):
+        gravity = between(self.md, "## Set gravity", "## Set mt10")
+        paired = between(gravity, "### Paired differences", "###")
+        # Single BC at 5 demos: 0.4 - 0.7 and 0.5 - 0.5: mean -0.15, CI 12.706 * 0.2121 / sqrt(2) = 1.91.
+        self.assertEqual(row_of(paired, ["single_bc", "5"])[3:], ["2", "-0.15 +- 1.91"])
+        self.assertEqual(row_of(paired, ["mt_bc", "5"])[3:], ["2", "-0.15 +- 0.64"])
+        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.05 +- nan"])
+        mt10 = between(self.md, "## Set mt10", "## Fig. 4")
+        paired = between(mt10, "### Paired differences", "###")
+        self.assertEqual(row_of(paired, ["maps (no_explore)", "5"])[3:], ["2", "-0.35 +- 0.64"])
+        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.10 +- nan"])
 
     def test_routing_is_computed_per_seed(self):
-        text = run_aggregate(self.root)
-        routing = text[text.index("Routing"):]
-        # Seed 0: both tasks use the modules alike (TV 0); seed 1: each task its own module (TV 0.4 from the mean
-        # usage 0.5/0.5). Averaged over seeds 0.2, where averaging usage first would have hidden it.
-        row = row_of(routing, ["gravity/0.5"])
-        self.assertTrue(row[1].startswith("0.20 +- "), row)
-        self.assertTrue(row[2].startswith("0.20 +- "), row)  # entropy 0.1 and 0.3
-        self.assertTrue(row[3].startswith("0.70 +- "), row)  # top scores 0.5 and 0.9
+        routing = between(self.md, "MAPS, 5 demos, k = 10", "MAPS, 10 demos, k = 10")
+        # Seed 0 routes both tasks alike (TV 0), seed 1 each task to its own module (TV 0.4): 0.2 over seeds, where
+        # averaging the usage over seeds first would have hidden it.
+        self.assertEqual(row_of(routing, ["0.5", "0.50"])[-1], "0.50-0.90")
+        self.assertEqual(row_of(routing, ["0.5", "0.20 +- 2.54"]), ["0.5", "0.20 +- 2.54", "0.20 +- 1.27",
+                                                                    "0.70 +- 2.54"])
 
+    def test_fig3_shares_against_single_bc(self):
+        fig3 = between(self.md, "## Fig. 3", "## Set gravity")
+        # MAPS, task means over seeds against Single BC's (gravity 5 demos: 0.7/0.6, 0.5/0.3; 10: 0.9/0.8, 0.8/0.6;
+        # mt10 5: 0.7/0.65, 0.6/0.45; 10: 0.95/0.85, 0.75/0.85): 7 better, 1 worse, 6 by > 10% (not 0.7/0.65);
+        # paired over seeds, gravity/0.5 and mt10/reach at 10 demos are +0.1 in both seeds (significant), mt10/push
+        # at 10 demos -0.1 in both.
+        self.assertEqual(row_of(fig3, ["all", "maps"])[2:], ["8", "7 (88%)", "1 (12%)", "0 (0%)", "6 (75%)",
+                                                             "2 (25%)", "1 (12%)"])
+        self.assertEqual(row_of(fig3, ["all", "mt_bc"])[2:], ["8", "3 (38%)", "5 (62%)", "0 (0%)", "2 (25%)",
+                                                              "0 (0%)", "0 (0%)"])
+        self.assertEqual(row_of(fig3, ["mt10", "maps"])[2:], ["4", "3 (75%)", "1 (25%)", "0 (0%)", "2 (50%)",
+                                                              "1 (25%)", "1 (25%)"])
+        with (self.out / "fig3_vs_single_bc.csv").open() as f:
+            rows = {(r["set"], r["method"]): r for r in csv.DictReader(f)}
+        self.assertEqual({k: rows[("all", "maps")][k] for k in ("settings", "better", "much_better",
+                                                                 "significantly_better")},
+                         {"settings": "8", "better": "7", "much_better": "6", "significantly_better": "2"})
+
+    def test_ablation_and_module_tables(self):
+        fig4 = between(self.md, "## Fig. 4", "## Fig. 5")
+        self.assertEqual(row_of(fig4, ["maps (no_explore)", "explore", "10", "5"])[5:],
+                         ["2", "0.30 +- 0.00", "-0.35 +- 0.64 (2)", "1.00 +- 0.00", "0.00 +- 0.00", "0.05 +- 0.00"])
+        # Pooled over (demos, seed): -0.4, -0.3, -0.4, -0.3: CI 3.182 * 0.0577 / 2 = 0.09.
+        self.assertEqual(row_of(fig4, ["maps (no_explore)", "4"]), ["maps (no_explore)", "4", "-0.35 +- 0.09"])
+        fig5 = between(self.md, "## Fig. 5", "## Fig. 6")
+        self.assertEqual(row_of(fig5, ["5"]), ["5", "0.55 +- 0.64 (n=2)", "0.85 +- 0.64 (n=2)"])
+        self.assertEqual(row_of(fig5, ["10"]), ["10", "0.65 +- 0.64 (n=2)", "0.85 +- 0.64 (n=2)"])
+        with (self.out / "fig5_modules_heatmap.csv").open() as f:
+            self.assertEqual(len(list(csv.DictReader(f))), 4)
+
+    def test_captions_say_n_and_the_score(self):
+        self.assertIn("n = 1-2 seeds per point, 10 episodes per task, 1000 training steps", self.md)
+        self.assertIn("success rate", between(self.md, "![](fig2_scores.png)", "##"))
+        self.assertIn("return / expert demo return", between(self.md, "![](fig2_scores.png)", "##"))
+        self.assertIn("seed 0", between(self.md, "![](fig6_module_usage.png)", "##"))
+
+    def test_the_fixture_is_what_its_generator_writes(self):
+        import make_suite_small
+        with tempfile.TemporaryDirectory() as tmp:
+            fresh = pathlib.Path(tmp) / "suite-small"
+            make_suite_small.write(fresh)
+            mismatch = filecmp.dircmp(fresh, FIXTURE)
+            stack = [mismatch]
+            while stack:
+                d = stack.pop()
+                self.assertFalse(d.left_only or d.right_only or d.diff_files,
+                                 f"{d.left}: rerun tests/experiments/fixtures/make_suite_small.py")
+                stack += d.subdirs.values()
+
+
+class Statistics(unittest.TestCase):
     def test_ci95_uses_the_t_distribution(self):
-        self.assertTrue(math.isnan(grid_results.ci95([1.0])))
-        self.assertAlmostEqual(grid_results.ci95([0.0, 1.0]), 12.706 * math.sqrt(0.5) / math.sqrt(2))
-        self.assertAlmostEqual(grid_results.ci95([float(i % 2) for i in range(40)]),
-                               1.96 * grid_results.statistics.stdev([float(i % 2) for i in range(40)]) / math.sqrt(40))
+        self.assertTrue(math.isnan(suite_stats.ci95([1.0])))
+        self.assertAlmostEqual(suite_stats.ci95([0.0, 1.0]), 12.706 * math.sqrt(0.5) / math.sqrt(2))
+        values = [float(i % 2) for i in range(40)]
+        self.assertAlmostEqual(suite_stats.ci95(values), 1.96 * statistics.stdev(values) / math.sqrt(40))
+
+    def test_significance_needs_an_interval_off_zero(self):
+        self.assertEqual(suite_stats.significance([0.1, 0.1]), 1)
+        self.assertEqual(suite_stats.significance([-0.1, -0.1]), -1)
+        self.assertEqual(suite_stats.significance([0.3, -0.1]), 0)
+        self.assertEqual(suite_stats.significance([0.3]), 0)
 
 
 class Errors(unittest.TestCase):
-    def test_an_empty_grid_says_what_to_run(self):
+    def test_a_damaged_result_is_named_and_skipped(self):
         with tempfile.TemporaryDirectory() as tmp:
-            with self.assertRaises(SystemExit) as raised:
-                grid_results.load_runs(tmp)
-            self.assertIn("run_grid.sh", str(raised.exception))
+            suite = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite)
+            truncated = suite / "cells" / "mt10" / "single_bc_d5_s1" / "result.json"
+            truncated.write_text(truncated.read_text()[:200])
+            no_eval = suite / "cells" / "gravity" / "maps_d10_s1" / "result.json"
+            no_eval.write_text('{"format": "maps-suite-cell/1", "cell": {}}')
+            # A stale result: trained with another run config than suite.json lists for the cell.
+            stale = suite / "cells" / "mt10" / "maps-m5_d5_s0" / "result.json"
+            result = json.loads(stale.read_text())
+            result["config"]["train"]["steps"] = 500
+            stale.write_text(json.dumps(result))
+            code, stdout, stderr = run_report(suite)  # OUT defaults to DIR/report
+            self.assertEqual(code, 0, stderr)
+            self.assertNotIn("Traceback", stderr)
+            self.assertIn(str(truncated), stderr)
+            md = (suite / "report" / "report.md").read_text()
+            self.assertIn("27 finished, 1 missing (not run or not finished), 1 failed, 3 damaged", md)
+            self.assertIn(f"- `{truncated}`: JSONDecodeError", md)
+            self.assertIn(f"- `{no_eval}`: KeyError", md)
+            self.assertIn(f"- `{stale}`: trained with another run config", md)
+            self.assertEqual(row_of(stdout, ["mt10", "single_bc", "5"])[4:], ["1", "0.50 +- nan"])
+            with (suite / "report" / "results.csv").open() as f:
+                cells = {row["cell"] for row in csv.DictReader(f)}
+            self.assertEqual(len(cells), 27)
+            self.assertFalse({"mt10/single_bc_d5_s1", "gravity/maps_d10_s1", "mt10/maps-m5_d5_s0"} & cells)
 
-    def test_a_damaged_result_names_its_file(self):
+    def test_a_folder_without_suite_json_says_so(self):
         with tempfile.TemporaryDirectory() as tmp:
-            root = pathlib.Path(tmp)
-            make_grid(root)
-            (root / "mt_bc_d5_k10_s1" / "eval.json").write_text('{"method": "mt_bc", "seed": ')
-            with self.assertRaises(SystemExit) as raised:
-                grid_results.load_runs(root)
-            self.assertIn("mt_bc_d5_k10_s1", str(raised.exception))
-            (root / "mt_bc_d5_k10_s1" / "eval.json").write_text('{"method": "mt_bc"}')
-            with self.assertRaises(SystemExit) as raised:
-                grid_results.load_runs(root)
-            self.assertIn("mt_bc_d5_k10_s1", str(raised.exception))
+            code, stdout, stderr = run_report(tmp)
+            self.assertEqual(code, 2)
+            self.assertIn(str(pathlib.Path(tmp) / "suite.json"), stderr)
+            self.assertNotIn("Traceback", stderr)
 
-
-class Plot(unittest.TestCase):
-    def test_writes_the_three_pngs(self):
-        try:
-            import plot
-        except SystemExit as missing:  # matplotlib is not installed: scripts/setup.sh installs it
-            self.skipTest(str(missing))
+    def test_a_suite_with_nothing_finished_says_so(self):
         with tempfile.TemporaryDirectory() as tmp:
-            root = pathlib.Path(tmp)
-            make_grid(root)
-            with contextlib.redirect_stdout(io.StringIO()):
-                plot.main(str(root), str(root / "plots"))
-            for name in ("scores.png", "validation.png", "module_usage.png"):
-                data = (root / "plots" / name).read_bytes()
-                self.assertTrue(data.startswith(b"\x89PNG"), name)
-                self.assertGreater(len(data), 5000, name)
+            suite = pathlib.Path(tmp)
+            shutil.copy(FIXTURE / "suite.json", suite / "suite.json")
+            failed = suite / "cells" / "gravity" / "maps_d5_s0"
+            failed.mkdir(parents=True)
+            (failed / "error.json").write_text('{"stage": "eval", "error": "no checkpoint"}')
+            code, stdout, stderr = run_report(suite)
+            self.assertEqual(code, 2)
+            self.assertIn(f"{suite}: no finished cells", stderr)
+            self.assertIn("32 planned, 1 failed", stderr)
+            self.assertFalse((suite / "report").exists())
+
+    def test_a_missing_matplotlib_says_what_to_install(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            code, stdout, stderr = run_report(FIXTURE, tmp, env_prelude="import sys\nsys.modules['matplotlib'] = None")
+            self.assertEqual(code, 2)
+            self.assertIn("python3-matplotlib", stderr)
+            self.assertNotIn("Traceback", stderr)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,470 @@
+"""The figures of a suite report (PNG, matplotlib Agg), each with its numbers in a CSV file beside it:
+
+    fig2_scores.png        Fig. 2: mean score over tasks against demos per task, one panel per set, one line per method
+    fig2_tasks_<set>.png   the per-task bars beside it: per demo count, each task's mean score per method
+    fig3_vs_single_bc.png  Fig. 3: shares of (set, task, demos) settings better / worse than Single BC
+    fig4_ablations.png     Fig. 4: MAPS with a selector term zeroed: module usage and score against demos
+    fig5_modules_heatmap.png  Fig. 5: MAPS's mean score by number of modules M and demos
+    fig6_module_usage.png  Fig. 6 (left): MAPS's per-task module usage on MT10, one seed
+    validation.png         validation BC loss against training step, mean over seeds per method
+
+Each function returns the Figures it wrote ((file name, caption) pairs; the caption says what n is and what the
+score is), or [] when the suite has no data for it. One colour per method everywhere (the paper's)."""
+import csv
+import math
+from collections import namedtuple
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker as ticker  # noqa: E402
+import numpy as np  # noqa: E402
+
+from suite_results import (METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups, groups,  # noqa: E402
+                           maps_reference, module_sweep_cells, order, score_name, short_task, success_scored,
+                           task_names, task_score)
+from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, usage_distances,  # noqa: E402
+                         vs_single_bc)
+
+Figure = namedtuple("Figure", "file caption")
+DPI = 120
+NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML"}
+COLORS = {"maps": "tab:blue", "maml": "tab:orange", "mt_bc": "m", "mt_mh_bc": "tab:red", "single_bc": "tab:green"}
+SPARE = ["tab:purple", "tab:brown", "tab:gray", "tab:olive", "tab:cyan", "k"]
+# MAPS's variants in Fig. 4 (base MAPS keeps its blue): colours no method has.
+VARIANT_COLORS = ["tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:gray", "tab:pink", "k", "gold"]
+
+plt.rcParams.update({"font.size": 10, "axes.titlesize": 10, "legend.fontsize": 9, "figure.titlesize": 11})
+
+
+def name(method):
+    return NAMES.get(method, method)
+
+
+def color(method):
+    if method in COLORS:
+        return COLORS[method]
+    return SPARE[sum(map(ord, method)) % len(SPARE)]  # the same in every run
+
+
+def base_cells(cells):
+    """The cells of the methods themselves (no variants)."""
+    return [c for c in cells if c.label == c.method]
+
+
+def methods_of(cells):
+    return order(METHOD_ORDER, {c.method for c in cells})
+
+
+def stats(values):
+    """(mean, CI half-width with nan as 0) for plotting."""
+    half = ci95(values)
+    return mean(values), 0.0 if half != half else half
+
+
+def write_csv(path, header, rows):
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(header)
+        writer.writerows(rows)
+
+
+def save(fig, out, file):
+    fig.savefig(out / file, dpi=DPI)
+    plt.close(fig)
+
+
+def line_with_band(ax, xs, runs_per_x, value, dodge=0.0, **style):
+    """Mean over seeds at each x, a shaded 95% band between points with 2+ seeds; returns the (x, n, mean, ci)
+    rows. A lone point (one demo count) gets an error bar instead, drawn `dodge` to the side so that the methods'
+    bars at one x stay apart."""
+    rows = []
+    for x, runs in zip(xs, runs_per_x):
+        vals = [value(c) for c in runs]
+        rows.append((x, len(vals), mean(vals), ci95(vals)))
+    ys = np.array([r[2] for r in rows])
+    half = np.array([r[3] for r in rows])
+    if len(xs) == 1:
+        ax.errorbar([xs[0] + dodge], ys, yerr=np.nan_to_num(half), fmt="o", capsize=4, **style)
+        return rows
+    ax.plot(xs, ys, marker="o", **style)
+    ax.fill_between(xs, ys - half, ys + half, where=np.isfinite(half), alpha=0.15, color=style.get("color"),
+                    linewidth=0)
+    return rows
+
+
+def score_limits(ax, set_name, cells, means):
+    """0 to just above 1 for success rates; for normalised returns (not capped) enough for the largest mean. Bands
+    and error bars past it are clipped."""
+    top = 1.05 if success_scored(set_name, cells) else max(1.1, 1.2 * max(means, default=1.0))
+    ax.set_ylim(0, top)
+
+
+def seeds(n):
+    return f"{n} seed{'' if n == 1 else 's'}"
+
+
+def legend_below(fig, axes, columns):
+    """One legend for the figure, below the panels, from the labelled lines and bars of all axes."""
+    handles = {}
+    for ax in axes:
+        for handle, text in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(text, handle)
+    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=min(columns, len(handles)),
+               frameon=False)
+
+
+def fig2_scores(cells, out):
+    """One panel per set: each method's mean score over tasks against demos per task, band: 95% CI over seeds."""
+    cells = base_cells(cells)
+    sets = order(SET_ORDER, {c.set for c in cells})
+    if not sets:
+        return []
+    fig, axes = plt.subplots(1, len(sets), figsize=(max(6.5, 5.2 * len(sets)), 5.0), squeeze=False)
+    rows = []
+    for ax, set_name in zip(axes[0], sets):
+        mine = [c for c in cells if c.set == set_name]
+        by_key = groups(mine)
+        several_k = len({k.subsample for k in by_key}) > 1
+        means = []
+        lone = len({c.demos for c in mine}) == 1
+        for i, method in enumerate(methods_of(mine)):
+            for k in sorted({key.subsample for key in by_key if key.label == method}):
+                keys = [key for key in by_key if key.label == method and key.subsample == k]
+                label = name(method) + (f", k = {k}" if several_k else "")
+                dodge = 0.12 * (i - (len(methods_of(mine)) - 1) / 2) if lone else 0.0
+                points = line_with_band(ax, [key.demos for key in keys], [by_key[key] for key in keys],
+                                        lambda c: c.mean_score, dodge=dodge, color=color(method), label=label)
+                rows += [[set_name, method, "base", x, k, n, m, h] for x, n, m, h in points]
+                means += [m for _, _, m, _ in points]
+        ax.set_title(f"{set_name} ({len(task_names(mine))} tasks)\n{describe_n(mine)}", fontsize=9)
+        ax.set_xlabel("demonstrations per task")
+        ax.set_ylabel(f"{score_name(set_name, mine, short=True)}\n(mean over tasks)")
+        ax.set_xticks(sorted({c.demos for c in mine}))
+        score_limits(ax, set_name, mine, means)
+        ax.grid(alpha=0.3)
+    legend_below(fig, axes[0], 6)
+    fig.suptitle("Fig. 2: mean score over tasks against demos per task\n(mean over seeds, band: 95% CI)")
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    save(fig, out, "fig2_scores.png")
+    write_csv(out / "fig2_scores.csv", ["set", "method", "variant", "demos", "subsample", "seeds", "mean", "ci95"],
+              rows)
+    return [Figure("fig2_scores.png", "Fig. 2: each set's mean score over its tasks against the number of"
+                   f" demonstrations per task, for each method (base variants); points are means over seeds, the band"
+                   f" the 95% CI over seeds (none where one seed ran). {describe_n(cells)}. Cheetah sets:"
+                   f" {score_name('gravity')}; MT10: {score_name('mt10')}.")]
+
+
+def fig2_tasks(cells, out):
+    """Per set: one panel per (demos, k), each task's mean score per method with 95% CI error bars."""
+    cells = base_cells(cells)
+    figures, rows = [], []
+    for set_name in order(SET_ORDER, {c.set for c in cells}):
+        mine = [c for c in cells if c.set == set_name]
+        tasks, methods, by_key = task_names(mine), methods_of(mine), groups(mine)
+        settings = sorted({(k.demos, k.subsample) for k in by_key})
+        width = 0.8 / len(methods)
+        fig, axes = plt.subplots(len(settings), 1, figsize=(max(7.0, 0.22 * len(tasks) * len(methods) + 2.5),
+                                                             2.6 * len(settings) + 1.2), squeeze=False)
+        for ax, (demos, k) in zip(axes[:, 0], settings):
+            means = []
+            for j, method in enumerate(methods):
+                runs = by_key.get(next((key for key in by_key if key.label == method and key.demos == demos
+                                        and key.subsample == k), None), [])
+                if not runs:
+                    continue
+                scores = [[s for s in (task_score(c, t) for c in runs) if s is not None] for t in tasks]
+                xs = np.arange(len(tasks)) - 0.4 + width * (j + 0.5)
+                errors = [ci95(v) for v in scores]
+                ax.bar(xs, [mean(v) for v in scores], width, capsize=2,
+                       yerr=errors if any(np.isfinite(errors)) else None,
+                       color=color(method), label=f"{name(method)} ({seeds(len(runs))})", error_kw={"lw": 0.8})
+                means += [mean(v) for v in scores]
+                for t in tasks:
+                    vals = [s for s in (task_score(c, t) for c in runs) if s is not None]
+                    rows.append([set_name, method, demos, k, t, len(vals), mean(vals), ci95(vals)])
+            ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+            ax.set_xticks(range(len(tasks)), [short_task(t) for t in tasks], rotation=30 if len(tasks) > 5 else 0,
+                          ha="right" if len(tasks) > 5 else "center")
+            if ax is axes[-1, 0]:
+                ax.set_xlabel(f"task ({set_name}/...)")
+            ax.set_ylabel(score_name(set_name, mine, short=True).replace(" / ", " /\n"))
+            score_limits(ax, set_name, mine, means)
+            ax.grid(alpha=0.3, axis="y")
+            ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5))
+        fig.suptitle(f"Per-task scores, {set_name}: mean over seeds, bars: 95% CI\n{describe_n(mine)}")
+        fig.tight_layout()
+        file = f"fig2_tasks_{set_name}.png"
+        save(fig, out, file)
+        figures.append(Figure(file, f"Per-task scores on {set_name}: each task's mean over seeds per method and demo"
+                              f" count, error bars the 95% CI over seeds (none where one seed ran; clipped at the"
+                              f" top). {describe_n(mine)}. Score: {score_name(set_name, mine)}."))
+    write_csv(out / "fig2_tasks.csv", ["set", "method", "demos", "subsample", "task", "seeds", "mean", "ci95"], rows)
+    return figures
+
+
+FIG3_BARS = [("better", "better"), ("worse", "worse"), ("much_better", f"better by > {100 * (MUCH_BETTER - 1):.0f}%"),
+             ("significantly_better", "significantly\nbetter"), ("significantly_worse", "significantly\nworse")]
+
+
+def fig3_vs_single_bc(cells, out):
+    vs = vs_single_bc(cells)
+    if not vs:
+        return []
+    methods = [m for m in order(METHOD_ORDER, {m for _, m in vs}) if ("all", m) in vs]
+    fig, ax = plt.subplots(figsize=(max(7.5, 1.6 * len(FIG3_BARS) * len(methods) / 2 + 2), 4.6))
+    width = 0.8 / len(methods)
+    for j, method in enumerate(methods):
+        v = vs[("all", method)]
+        xs = np.arange(len(FIG3_BARS)) - 0.4 + width * (j + 0.5)
+        shares = [v.share(field) for field, _ in FIG3_BARS]
+        ax.bar(xs, shares, width, color=color(method), label=f"{name(method)} ({v.settings} settings)")
+        for x, (field, _), share in zip(xs, FIG3_BARS, shares):
+            ax.text(x, share + 0.01, f"{getattr(v, field)}", ha="center", va="bottom", fontsize=8)
+    ax.set_xticks(range(len(FIG3_BARS)), [label for _, label in FIG3_BARS])
+    ax.set_ylabel("share of (set, task, demos) settings")
+    ax.set_ylim(0, 1.12)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(loc="upper right")
+    base = base_cells(cells)
+    ax.set_title(f"Fig. 3: against Single BC, by each setting's mean score over seeds (numbers: counts)\n"
+                 f"better by > {100 * (MUCH_BETTER - 1):.0f}%: score > {MUCH_BETTER} x Single BC's; significantly:"
+                 f" paired over seeds, 95% CI of the difference excludes 0\n{describe_n(base)}", fontsize=9)
+    fig.tight_layout()
+    save(fig, out, "fig3_vs_single_bc.png")
+    fields = [f for f in vs[next(iter(vs))].__dataclass_fields__]
+    write_csv(out / "fig3_vs_single_bc.csv", ["set", "method"] + fields,
+              [[where, method] + [getattr(v, f) for f in fields] for (where, method), v in
+               sorted(vs.items(), key=lambda item: (item[0][0] == "all", item[0]))])
+    return [Figure("fig3_vs_single_bc.png", "Fig. 3: for each method, the share of (set, task, demos) settings where"
+                   " its mean score over seeds is better / worse than Single BC's, better by more than"
+                   f" {100 * (MUCH_BETTER - 1):.0f}% (score > {MUCH_BETTER} x Single BC's), and significantly"
+                   " better / worse (paired over the seeds both ran, 95% CI of the difference excluding 0; never with"
+                   f" one seed). Per-setting counts are noisy at few seeds. {describe_n(base)}.")]
+
+
+def variant_styles(labels):
+    """Colours of Fig. 4's rows: base MAPS blue, each variant its own."""
+    return {lab: ("tab:blue" if lab == "maps" else VARIANT_COLORS[i % len(VARIANT_COLORS)])
+            for i, lab in enumerate(labels)}
+
+
+def fig4_ablations(cells, out):
+    sets = [s for s in order(SET_ORDER, {c.set for c in cells}) if ablation_cells([c for c in cells if c.set == s])]
+    if not sets:
+        return []
+    fig, axes = plt.subplots(len(sets), 3, figsize=(16, 4.6 * len(sets)), squeeze=False,
+                             gridspec_kw={"width_ratios": [1.4, 0.9, 1.1]})
+    rows, notes = [], []
+    for (ax_use, ax_tv, ax_score), set_name in zip(axes, sets):
+        mine = [c for c in cells if c.set == set_name]
+        ref = maps_reference(mine)
+        by_key = ablation_groups(mine)
+        ablations = [c for key, runs in by_key.items() if key.label != "maps" for c in runs]
+        base = [c for key, runs in by_key.items() if key.label == "maps" for c in runs]
+        labels = list(dict.fromkeys(key.label for key in by_key))
+        colors = variant_styles(labels)
+        top = max(c.demos for c in ablations)
+        width = 0.8 / len(labels)
+        means = []
+        for j, lab in enumerate(labels):
+            at_top = [c for key, runs in by_key.items() if key.label == lab and key.demos == top for c in runs
+                      if c.has_usage]
+            legend = lab if lab == "maps" else f"{lab}: {', '.join(at_top[0].zeroed_terms if at_top else ())} = 0"
+            profile = sorted_usage(at_top)
+            if profile:
+                xs = np.arange(1, len(profile) + 1) - 0.4 + width * (j + 0.5)
+                ax_use.bar(xs, profile, width, color=colors[lab], label=f"{legend} ({seeds(len(at_top))})")
+                rows += [[set_name, lab, top, "sorted_usage", i + 1, len(at_top), u, ""] for i, u in enumerate(profile)]
+                tv = [mean(usage_distances(c)) for c in at_top]
+                m, h = stats(tv)
+                ax_tv.bar(j, m, 0.7, yerr=h, capsize=3, color=colors[lab])
+                ax_tv.annotate(f"{m:.2f}", (j, m + h), xytext=(0, 2), textcoords="offset points", ha="center",
+                               va="bottom", fontsize=8)
+                rows.append([set_name, lab, top, "usage_tv", "", len(tv), m, ci95(tv)])
+            keys = [key for key in by_key if key.label == lab]
+            points = line_with_band(ax_score, [k.demos for k in keys], [by_key[k] for k in keys],
+                                    lambda c: c.mean_score, color=colors[lab], label=legend)
+            rows += [[set_name, lab, x, "score", "", n, m, h] for x, n, m, h in points]
+            means += [m for _, _, m, _ in points]
+        ax_use.set_title(f"{set_name}, {top} demos: each task's module usage sorted,\nmean over tasks and seeds")
+        ax_use.set_xlabel("module rank within the task (1 = most used)")
+        ax_use.set_ylabel("share of the selector's score")
+        ax_use.set_xticks(range(1, ref[0] + 1))
+        ax_use.legend(fontsize=8, title="colours: the same in all three panels", title_fontsize=8)
+        ax_tv.set_title(f"{top} demos: how differently tasks use the modules\n(TV from the tasks' mean usage)")
+        ax_tv.set_xticks(range(len(labels)), [lab.replace("maps (", "").rstrip(")") for lab in labels],
+                         rotation=30, ha="right")
+        ax_tv.set_ylabel("total-variation distance, mean over tasks")
+        ax_tv.set_ylim(0, max(0.05, ax_tv.get_ylim()[1] * 1.1))  # room for the value labels
+        ax_score.set_title(f"{set_name}: score per variant (M = {ref[0]}), band: 95% CI\n"
+                           f"{describe_n(base + ablations)}", fontsize=9)
+        ax_score.set_xlabel("demonstrations per task")
+        ax_score.set_ylabel(f"{score_name(set_name, mine, short=True)} (mean over tasks)")
+        ax_score.set_xticks(sorted({c.demos for c in base + ablations}))
+        score_limits(ax_score, set_name, mine, means)
+        for ax in (ax_use, ax_tv, ax_score):
+            ax.grid(alpha=0.3, axis="y")
+        notes.append(f"{set_name}: {describe_n(base + ablations)}, M = {ref[0]}")
+    fig.suptitle("Fig. 4: MAPS with one selector-loss term zeroed (from each cell's config) against MAPS")
+    fig.tight_layout()
+    save(fig, out, "fig4_ablations.png")
+    write_csv(out / "fig4_ablations.csv", ["set", "variant", "demos", "quantity", "index", "seeds", "mean", "ci95"],
+              rows)
+    return [Figure("fig4_ablations.png", "Fig. 4: MAPS's ablations against MAPS at the largest demo count: left, each"
+                   " task's module usage sorted from the most used module, averaged over tasks and seeds (a single"
+                   " tall bar: one module per task); middle, how far each task's usage is from the tasks' mean usage"
+                   " (0: all tasks route alike; computed per seed); right, the mean score over tasks against demos per"
+                   f" task (band: 95% CI over seeds). {'; '.join(notes)}.")]
+
+
+def fig5_modules_heatmap(cells, out):
+    sets = [s for s in order(SET_ORDER, {c.set for c in cells}) if module_sweep_cells([c for c in cells if c.set == s])]
+    if not sets:
+        return []
+    fig, axes = plt.subplots(1, len(sets), figsize=(max(6.0, 4.8 * len(sets) + 0.8), 4.8), squeeze=False)
+    rows, notes = [], []
+    for ax, set_name in zip(axes[0], sets):
+        sweep = module_sweep_cells([c for c in cells if c.set == set_name])
+        ms, counts = sorted({c.modules for c in sweep}), sorted({c.demos for c in sweep})
+        grid = np.full((len(ms), len(counts)), np.nan)
+        for i, m in enumerate(ms):
+            for j, demos in enumerate(counts):
+                vals = [c.mean_score for c in sweep if c.modules == m and c.demos == demos]
+                if vals:
+                    grid[i, j] = mean(vals)
+                    rows.append([set_name, m, demos, len(vals), mean(vals), ci95(vals)])
+        vmax = max(1.0, float(np.nanmax(grid)))
+        image = ax.imshow(grid, cmap="viridis", vmin=0.0, vmax=vmax, aspect="auto")
+        for i, m in enumerate(ms):
+            for j, demos in enumerate(counts):
+                n = sum(1 for c in sweep if c.modules == m and c.demos == demos)
+                text = f"{grid[i, j]:.2f}\nn={n}" if n else "-"
+                dark = n and grid[i, j] < 0.6 * vmax
+                ax.text(j, i, text, ha="center", va="center", fontsize=9, color="w" if dark else "k")
+        ax.set_xticks(range(len(counts)), [str(d) for d in counts])
+        ax.set_yticks(range(len(ms)), [str(m) for m in ms])
+        ax.set_xlabel("demonstrations per task")
+        ax.set_ylabel("modules M")
+        ax.set_title(f"{set_name}: {score_name(set_name, sweep, short=True)}\n{describe_n(sweep)}", fontsize=9)
+        fig.colorbar(image, ax=ax, fraction=0.046, label="mean over tasks and seeds")
+        notes.append(f"{set_name}: {describe_n(sweep)}")
+    fig.suptitle("Fig. 5: MAPS's mean score over tasks\nby number of modules M and demos (n = seeds per square)")
+    fig.tight_layout()
+    save(fig, out, "fig5_modules_heatmap.png")
+    write_csv(out / "fig5_modules_heatmap.csv", ["set", "modules", "demos", "seeds", "mean", "ci95"], rows)
+    return [Figure("fig5_modules_heatmap.png", "Fig. 5: MAPS's mean score over tasks, averaged over seeds, for each"
+                   " number of modules M (rows, from each cell's config) and number of demos per task (columns); n in"
+                   f" each square is its number of seeds. {'; '.join(notes)}. Cheetah sets: {score_name('gravity')};"
+                   f" MT10: {score_name('mt10')}.")]
+
+
+def fig6_module_usage(cells, out):
+    """Base MAPS's per-task module usage, one seed (module indices mean nothing across seeds): MT10, else the first
+    set that has it."""
+    usable = [c for c in cells if c.label == "maps" and c.has_usage]
+    sets = order(SET_ORDER, {c.set for c in usable})
+    if not sets:
+        return []
+    set_name = "mt10" if "mt10" in sets else sets[0]
+    mine = [c for c in usable if c.set == set_name]
+    ref = maps_reference(mine)
+    mine = [c for c in mine if c.modules == ref[0] and c.selector_losses == ref[1]]
+    by_key = groups(mine)
+    tasks = task_names(mine)
+    modules = ref[0]
+    palette = plt.get_cmap("tab10" if modules <= 10 else "tab20").colors
+    fig, axes = plt.subplots(len(by_key), 1, figsize=(max(8.0, 0.11 * len(tasks) * modules + 3), 2.8 * len(by_key)
+                                                       + 1.0), squeeze=False)
+    rows = []
+    width = 0.85 / modules
+    for ax, (key, runs) in zip(axes[:, 0], by_key.items()):
+        run = runs[0]
+        for m in range(modules):
+            xs = np.arange(len(tasks)) - 0.425 + width * (m + 0.5)
+            usage = [next(t.usage[m] for t in run.tasks if t.task == task) for task in tasks]
+            ax.bar(xs, usage, width, color=palette[m % len(palette)], label=f"m{m}")
+            rows += [[set_name, key.demos, key.subsample, run.seed, task, m, u] for task, u in zip(tasks, usage)]
+        ax.set_title(f"{set_name}, {key.demos} demos per task, k = {key.subsample}: seed {run.seed}"
+                     f" ({run.episodes} episodes per task, {run.steps} training steps)")
+        ax.set_xticks(range(len(tasks)), [short_task(t) for t in tasks], rotation=30 if len(tasks) > 5 else 0,
+                      ha="right" if len(tasks) > 5 else "center")
+        ax.set_ylabel("module usage")
+        ax.set_ylim(0, 1)
+        ax.grid(alpha=0.3, axis="y")
+        if ax is axes[0, 0]:
+            ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), ncol=1 if modules <= 10 else 2, fontsize=8)
+    fig.suptitle(f"Fig. 6: MAPS's module usage per task on {set_name} (M = {modules}): mean selector score over\n"
+                 "the task's evaluation states, one seed's run (module indices differ between seeds)")
+    fig.tight_layout()
+    save(fig, out, "fig6_module_usage.png")
+    write_csv(out / "fig6_module_usage.csv", ["set", "demos", "subsample", "seed", "task", "module", "usage"], rows)
+    seeds = ", ".join(f"{key.demos} demos: seed {runs[0].seed}" for key, runs in by_key.items())
+    return [Figure("fig6_module_usage.png", f"Fig. 6 (left): MAPS's module usage per task on {set_name} (M ="
+                   f" {modules}): each bar is the mean selector score of one module over the states of that task's"
+                   f" evaluation episodes, from one seed's run (the lowest finished seed; {seeds}), since module"
+                   f" indices mean nothing across seeds. n = one seed, {describe_n(mine).split(', ', 1)[1]}.")]
+
+
+def log_ticks(ax):
+    """Plain-number labels on a log y axis (0.03, not 3 x 10^-2), with labelled minor ticks where the axis spans
+    two decades or less."""
+    lo, hi = ax.get_ylim()
+    decades = math.log10(hi / lo)
+    fine = [1.5, 2, 2.5, 3, 4, 5, 6, 8]
+    if decades <= 0.6:
+        ax.yaxis.set_minor_locator(ticker.LogLocator(subs=fine))
+    keep = set(fine) if decades <= 0.6 else {2, 3, 4, 5, 6, 8} if decades <= 1 else {2, 5} if decades <= 2 else set()
+
+    def minor(y, _):
+        mantissa = round(y / 10 ** math.floor(math.log10(y)), 6)
+        return f"{y:g}" if mantissa in keep else ""
+
+    ax.yaxis.set_major_formatter(ticker.FuncFormatter(lambda y, _: f"{y:g}"))
+    ax.yaxis.set_minor_formatter(ticker.FuncFormatter(minor))
+
+
+def validation(cells, out):
+    cells = base_cells(cells)
+    sets = order(SET_ORDER, {c.set for c in cells})
+    if not sets:
+        return []
+    columns = max(len({(c.demos, c.subsample) for c in cells if c.set == s}) for s in sets)
+    height = 3.6 * len(sets) + 1.2
+    fig, axes = plt.subplots(len(sets), columns, figsize=(max(7.5, 4.6 * columns), height), squeeze=False)
+    rows, drawn = [], False
+    for axes_row, set_name in zip(axes, sets):
+        mine = [c for c in cells if c.set == set_name]
+        settings = sorted({(c.demos, c.subsample) for c in mine})
+        for ax in axes_row[len(settings):]:
+            ax.set_visible(False)
+        for ax, (demos, k) in zip(axes_row, settings):
+            for method in methods_of(mine):
+                curves = [c.curve() for c in mine if c.method == method and c.demos == demos and c.subsample == k]
+                curves = [dict(zip(*curve)) for curve in curves if curve[0]]
+                if not curves:
+                    continue
+                steps = sorted(set.intersection(*(set(c) for c in curves)))
+                means = [mean([c[s] for c in curves]) for s in steps]
+                ax.plot(steps, means, color=color(method), label=name(method))
+                rows += [[set_name, method, demos, k, s, len(curves), m] for s, m in zip(steps, means)]
+                drawn = True
+            ax.set_yscale("log")
+            if ax.lines:
+                log_ticks(ax)
+            ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+            ax.set_xlabel("training step")
+            ax.set_ylabel("validation BC loss")
+            ax.grid(alpha=0.3, which="both")
+    if not drawn:
+        plt.close(fig)
+        return []
+    legend_below(fig, axes.flat, 6)
+    fig.suptitle(f"Validation BC loss (held-out states) against training step, mean over seeds\n{describe_n(cells)}")
+    fig.tight_layout(rect=(0, 0.5 / height, 1, 1))
+    save(fig, out, "validation.png")
+    write_csv(out / "validation.csv", ["set", "method", "demos", "subsample", "step", "seeds", "validation_bc"], rows)
+    return [Figure("validation.png", "Validation BC loss on held-out states against the training step, mean over"
+                   " seeds per method (base variants; log scale); the checkpoint evaluated is each run's step of"
+                   f" lowest loss. {describe_n(cells)}.")]

@@ -1,0 +1,170 @@
+#!/usr/bin/python3
+"""The report of a suite folder written by `maps suite` (what `maps report DIR [--out OUT]` runs):
+
+    /usr/bin/python3 experiments/suites/report.py DIR [OUT]        (OUT defaults to DIR/report)
+
+writes to OUT
+- results.csv: one row per finished cell and task;
+- report.md: the protocol, the counts of finished / missing / failed cells, the main results, per set the score
+  table (per-task mean +- 95% CI over seeds), paired differences from MAPS, MAPS's module usage and routing; the
+  comparison with Single BC (Fig. 3), ablations (Fig. 4) and the module-count sweep (Fig. 5) where those cells exist,
+  and the figures;
+- the figures (fig2_scores.png, fig2_tasks_<set>.png, fig3_vs_single_bc.png, fig4_ablations.png,
+  fig5_modules_heatmap.png, fig6_module_usage.png, validation.png), each with its numbers in a CSV beside it.
+Prints the main results table and, last, "report: OUT/report.md". Exit code 2: no suite.json, no finished cells,
+or no matplotlib / numpy; 1: a figure could not be drawn (the rest is written; stderr and report.md say which).
+A damaged result.json is named in the report and skipped.
+
+Needs matplotlib and numpy (Debian: python3-matplotlib, python3-numpy)."""
+import argparse
+import csv
+import pathlib
+import sys
+import traceback
+
+import suite_results
+import tables
+from suite_results import SuiteError, load_suite, score_name
+from suite_stats import vs_single_bc
+
+OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv"]
+RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
+                  "return_mean", "best_step", "steps", "wall_seconds", "grid", "cell"]
+
+
+def write_results_csv(suite, path):
+    """One row per finished cell and task, sorted by set, method, variant, demos, subsample and seed."""
+    cells = sorted(suite.cells, key=lambda c: (suite_results.key_sort(c.key), c.seed))
+    with path.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(RESULT_COLUMNS)
+        for c in cells:
+            for t in c.tasks:
+                writer.writerow([c.set, c.method, c.variant, "" if c.modules is None else c.modules, c.demos,
+                                 c.subsample, c.seed, t.task, t.score, t.success, t.return_mean, c.best_step, c.steps,
+                                 c.wall_seconds, c.grid, c.name])
+
+
+def embed(figures):
+    lines = []
+    for figure in figures:
+        lines += ["", f"![]({figure.file})", "", f"*{figure.caption}*"]
+    return lines
+
+
+class Drawer:
+    """Draws the figures of `cells` into `out`; a figure that fails is reported (stderr, with its traceback, and
+    report.md) rather than ending the report."""
+
+    def __init__(self, figures, cells, out):
+        self.figures, self.cells, self.out, self.failed = figures, cells, out, []
+
+    def __call__(self, name):
+        try:
+            return getattr(self.figures, name)(self.cells, self.out)
+        except Exception as error:  # noqa: BLE001 (one figure's failure must not lose the tables)
+            traceback.print_exc()
+            message = f"{name} could not be drawn ({type(error).__name__}: {error})"
+            print(f"report: {message}", file=sys.stderr)
+            self.failed.append(message)
+            return []
+
+
+def section(title, body, empty):
+    """A report section; `empty` says what is absent when there is nothing to show."""
+    return ["", f"## {title}", ""] + (body if body else [empty])
+
+
+def per_set(suite, make, intro):
+    """Each set's table from make(cells) under a heading; [] when no set has one."""
+    lines = []
+    for set_name in suite.sets():
+        table = make(suite.cells_of(set_name))
+        if table:
+            lines += [f"### {set_name}", ""] + intro + table + [""]
+    return lines
+
+
+def report_lines(suite, draw):
+    cells = suite.cells
+    lines = [f"# Suite report: {suite.root.name}", "", "## Protocol", ""] + tables.protocol(suite)
+    lines += ["", "## Cells", ""] + tables.cell_counts(suite)
+    lines += section("Main results", ["Mean score over tasks, mean +- 95% CI over seeds:", ""]
+                     + tables.main_results(cells) + embed(draw("fig2_scores")), "")
+
+    fig3 = vs_single_bc(cells)
+    body = []
+    if fig3:
+        body = (["Each (set, task, demos) setting both a method and Single BC ran: better / worse by the mean score"
+                 " over seeds; better by > 10%: mean score > 1.1 x Single BC's; significantly: paired over the seeds"
+                 " both ran, the 95% CI of the difference excludes 0 (never with one seed).", ""]
+                + tables.fig3_table(fig3) + embed(draw("fig3_vs_single_bc")))
+    lines += section("Fig. 3: against Single BC", body, "No Single BC cells to compare with in this suite.")
+
+    task_figures = {f.file: f for f in draw("fig2_tasks")}
+    for set_name in suite.sets():
+        mine = suite.cells_of(set_name)
+        lines += ["", f"## Set {set_name}", "", f"Score: {score_name(set_name, mine)}.", "", "### Scores", ""]
+        lines += ["Per task: mean +- 95% CI over seeds; mean: the mean over tasks, per seed, then over seeds; best"
+                  " step: the range over seeds of the checkpoint evaluated.", ""] + tables.score_table(mine)
+        paired = tables.paired_table(mine)
+        lines += ["", "### Paired differences from MAPS", ""] + (paired or [
+            "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds)."])
+        figure = task_figures.get(f"fig2_tasks_{set_name}.png")
+        lines += embed([figure] if figure else [])
+        usage = tables.usage_tables(mine)
+        lines += ["", "### MAPS module usage and routing"] + (usage or ["", "No MAPS cells with module usage."])
+
+    ablations = per_set(suite, tables.ablation_table, [])
+    lines += section("Fig. 4: ablations of the selector terms",
+                     ablations + embed(draw("fig4_ablations")) if ablations else [],
+                     "No ablation cells in this suite (MAPS with a selector-loss weight of 0).")
+    sweep = per_set(suite, tables.sweep_table, ["MAPS's mean score over tasks (mean +- 95% CI over seeds, n seeds) by"
+                                                " the number of modules M (from the config):", ""])
+    lines += section("Fig. 5: number of modules", sweep + embed(draw("fig5_modules_heatmap")) if sweep else [],
+                     "No module-count cells in this suite (MAPS at another M than the base one).")
+    lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
+                     "No MAPS cells with module usage in this suite.")
+    lines += section("Validation curves", embed(draw("validation")), "No validation curves (curve.csv) in this suite.")
+    if draw.failed:
+        lines += section("Figures that failed", [f"- {message}" for message in draw.failed], "")
+    return lines
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("dir", help="the suite folder (holds suite.json and cells/)")
+    parser.add_argument("out", nargs="?", help="where to write the report (default: DIR/report)")
+    args = parser.parse_args(argv)
+    try:
+        suite = load_suite(args.dir)
+    except SuiteError as error:
+        print(f"report: {error}", file=sys.stderr)
+        return 2
+    try:
+        import figures
+    except ImportError as error:
+        print(f"report: matplotlib and numpy are needed for the figures ({error}); on Debian: apt-get install"
+              " python3-matplotlib python3-numpy", file=sys.stderr)
+        return 2
+    out = pathlib.Path(args.out) if args.out else pathlib.Path(args.dir) / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    for pattern in OWN_FILES:  # a figure this suite no longer has must not stay behind from an earlier report
+        for stale in out.glob(pattern):
+            stale.unlink()
+    for path, reason in suite.damaged:
+        print(f"report: {path}: damaged result, skipped ({reason})", file=sys.stderr)
+
+    write_results_csv(suite, out / "results.csv")
+    draw = Drawer(figures, suite.cells, out)
+    (out / "report.md").write_text("\n".join(report_lines(suite, draw)) + "\n")
+    print(f"{len(suite.cells)} finished, {len(suite.missing)} missing, {len(suite.failed)} failed,"
+          f" {len(suite.damaged)} damaged of {len(suite.planned)} cells\n")
+    print("\n".join(tables.main_results(suite.cells)))
+    print(f"report: {out / 'report.md'}")
+    return 1 if draw.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,307 @@
+"""Reading a suite folder written by `maps suite`:
+
+    DIR/suite.json                                 the suite: its config and every cell, finished or not
+    DIR/cells/<set>/<cell>/result.json             a finished cell (written atomically: present means finished)
+    DIR/cells/<set>/<cell>/curve.csv               its validation curve (columns read by name)
+    DIR/cells/<set>/<cell>/error.json              a failed cell: {"stage": ..., "error": ...}
+
+load_suite() returns a Suite: the finished cells (Cell), the failed, missing and damaged ones. A cell's kind is
+read from its resolved config where it matters: M = config.maps.modules, the zeroed selector terms =
+config.maps.selector_losses. Rows are labelled by method and variant (label()); groups() collects the seeds of one
+(set, label, demos, subsample)."""
+import csv
+import json
+import pathlib
+from collections import Counter, namedtuple
+from dataclasses import dataclass, field
+
+SUITE_FORMAT = "maps-suite/1"
+CELL_FORMAT = "maps-suite-cell/1"
+SET_ORDER = ["gravity", "modified", "mt10"]
+METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"]
+SELECTOR_TERMS = ["share", "explore", "sparse", "smooth"]
+
+GroupKey = namedtuple("GroupKey", "set label demos subsample")
+
+
+class SuiteError(Exception):
+    """A suite folder that cannot be reported at all (no suite.json, nothing finished)."""
+
+
+@dataclass
+class TaskResult:
+    task: str
+    score: float
+    success: float
+    return_mean: float
+    usage: list = None  # MAPS: mean selector score per module over the task's evaluation states
+    entropy: float = None
+    top_score: float = None
+
+
+@dataclass
+class Cell:
+    folder: pathlib.Path
+    name: str
+    grid: str
+    set: str
+    method: str
+    variant: str
+    demos: int
+    subsample: int
+    seed: int
+    config: dict
+    steps: int
+    best_step: int
+    episodes: int
+    wall_seconds: float
+    tasks: list
+
+    @property
+    def label(self):
+        return label(self.method, self.variant)
+
+    @property
+    def key(self):
+        return GroupKey(self.set, self.label, self.demos, self.subsample)
+
+    @property
+    def modules(self):
+        """MAPS's number of modules M (from the resolved config); None for the baselines."""
+        if self.method != "maps":
+            return None
+        return int(self.config.get("maps", {}).get("modules", 10))
+
+    @property
+    def selector_losses(self):
+        losses = self.config.get("maps", {}).get("selector_losses", {})
+        return tuple(optional_float(losses.get(term)) for term in SELECTOR_TERMS)
+
+    @property
+    def zeroed_terms(self):
+        """The selector-loss terms whose weight is 0 in this cell's config."""
+        return tuple(t for t, w in zip(SELECTOR_TERMS, self.selector_losses) if w == 0.0)
+
+    @property
+    def mean_score(self):
+        return sum(t.score for t in self.tasks) / len(self.tasks)
+
+    @property
+    def has_usage(self):
+        return all(t.usage for t in self.tasks)
+
+    def curve(self):
+        """(steps, validation BC losses) from curve.csv; empty lists when it is missing or unreadable."""
+        path = self.folder / "curve.csv"
+        steps, losses = [], []
+        try:
+            with path.open() as f:
+                for row in csv.DictReader(f):
+                    steps.append(int(row["step"]))
+                    losses.append(float(row["validation_bc"]))
+        except (OSError, KeyError, ValueError, TypeError):
+            return [], []
+        return steps, losses
+
+
+@dataclass
+class Suite:
+    root: pathlib.Path
+    config_file: str
+    config: dict
+    planned: list  # the cell identities of suite.json
+    cells: list = field(default_factory=list)  # finished (Cell)
+    failed: list = field(default_factory=list)  # (cell name, stage, message)
+    damaged: list = field(default_factory=list)  # (path, reason)
+    missing: list = field(default_factory=list)  # cell names with neither result.json nor error.json
+
+    def sets(self):
+        return order(SET_ORDER, {c.set for c in self.cells})
+
+    def cells_of(self, set_name):
+        return [c for c in self.cells if c.set == set_name]
+
+
+def label(method, variant):
+    """A row's name: the method, with its variant unless it is the base one ("maps (no_share)")."""
+    return method if variant in ("", "base", None) else f"{method} ({variant})"
+
+
+def order(preferred, names):
+    """names sorted with the preferred ones first, in that order, then the rest alphabetically."""
+    names = set(names)
+    return [n for n in preferred if n in names] + sorted(names - set(preferred))
+
+
+def method_rank(method):
+    return METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER)
+
+
+def key_sort(key):
+    """Sorting GroupKeys: set, then method in the paper's order, base variant first, then demos and k."""
+    method, _, variant = key.label.partition(" ")
+    set_rank = SET_ORDER.index(key.set) if key.set in SET_ORDER else len(SET_ORDER)
+    return (set_rank, key.set, method_rank(method), method, variant, key.demos, key.subsample)
+
+
+def optional_float(value):
+    return None if value is None else float(value)
+
+
+def read_cell(path):
+    """The Cell of one result.json; raises ValueError/KeyError/TypeError/... on a damaged file."""
+    result = json.loads(path.read_text())
+    if result.get("format") != CELL_FORMAT:
+        raise ValueError(f"format {result.get('format')!r}, expected {CELL_FORMAT!r}")
+    ident, config, train, ev = result["cell"], result["config"], result["train"], result["eval"]
+    tasks = []
+    for t in ev["tasks"]:
+        usage = [float(u) for u in t["module_usage"]] if "module_usage" in t else None
+        tasks.append(TaskResult(str(t["task"]), float(t["score"]), float(t.get("success_rate", float("nan"))),
+                                float(t.get("return_mean", float("nan"))), usage,
+                                optional_float(t.get("selector_entropy")), optional_float(t.get("selector_top_score"))))
+    if not tasks:
+        raise ValueError("no tasks in eval")
+    return Cell(path.parent, str(ident["name"]), str(ident.get("grid", "")), str(ident["set"]), str(ident["method"]),
+                str(ident.get("variant", "base")), int(ident["demos"]), int(ident["subsample"]), int(ident["seed"]),
+                config, int(train["steps"]), int(ev.get("best_step", train.get("best_step"))),
+                int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
+                float(result.get("wall_seconds", float("nan"))), tasks)
+
+
+def read_error(path):
+    """(stage, message) of an error.json; a damaged one says so rather than stopping the report."""
+    try:
+        error = json.loads(path.read_text())
+        return str(error.get("stage", "?")), str(error.get("error", "(no message)"))
+    except (OSError, ValueError, AttributeError) as e:
+        return "?", f"unreadable error.json ({e})"
+
+
+def load_suite(root):
+    root = pathlib.Path(root)
+    suite_file = root / "suite.json"
+    if not suite_file.is_file():
+        raise SuiteError(f"{suite_file}: no such file; is {root} a suite folder written by `maps suite`?")
+    try:
+        meta = json.loads(suite_file.read_text())
+        planned = list(meta.get("cells", []))
+        suite = Suite(root, str(meta.get("config_file", "")), dict(meta.get("config", {})), planned)
+    except (OSError, ValueError, AttributeError, TypeError) as e:
+        raise SuiteError(f"{suite_file}: unreadable ({e})")
+
+    # As `maps suite status` does: a result that names another cell, or was trained with another run config than
+    # suite.json's (a stale one, from before the config changed), does not count as finished.
+    requests = {ident.get("name"): ident.get("request") for ident in planned if isinstance(ident, dict)}
+    seen = set()
+    for path in sorted(root.glob("cells/*/*/result.json")):
+        name = f"{path.parent.parent.name}/{path.parent.name}"
+        seen.add(name)
+        try:
+            cell = read_cell(path)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
+            suite.damaged.append((path, f"{type(e).__name__}: {e}"))
+            continue
+        if cell.name != name:
+            suite.damaged.append((path, f"names another cell ({cell.name})"))
+        elif requests.get(name) is not None and cell.config != requests[name]:
+            suite.damaged.append((path, "trained with another run config than suite.json's (stale: rerun the"
+                                        " suite)"))
+        else:
+            suite.cells.append(cell)
+    for path in sorted(root.glob("cells/*/*/error.json")):
+        name = f"{path.parent.parent.name}/{path.parent.name}"
+        if name not in seen:
+            seen.add(name)
+            suite.failed.append((name, *read_error(path)))
+    for ident in planned:
+        name = ident.get("name") if isinstance(ident, dict) else None
+        if name and name not in seen:
+            suite.missing.append(name)
+    if not suite.cells:
+        raise SuiteError(f"{root}: no finished cells (no readable cells/*/*/result.json; {len(planned)} planned,"
+                         f" {len(suite.failed)} failed, {len(suite.damaged)} damaged)")
+    return suite
+
+
+def groups(cells):
+    """{GroupKey: [cells sorted by seed]}, in key_sort order."""
+    out = {}
+    for cell in cells:
+        out.setdefault(cell.key, []).append(cell)
+    return {key: sorted(out[key], key=lambda c: c.seed) for key in sorted(out, key=key_sort)}
+
+
+def task_names(cells):
+    """The tasks of a set, in the order of its first cell (then any others)."""
+    names = []
+    for cell in cells:
+        names += [t.task for t in cell.tasks if t.task not in names]
+    return names
+
+
+def task_score(cell, task):
+    for t in cell.tasks:
+        if t.task == task:
+            return t.score
+    return None
+
+
+def maps_reference(cells):
+    """(M, selector losses) of the set's base MAPS cells (the most common, should they differ); None without any."""
+    base = Counter((c.modules, c.selector_losses) for c in cells if c.method == "maps" and c.label == "maps")
+    return base.most_common(1)[0][0] if base else None
+
+
+def ablation_cells(cells):
+    """MAPS cells with the base M and at least one selector term zeroed that the base MAPS cells use."""
+    ref = maps_reference(cells)
+    if ref is None:
+        return []
+    base_zero = {t for t, w in zip(SELECTOR_TERMS, ref[1]) if w == 0.0}
+    return [c for c in cells if c.method == "maps" and c.modules == ref[0] and set(c.zeroed_terms) - base_zero]
+
+
+def ablation_groups(cells):
+    """{GroupKey: cells} of the base MAPS cells (base M and losses) and the ablations, MAPS first, then by the first
+    zeroed term in the order share, explore, sparse, smooth."""
+    ablations = ablation_cells(cells)
+    if not ablations:
+        return {}
+    ref = maps_reference(cells)
+    base = [c for c in cells if c.label == "maps" and c.modules == ref[0] and c.selector_losses == ref[1]]
+
+    def rank(item):
+        key, runs = item
+        zeroed = runs[0].zeroed_terms if key.label != "maps" else ()
+        return (SELECTOR_TERMS.index(zeroed[0]) if zeroed else -1, key.label, key.demos, key.subsample)
+
+    return dict(sorted(groups(base + ablations).items(), key=rank))
+
+
+def module_sweep_cells(cells):
+    """MAPS cells with the base selector losses, at any M (the base cells included); [] when only one M ran."""
+    ref = maps_reference(cells)
+    if ref is None:
+        return []
+    sweep = [c for c in cells if c.method == "maps" and c.selector_losses == ref[1]]
+    return sweep if len({c.modules for c in sweep}) > 1 else []
+
+
+def success_scored(set_name, cells=()):
+    """MT10 is scored by success rate, the cheetah sets by normalised return."""
+    return set_name == "mt10" or any(t.task.startswith("mt10/") for c in cells for t in c.tasks)
+
+
+def score_name(set_name, cells=(), short=False):
+    """What a set's score is, for captions and axis labels."""
+    if success_scored(set_name, cells):
+        return "success rate" if short else "success rate (success at any step of a 150-step episode)"
+    if short:
+        return "score = return / expert demo return"
+    return "normalised return = return / expert demo return (1000-step episodes; floored at 0, not capped)"
+
+
+def short_task(name):
+    """"gravity/0.5" -> "0.5"."""
+    return name.split("/", 1)[-1]

@@ -1,0 +1,188 @@
+"""The Markdown tables of a suite report, each a list of lines: the protocol and cell counts, the main results, and
+per set the score table (per-task mean +- 95% CI over seeds), paired differences from MAPS, MAPS's module usage
+and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
+import math
+
+from suite_results import ablation_groups, groups, module_sweep_cells, score_name, short_task, task_names, task_score
+from suite_stats import (MUCH_BETTER, fmt, mean, mean_entropy, paired, routing, span, top_share,
+                         usage_distances)
+
+
+MISSING_SHOWN = 40
+
+
+def table(header, rows):
+    lines = ["| " + " | ".join(header) + " |", "|---" * len(header) + "|"]
+    return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+
+
+def distinct(cells, field):
+    """The values field(cell) takes over cells, sorted and comma-separated ("0, 1")."""
+    return ", ".join(str(v) for v in sorted({field(c) for c in cells}, key=lambda v: (isinstance(v, str), v)))
+
+
+def protocol(suite):
+    """The header: what ran and how it was scored, read from the cells' configs."""
+    lines = [f"Suite folder `{suite.root}`" + (f", config `{suite.config_file}`." if suite.config_file else "."), ""]
+    for set_name in suite.sets():
+        cells = suite.cells_of(set_name)
+        train = lambda key: lambda c: c.config.get("train", {}).get(key, "?")  # noqa: E731
+        lines.append(f"- **{set_name}** ({len(task_names(cells))} tasks): {distinct(cells, lambda c: c.steps)}"
+                     f" training steps, validation BC loss every {distinct(cells, train('validate_every'))} steps on"
+                     f" {distinct(cells, train('validation_states_per_task'))} held-out states per task; checkpoint ="
+                     f" the step of the best validation BC loss; {distinct(cells, lambda c: c.episodes)} evaluation"
+                     f" episodes per task; seeds {distinct(cells, lambda c: c.seed)}; demos per task"
+                     f" {distinct(cells, lambda c: c.demos)}; subsample k = {distinct(cells, lambda c: c.subsample)};"
+                     f" {score_name(set_name, cells)}.")
+    lines += ["",
+              "Scores: on the HalfCheetah sets (gravity, modified) the return of a 1000-step episode divided by the"
+              " mean return of that task's expert demonstrations, floored at 0 and not capped at 1; on MT10 the"
+              " success rate (an episode succeeds if the task's success test holds at any step of its 150 steps; the"
+              " episode ends on success). Means are over seeds (each seed: the mean over the task's evaluation"
+              " episodes), +- the half-width of the 95% confidence interval (t distribution; nan with one seed)."]
+    return lines
+
+
+def cell_counts(suite):
+    planned = len(suite.planned)
+    lines = [f"Cells: {len(suite.cells)} finished, {len(suite.missing)} missing (not run or not finished),"
+             f" {len(suite.failed)} failed, {len(suite.damaged)} damaged, of {planned} in suite.json."]
+    if suite.failed:
+        lines += ["", "Failed cells:", ""] + [f"- `{name}` ({stage}): {message}" for name, stage, message in
+                                              suite.failed]
+    if suite.damaged:
+        lines += ["", "Damaged results (skipped):", ""] + [f"- `{path}`: {reason}" for path, reason in suite.damaged]
+    if suite.missing:
+        shown = ", ".join(f"`{name}`" for name in suite.missing[:MISSING_SHOWN])
+        more = len(suite.missing) - MISSING_SHOWN
+        lines += ["", "Missing cells: " + shown + (f" and {more} more (`maps suite status` lists them)" if more > 0
+                                                   else "")]
+    return lines
+
+
+def main_results(cells):
+    """Per set, method and demo count: the mean score over tasks, mean +- CI over seeds."""
+    rows = [[key.set, key.label, key.demos, key.subsample, len(runs), fmt([c.mean_score for c in runs])]
+            for key, runs in groups(cells).items()]
+    return table(["set", "method", "demos", "k", "seeds", "mean score over tasks"], rows)
+
+
+def score_table(cells):
+    tasks = task_names(cells)
+    rows = []
+    for key, runs in groups(cells).items():
+        row = [key.label, key.demos, key.subsample, len(runs), span(sorted({c.steps for c in runs}))]
+        row += [fmt([s for s in (task_score(c, t) for c in runs) if s is not None]) for t in tasks]
+        row.append(f"**{fmt([c.mean_score for c in runs])}**")
+        row.append(span(sorted(c.best_step for c in runs)))
+        rows.append(row)
+    return table(["method", "demos", "k", "seeds", "steps"] + [short_task(t) for t in tasks] + ["mean",
+                                                                                                "best step"], rows)
+
+
+def paired_table(cells):
+    by_key = groups(cells)
+    rows = []
+    for key, runs in by_key.items():
+        maps = by_key.get(key._replace(label="maps"))
+        if key.label == "maps" or not maps:
+            continue
+        diffs = paired(runs, maps, lambda c: c.mean_score)
+        if diffs:
+            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True)])
+    if not rows:
+        return []
+    return (["Paired difference of the mean score over tasks, method - MAPS, over the seeds both ran (mean +- 95% CI;"
+             " an interval that excludes 0 is a difference):", ""]
+            + table(["method", "demos", "k", "pairs", "difference"], rows))
+
+
+def usage_tables(cells):
+    """Base MAPS's per-task module usage (lowest seed) and routing (per seed, then mean +- CI)."""
+    lines = []
+    for key, runs in groups(cells).items():
+        runs = [c for c in runs if c.has_usage]
+        if key.label != "maps" or not runs:
+            continue
+        tasks = task_names(runs)
+        modules = len(runs[0].tasks[0].usage)
+        lines += ["", f"MAPS, {key.demos} demos, k = {key.subsample}: module usage (mean selector score over the"
+                  f" task's evaluation states) of seed {runs[0].seed}, and the range over the {len(runs)} seeds of"
+                  f" the most used module's share:", ""]
+        rows = []
+        for i, task in enumerate(tasks):
+            tops = [max(c.tasks[i].usage) for c in runs]
+            rows.append([short_task(task)] + [f"{u:.2f}" for u in runs[0].tasks[i].usage] + [span_float(tops)])
+        lines += table(["task"] + [f"m{i}" for i in range(modules)] + ["top module, all seeds"], rows)
+        lines += ["", f"Routing ({len(runs)} seeds, each computed per seed, then mean +- 95% CI; uniform over"
+                  f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f}):", ""]
+        rows = [[short_task(task), fmt(tv), fmt(entropy) if entropy else "-", fmt(top) if top else "-"]
+                for task, (tv, entropy, top) in routing(runs, tasks).items()]
+        lines += table(["task", "usage distance from the tasks' mean usage (TV)", "per-state entropy (nats)",
+                        "per-state top score"], rows)
+    return lines
+
+
+def span_float(values):
+    return f"{min(values):.2f}-{max(values):.2f}"
+
+
+def percent(count, total):
+    return f"{count} ({100 * count / total:.0f}%)" if total else "0"
+
+
+def fig3_table(vs):
+    """Fig. 3's counts: per set and over all sets."""
+    rows = []
+    for (where, method), v in sorted(vs.items(), key=lambda item: (item[0][0] == "all", item[0])):
+        rows.append([where, method, v.settings] + [percent(getattr(v, name), v.settings) for name in
+                                                   ("better", "worse", "ties", "much_better", "significantly_better",
+                                                    "significantly_worse")])
+    return table(["set", "method", "settings", "better", "worse", "ties", f"better by > {100 * (MUCH_BETTER - 1):.0f}%",
+                  "significantly better", "significantly worse"], rows)
+
+
+def ablation_table(cells):
+    """Base MAPS and the ablations (a selector term zeroed, read from the config) of one set."""
+    by_key = ablation_groups(cells)
+    if not by_key:
+        return []
+    rows, pooled = [], {}
+    for key, runs in by_key.items():
+        maps = by_key.get(key._replace(label="maps"), [])
+        diffs = paired(runs, maps, lambda c: c.mean_score) if key.label != "maps" else []
+        if key.label != "maps":
+            pooled.setdefault(key.label, []).extend(diffs)
+        usage = [c for c in runs if c.has_usage]
+        entropies = [e for e in (mean_entropy(c) for c in usage) if e is not None]
+        rows.append([key.label, ", ".join(runs[0].zeroed_terms) or "-", runs[0].modules, key.demos, key.subsample,
+                     len(runs), fmt([c.mean_score for c in runs]),
+                     f"{fmt(diffs, signed=True)} ({len(diffs)})" if diffs else "-",
+                     fmt([top_share(c) for c in usage]) if usage else "-",
+                     fmt([mean(usage_distances(c)) for c in usage]) if usage else "-",
+                     fmt(entropies) if entropies else "-"])
+    lines = table(["variant", "zeroed selector terms", "M", "demos", "k", "seeds", "mean score over tasks",
+                   "difference from MAPS (pairs)", "top-module share", "usage distance between tasks (TV)",
+                   "per-state entropy"], rows)
+    lines += ["", "Pooled over demo counts (paired over the (demos, seed) blocks both ran; not corrected for"
+              " the number of ablations):", ""]
+    lines += table(["variant", "pairs", "difference from MAPS"],
+                   [[name, len(d), fmt(d, signed=True) if d else "-"] for name, d in pooled.items()])
+    return lines
+
+
+def sweep_table(cells):
+    """MAPS's mean score over tasks by number of modules M (rows) and demos (columns)."""
+    sweep = module_sweep_cells(cells)
+    if not sweep:
+        return []
+    counts = sorted({c.demos for c in sweep})
+    rows = []
+    for m in sorted({c.modules for c in sweep}):
+        row = [m]
+        for demos in counts:
+            runs = [c for c in sweep if c.modules == m and c.demos == demos]
+            row.append(f"{fmt([c.mean_score for c in runs])} (n={len(runs)})" if runs else "-")
+        rows.append(row)
+    return table(["M"] + [f"{d} demos" for d in counts], rows)
+
