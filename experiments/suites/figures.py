@@ -284,8 +284,10 @@ def fig4_ablations(cells, out):
                                va="bottom", fontsize=8)
                 rows.append([set_name, lab, top, "usage_tv", "", len(tv), m, ci95(tv)])
             keys = [key for key in by_key if key.label == lab]
+            lone = len({key.demos for key in by_key}) == 1
             points = line_with_band(ax_score, [k.demos for k in keys], [by_key[k] for k in keys],
-                                    lambda c: c.mean_score, color=colors[lab], label=legend)
+                                    lambda c: c.mean_score, dodge=0.12 * (j - (len(labels) - 1) / 2) if lone else 0.0,
+                                    color=colors[lab], label=legend)
             rows += [[set_name, lab, x, "score", "", n, m, h] for x, n, m, h in points]
             means += [m for _, _, m, _ in points]
         ax_use.set_title(f"{set_name}, {top} demos: each task's module usage sorted,\nmean over tasks and seeds")
