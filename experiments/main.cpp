@@ -251,7 +251,9 @@ int main(int argc, char** argv) {
   maps::experiments::SuiteStatusOptions suite_status;
   CLI::App* suite_status_cmd =
       suite_cmd->add_subcommand("status", "Say which cells of a suite folder are done, running, failed or left");
-  suite_status_cmd->add_option("dir", suite_status.dir, "Suite folder")->required()->check(CLI::ExistingDirectory);
+  suite_status_cmd->add_option("dirs", suite_status.dirs, "Suite folder, or the shard folders of one suite")
+      ->required()
+      ->check(CLI::ExistingDirectory);
   suite_status_cmd->add_flag("--all", suite_status.all, "One line per cell");
   suite_status_cmd->add_flag("--json", suite_status.json, "Print one JSON object");
 

@@ -1,15 +1,20 @@
 #include "experiments/run_folder.h"
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <string>
 
 #include "envs/demo_file.h"
 
 namespace maps::experiments {
 
 void write_json_file(const std::string& path, const nlohmann::json& json) {
-  const std::string temporary = path + ".tmp";
+  // The temporary is named for this process: two processes writing one file (shards sharing a suite folder)
+  // never write into each other's temporary.
+  const std::string temporary = path + "." + std::to_string(::getpid()) + ".tmp";
   {
     std::ofstream out(temporary, std::ios::trunc);
     out << json.dump(2) << "\n";

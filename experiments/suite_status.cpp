@@ -31,6 +31,23 @@ std::string curve_progress(const fs::path& dir, long long steps) {
   return "step " + last.substr(0, comma) + " of " + std::to_string(steps);
 }
 
+// A finished cell's files but its .lock and last.ckpt (what resuming needs; a finished cell never resumes, and
+// best.ckpt, the policy evaluated, stays). Copies, not hard links: a shard folder edited later must not change
+// the merged one.
+void copy_cell(const fs::path& source, const fs::path& target) {
+  for (const auto& entry : fs::recursive_directory_iterator(source)) {
+    const fs::path to = target / fs::relative(entry.path(), source);
+    if (entry.is_directory()) {
+      fs::create_directories(to);
+      continue;
+    }
+    const fs::path name = entry.path().filename();
+    if (name == ".lock" || name == "last.ckpt") continue;
+    fs::create_directories(to.parent_path());
+    fs::copy_file(entry.path(), to);
+  }
+}
+
 // Whether two results of one cell agree number for number (wall times, hosts and dates aside).
 bool same_numbers(const Json& a, const Json& b) {
   return a["config"] == b["config"] && a["eval"]["mean_score"] == b["eval"]["mean_score"] &&
@@ -38,57 +55,85 @@ bool same_numbers(const Json& a, const Json& b) {
          a["train"]["best_validation_bc"] == b["train"]["best_validation_bc"];
 }
 
+struct CellState {
+  std::string state, detail;
+};
+
+// done > running > failed > started > left: what a cell is, over the folders that may hold it.
+int rank_of(const std::string& state) {
+  static const std::map<std::string, int> ranks{{"done", 4}, {"running", 3}, {"failed", 2}, {"started", 1}};
+  const auto found = ranks.find(state);
+  return found == ranks.end() ? 0 : found->second;
+}
+
+CellState state_in(const fs::path& out, const SuiteCell& cell) {
+  const fs::path dir = cell_dir(out, cell);
+  CellState s;
+  std::string damage;
+  const long long steps = cell.request["train"]["steps"].get<long long>();
+  if (const auto result = read_result(dir, cell, &damage)) {
+    s.state = "done";
+    char text[128];
+    std::snprintf(text, sizeof(text), "mean score %.3f, best step %lld", result->at("eval").value("mean_score", 0.0),
+                  static_cast<long long>(result->at("eval").value("best_step", -1LL)));
+    s.detail = text;
+  } else if (cell_is_locked(dir)) {
+    s.state = "running";
+    s.detail = curve_progress(dir, steps);
+  } else if (fs::exists(dir / "error.json")) {
+    s.state = "failed";
+    try {
+      const Json error = read_json_file((dir / "error.json").string());
+      s.detail = error.value("stage", "?") + ": " + error.value("error", "?") + " (see " +
+                 (dir / error.value("log", "")).string() + ")";
+    } catch (const std::exception& e) {
+      s.detail = e.what();
+    }
+  } else if (fs::exists(dir / "last.ckpt")) {
+    s.state = "started";
+    s.detail = "resumable at its last checkpoint; " + curve_progress(dir, steps);
+  } else {
+    s.state = "left";
+  }
+  if (!damage.empty()) s.detail += (s.detail.empty() ? "" : "; ") + damage;
+  return s;
+}
+
 }  // namespace
 
 int run_suite_status(const SuiteStatusOptions& options) {
-  const fs::path out(options.dir);
-  const Suite suite = read_manifest(out);
+  if (options.dirs.empty()) throw std::invalid_argument("maps suite status: name a suite folder");
+  const Suite suite = read_manifest(options.dirs.front());
+  for (std::size_t i = 1; i < options.dirs.size(); ++i)
+    if (read_json_file((fs::path(options.dirs[i]) / "suite.json").string()).value("cells", Json()) !=
+        read_json_file((fs::path(options.dirs.front()) / "suite.json").string()).value("cells", Json()))
+      throw std::runtime_error(options.dirs[i] + " is a folder of another suite than " + options.dirs.front() +
+                               " (their suite.json cells differ)");
   std::map<std::string, int> counts;
   Json cells = Json::array();
   std::vector<std::string> lines;
   for (const auto& cell : suite.cells) {
-    const fs::path dir = cell_dir(out, cell);
-    std::string damage, state, detail;
-    const long long steps = cell.request["train"]["steps"].get<long long>();
-    if (const auto result = read_result(dir, cell, &damage)) {
-      state = "done";
-      char text[128];
-      std::snprintf(text, sizeof(text), "mean score %.3f, best step %lld", result->at("eval").value("mean_score", 0.0),
-                    static_cast<long long>(result->at("eval").value("best_step", -1LL)));
-      detail = text;
-    } else if (cell_is_locked(dir)) {
-      state = "running";
-      detail = curve_progress(dir, steps);
-    } else if (fs::exists(dir / "error.json")) {
-      state = "failed";
-      try {
-        const Json error = read_json_file((dir / "error.json").string());
-        detail = error.value("stage", "?") + ": " + error.value("error", "?") + " (see " +
-                 (dir / error.value("log", "")).string() + ")";
-      } catch (const std::exception& e) {
-        detail = e.what();
-      }
-    } else if (fs::exists(dir / "last.ckpt")) {
-      state = "started";
-      detail = "resumable at its last checkpoint; " + curve_progress(dir, steps);
-    } else {
-      state = "left";
+    CellState best{"left", ""};
+    for (const auto& dir : options.dirs) {
+      const CellState here = state_in(dir, cell);
+      if (rank_of(here.state) > rank_of(best.state) || (best.detail.empty() && here.state == best.state)) best = here;
     }
-    if (!damage.empty()) detail += (detail.empty() ? "" : "; ") + damage;
-    counts[state] += 1;
+    counts[best.state] += 1;
     Json entry = cell.identity();
-    entry["state"] = state;
-    entry["detail"] = detail;
+    entry["state"] = best.state;
+    entry["detail"] = best.detail;
     cells.push_back(entry);
-    if (options.all || state == "failed" || state == "running" || state == "started")
-      lines.push_back(state + "  " + cell.name + (detail.empty() ? "" : ": " + detail));
+    if (options.all || best.state == "failed" || best.state == "running" || best.state == "started")
+      lines.push_back(best.state + "  " + cell.name + (best.detail.empty() ? "" : ": " + best.detail));
   }
+  std::string where = options.dirs.front();
+  if (options.dirs.size() > 1) where += " and " + std::to_string(options.dirs.size() - 1) + " more folders";
   if (options.json) {
-    std::cout << Json{{"dir", options.dir}, {"counts", counts}, {"cells", cells}}.dump(1) << "\n";
+    std::cout << Json{{"dirs", options.dirs}, {"counts", counts}, {"cells", cells}}.dump(1) << "\n";
     return 0;
   }
   for (const auto& line : lines) std::printf("%s\n", line.c_str());
-  std::printf("%s: %zu cells: %d done, %d running, %d failed, %d started (resumable), %d left\n", options.dir.c_str(),
+  std::printf("%s: %zu cells: %d done, %d running, %d failed, %d started (resumable), %d left\n", where.c_str(),
               suite.cells.size(), counts["done"], counts["running"], counts["failed"], counts["started"],
               counts["left"]);
   if (const auto costs = try_load_costs("", true)) {
@@ -143,18 +188,19 @@ int run_suite_merge(const SuiteMergeOptions& options) {
                                    " and in another shard or " + options.out + "; not merged");
         continue;
       }
-      fs::path staging = target;
-      staging += ".merging";
+      // Staged outside cells/, so a merge killed halfway leaves nothing that looks like a cell.
+      const fs::path staging = out / ".merging" / cell.name;
       fs::remove_all(staging);
       fs::create_directories(staging.parent_path());
-      fs::copy(source, staging, fs::copy_options::recursive);
-      fs::remove(staging / ".lock");
+      fs::create_directories(target.parent_path());
+      copy_cell(source, staging);
       fs::remove_all(target);
       fs::rename(staging, target);
       have = result;
       ++merged;
     }
   }
+  fs::remove_all(out / ".merging");
   const int finished = present + merged;
   std::printf("merged %d cells from %zu shards into %s: %d of %zu cells finished\n", merged, options.shards.size(),
               options.out.c_str(), finished, first.cells.size());

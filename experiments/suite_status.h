@@ -5,10 +5,12 @@
 
 namespace maps::experiments {
 
-// `maps suite status DIR [--json] [--all]`: each cell of DIR/suite.json is done (a trusted result.json), running
-// (its .lock is held), failed (error.json, with the error), started (a checkpoint to resume from) or left.
+// `maps suite status DIR... [--json] [--all]`: each cell of DIR/suite.json is done (a trusted result.json), running
+// (its .lock is held), failed (error.json, with the error), started (a checkpoint to resume from) or left. Several
+// folders of one suite (the shard folders of a cluster run) are read as one: a cell counts as what its most
+// advanced folder says (done, then running, failed, started, left).
 struct SuiteStatusOptions {
-  std::string dir;
+  std::vector<std::string> dirs;
   bool json = false;
   bool all = false;  // one line per cell, not only failed and running ones
 };

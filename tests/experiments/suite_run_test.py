@@ -234,10 +234,17 @@ class SuiteTest(unittest.TestCase):
             shards.append(folder)
             names = set(results(folder))
             self.assertEqual(names, {c["name"] for c in plan(TINY, "--shard", f"{shard}/3")["cells"]})
+        # The shard folders read as one: every cell done, though each folder holds a third of them.
+        self.assertEqual(json.loads(maps("suite", "status", *shards, "--json").stdout)["counts"], {"done": 9})
+        self.assertEqual(json.loads(maps("suite", "status", shards[0], "--json").stdout)["counts"],
+                         {"done": 3, "left": 6})
         merged = self.dir / "merged"
         proc = maps("suite", "merge", "--out", merged, *shards)
         self.assertIn("9 of 9 cells finished", proc.stdout)
         self.assertEqual(results(merged), results(self.reference))
+        self.assertFalse(list(merged.glob("cells/*/*/last.ckpt")), "a finished cell's resume checkpoint was copied")
+        self.assertTrue(list(merged.glob("cells/*/*/best.ckpt")))
+        self.assertFalse((merged / ".merging").exists())
         # Merging again is a no-op; a shard whose numbers differ is refused.
         maps("suite", "merge", "--out", merged, *shards)
         bad = self.dir / "shard-0" / "cells/gravity/maps_d2_s0/result.json"
