@@ -257,6 +257,38 @@ class SuiteTest(unittest.TestCase):
         proc = maps("suite", "merge", "--out", self.dir / "m2", self.reference, self.dir / "failing", check=False)
         self.assertNotEqual(proc.returncode, 0)
 
+    def test_import_of_an_old_grid(self):
+        """experiments/suites/import_grid.py: run_grid.sh's folders become cells equal to the suite's own runs."""
+        config = json.loads(TINY.read_text())
+        config["sets"].pop("mt10")
+        config["grids"] = [config["grids"][0]]
+        config["grids"][0]["sets"] = ["gravity"]
+        path = write_config(self.dir, config)
+        old = self.dir / "old-grid"
+        for cell in (self.reference / "cells/gravity").iterdir():
+            method, rest = cell.name.split("_d")  # e.g. maps, 2_s0
+            demos, seed = rest.split("_s")
+            folder = old / f"{method}_d{demos}_k10_s{seed}"
+            folder.mkdir(parents=True)
+            for name in ("train.json", "eval.json", "curve.csv"):
+                (folder / name).write_bytes((cell / name).read_bytes())
+            run_config = json.loads((cell / "config.json").read_text())
+            del run_config["baselines"]  # what configs written before that key existed look like
+            (folder / "config.json").write_text(json.dumps(run_config))
+        out = self.dir / "imported"
+        maps("suite", "run", path, "--out", out, "--shard", "99999/100000")  # suite.json only
+        script = ROOT / "experiments/suites/import_grid.py"
+        proc = subprocess.run([sys.executable, script, old, out], capture_output=True, text=True)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertEqual(results(out), {k: v for k, v in results(self.reference).items() if k.startswith("gravity/")})
+        self.assertIn("0 to run", maps("suite", "run", path, "--out", out).stdout)  # trusted as finished
+        # A run whose config is not its cell's is refused, naming the folder.
+        bad = old / "maps_d2_k10_s0/config.json"
+        bad.write_text(bad.read_text().replace('"steps": 60', '"steps": 61'))
+        proc = subprocess.run([sys.executable, script, old, out], capture_output=True, text=True)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("maps_d2_k10_s0: its config.json is not the run config of cell gravity/maps_d2_s0", proc.stderr)
+
     def test_status_of_a_folder_that_is_not_a_suite(self):
         proc = maps("suite", "status", self.dir, check=False)
         self.assertNotEqual(proc.returncode, 0)
