@@ -1,26 +1,17 @@
 #include "experiments/run_folder.h"
 
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 
 #include "envs/demo_file.h"
+#include "nn/serialize.h"
 
 namespace maps::experiments {
 
 void write_json_file(const std::string& path, const nlohmann::json& json) {
-  // The temporary is named for this process: two processes writing one file (shards sharing a suite folder)
-  // never write into each other's temporary.
-  const std::string temporary = path + "." + std::to_string(::getpid()) + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::trunc);
-    out << json.dump(2) << "\n";
-    if (!out) throw std::runtime_error("cannot write '" + temporary + "'");
-  }
-  std::filesystem::rename(temporary, path);
+  nn::write_file_atomically(path, json.dump(2) + "\n");
 }
 
 nlohmann::json read_json_file(const std::string& path) {

@@ -10,7 +10,7 @@
 // train.json (the training summary), eval.json (the evaluation).
 namespace maps::experiments {
 
-// Writes JSON atomically (a temporary file in the same folder, named for this process, then rename).
+// Writes JSON atomically (nn::write_file_atomically: a temporary in the same folder, then rename).
 void write_json_file(const std::string& path, const nlohmann::json& json);
 nlohmann::json read_json_file(const std::string& path);
 

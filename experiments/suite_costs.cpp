@@ -46,8 +46,13 @@ double CostTable::cell_seconds(const SuiteCell& cell) const {
   }
   const Json& c = *entry;
   const Json& r = cell.request;
-  double step = c.at("step_seconds").get<double>() * r["train"]["states_per_task"].get<double>() /
-                c.at("states_per_task").get<double>();
+  // A step's rows: the batch, and for MAML its query batch too (maml.cpp: support + query rows per task).
+  double rows = r["train"]["states_per_task"].get<double>(), measured_rows = c.at("states_per_task").get<double>();
+  if (cell.method == "maml" && c.contains("query_per_task")) {
+    rows += r["maml"]["query_per_task"].get<double>();
+    measured_rows += c.at("query_per_task").get<double>();
+  }
+  double step = c.at("step_seconds").get<double>() * rows / measured_rows;
   if (cell.method == "maps") step *= r["maps"]["modules"].get<double>() / c.at("modules").get<double>();
   const double tasks = static_cast<double>(envs::task_names(cell.set).size());
   return c.at("overhead_seconds").get<double>() + r["train"]["steps"].get<double>() * step +
@@ -239,6 +244,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
       const Json method{{"step_seconds", train_seconds / options.steps},
                         {"states_per_task", cell.request["train"]["states_per_task"]},
                         {"modules", cell.request["maps"]["modules"]},
+                        {"query_per_task", cell.request["maml"]["query_per_task"]},
                         {"episode_seconds", eval_seconds / (options.episodes * tasks)},
                         {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)}};
       std::printf("calibrate: %s: %.2f ms per step, %.3f s per episode, %.1f s overhead\n", cell.name.c_str(),

@@ -9,8 +9,9 @@
 
 // Measured costs of training and evaluation (experiments/suites/costs.json, written by `maps suite calibrate`),
 // and the estimate of a cell's CPU time they give:
-//   seconds = overhead + steps * step_seconds * (states_per_task / measured states_per_task)
-//             [* modules / measured modules, for MAPS] + episodes * tasks * episode_seconds
+//   seconds = overhead + steps * step_seconds * (rows / measured rows) [* modules / measured modules, for MAPS]
+//             + episodes * tasks * episode_seconds
+// with rows = states_per_task (MAML: states_per_task + query_per_task).
 // Per-step cost grows about linearly in the batch and (for MAPS) in the module count at these shapes; validation
 // is inside step_seconds at the measured validate_every. An estimate, not a promise: `maps suite run` prints how
 // the real times compare.

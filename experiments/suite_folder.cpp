@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "experiments/run_folder.h"
+#include "maps/training/run_config.h"
 
 namespace maps::experiments {
 
@@ -57,6 +58,12 @@ Suite read_manifest(const fs::path& out) {
       cell.subsample = entry.at("subsample").get<int>();
       cell.seed = entry.at("seed").get<std::uint64_t>();
       cell.request = entry.at("request");
+      try {
+        core::parse_run_config(cell.request);
+      } catch (const std::exception& e) {
+        throw std::runtime_error(path.string() + ": cell " + cell.name + " has a damaged run config (" + e.what() +
+                                 ")");
+      }
       suite.cells.push_back(std::move(cell));
     }
   } catch (const Json::exception& e) {
@@ -75,7 +82,7 @@ void write_or_check_manifest(const fs::path& out, const Suite& suite) {
     for (const auto& cell : suite.cells) now[cell.name] = &cell;
     for (const auto& cell : old.cells) {
       const auto found = now.find(cell.name);
-      if (found != now.end() && found->second->request != cell.request)
+      if (found != now.end() && !same_run_config(found->second->request, cell.request))
         throw std::runtime_error(out.string() + " holds a suite whose cell " + cell.name +
                                  " has another run config than " + suite.path +
                                  " gives it; use a new --out, or delete that cell's folder and its entry");
@@ -89,6 +96,26 @@ void write_or_check_manifest(const fs::path& out, const Suite& suite) {
     if (read_json_file(path.string()) == suite_manifest(suite, cells)) return;
   }
   write_json_file(path.string(), suite_manifest(suite, cells));
+}
+
+bool same_run_config(const Json& a, const Json& b) {
+  if (a == b) return true;
+  try {
+    return core::to_json(core::parse_run_config(a)) == core::to_json(core::parse_run_config(b));
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+bool is_temporary(const fs::path& file) {
+  const std::string name = file.filename().string();
+  return name.find(".tmp-") != std::string::npos || name.ends_with(".tmp") || name.ends_with(".partial.h5");
+}
+
+void remove_temporaries(const fs::path& dir) {
+  if (!fs::exists(dir)) return;
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (entry.is_regular_file() && is_temporary(entry.path())) fs::remove(entry.path());
 }
 
 std::optional<Json> read_result(const fs::path& dir, const SuiteCell& cell, std::string* damage) {
@@ -108,11 +135,21 @@ std::optional<Json> read_result(const fs::path& dir, const SuiteCell& cell, std:
   if (!result.is_object() || result.value("format", "") != kCellFormat) return reject("not a maps-suite-cell/1 result");
   if (!result.contains("cell") || !result["cell"].is_object() || result["cell"].value("name", "") != cell.name)
     return reject("names another cell");
-  if (!result.contains("config") || result["config"] != cell.request)
+  if (!result.contains("config") || !same_run_config(result["config"], cell.request))
     return reject("was trained with another run config");
-  if (!result.contains("eval") || !result["eval"].is_object() || !result["eval"].contains("tasks") ||
-      !result["eval"]["tasks"].is_array() || !result["eval"].contains("mean_score"))
-    return reject("has no evaluation");
+  const auto number = [](const Json& object, const char* key) {
+    return object.is_object() && object.contains(key) && object[key].is_number();
+  };
+  if (!result.contains("train") || !number(result["train"], "steps") || !number(result["train"], "best_step") ||
+      !number(result["train"], "best_validation_bc"))
+    return reject("has no training summary (steps, best_step, best_validation_bc)");
+  const Json& eval = result.contains("eval") ? result["eval"] : Json();
+  if (!number(eval, "mean_score") || !number(eval, "best_step") || !eval.contains("tasks") ||
+      !eval["tasks"].is_array() || eval["tasks"].empty())
+    return reject("has no evaluation (mean_score, best_step, tasks)");
+  for (const auto& task : eval["tasks"])
+    if (!number(task, "score") || !task.contains("task") || !task["task"].is_string())
+      return reject("has an evaluation task without a name or a score");
   return result;
 }
 
@@ -121,10 +158,14 @@ CellLock::CellLock(const fs::path& dir) {
   const std::string path = (dir / ".lock").string();
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) throw std::runtime_error("cannot open '" + path + "': " + std::strerror(errno));
-  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-    ::close(fd_);
-    fd_ = -1;
+  // A few tries: `maps suite status` probes the lock for an instant (a shared lock), which must not make a
+  // runner skip the cell.
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
+    ::usleep(20000);
   }
+  ::close(fd_);
+  fd_ = -1;
 }
 
 CellLock::~CellLock() {

@@ -32,6 +32,15 @@ void write_or_check_manifest(const std::filesystem::path& out, const Suite& suit
 // Reads DIR/suite.json back into a Suite (its cells and config), for status, merge and report.
 Suite read_manifest(const std::filesystem::path& out);
 
+// Whether two run configs are the same run once each is resolved (core::parse_run_config then to_json), so a folder
+// written before a config key existed (its default then implied) still matches. An unparsable one matches nothing.
+bool same_run_config(const nlohmann::json& a, const nlohmann::json& b);
+
+// Temporaries a killed writer left in dir (nn::write_file_atomically's ".<name>.tmp-...", maps collect's
+// "*.partial.h5"): removed by whoever holds the cell's lock, and never copied.
+bool is_temporary(const std::filesystem::path& file);
+void remove_temporaries(const std::filesystem::path& dir);
+
 // The cell's result when it is a trustworthy one; std::nullopt when missing. `damage` (when given) gets why a
 // result.json that exists was not trusted ("" when there is none or it is fine).
 std::optional<nlohmann::json> read_result(const std::filesystem::path& dir, const SuiteCell& cell,

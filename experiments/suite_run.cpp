@@ -9,7 +9,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -20,6 +19,7 @@
 #include <thread>
 
 #include "envs/demo_file.h"
+#include "experiments/parallel_tasks.h"
 #include "experiments/run_folder.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
@@ -58,23 +58,35 @@ void write_error(const fs::path& dir, const std::string& stage, int code, const 
                                                   {"time", utc_now()}});
 }
 
-// One attempt: train (resuming), evaluate, write result.json. "" on success, else the failure.
-std::string attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, double& seconds) {
+// What one attempt at a cell came to.
+struct Attempt {
+  std::string error;              // "" : result.json written
+  bool unreadable_state = false;  // a child exited saying a checkpoint of the folder cannot be read
+};
+
+Attempt failed_stage(const fs::path& dir, const std::string& stage, int code, const fs::path& log) {
+  write_error(dir, stage, code, log);
+  const std::string said = last_line(log);
+  Attempt attempt;
+  attempt.error =
+      (stage == "train" ? "training failed (exit " : "evaluation failed (exit ") + std::to_string(code) + "): " + said;
+  // Only a child that ended by itself (not by a signal: OOM, a kill) and named a checkpoint (nn/serialize's
+  // "checkpoint <path>: ...") failed on the folder's state; anything else would fail again from nothing.
+  attempt.unreadable_state = code > 0 && code < 128 && said.find("checkpoint ") != std::string::npos;
+  return attempt;
+}
+
+// One attempt: train (resuming), evaluate, write result.json.
+Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, double& seconds) {
   const auto start = std::chrono::steady_clock::now();
   write_json_file((dir / "request.json").string(), cell.request);
   const std::string thread_arg = std::to_string(threads);
   const int train_code =
       run_self({"train", "--config", (dir / "request.json").string(), "--out", dir.string(), "--threads", thread_arg},
                dir / "train.log");
-  if (train_code != 0) {
-    write_error(dir, "train", train_code, dir / "train.log");
-    return "training failed (exit " + std::to_string(train_code) + "): " + last_line(dir / "train.log");
-  }
+  if (train_code != 0) return failed_stage(dir, "train", train_code, dir / "train.log");
   const int eval_code = run_self({"eval", "--run", dir.string(), "--threads", thread_arg}, dir / "eval.log");
-  if (eval_code != 0) {
-    write_error(dir, "eval", eval_code, dir / "eval.log");
-    return "evaluation failed (exit " + std::to_string(eval_code) + "): " + last_line(dir / "eval.log");
-  }
+  if (eval_code != 0) return failed_stage(dir, "eval", eval_code, dir / "eval.log");
   seconds = seconds_since(start);
   Json result{{"format", kCellFormat},
               {"cell", cell.identity()},
@@ -85,35 +97,38 @@ std::string attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads
               {"threads", threads},
               {"host", host_name()},
               {"finished", utc_now()}};
-  if (result["config"] != cell.request)
-    return "the run folder's config.json is not the cell's run config (the folder was changed while it ran)";
+  if (!same_run_config(result["config"], cell.request))
+    return {"the run folder's config.json is not the cell's run config (the folder was changed while it ran)"};
   write_json_file((dir / "result.json").string(), result);
   fs::remove(dir / "error.json");
-  return "";
+  return {};
 }
 
 }  // namespace
 
-int run_self(const std::vector<std::string>& args, const fs::path& log) {
+int run_program(const std::string& program, const std::vector<std::string>& args, const fs::path* log) {
   // Everything the child needs is made before fork: between fork and exec only async-signal-safe calls.
-  std::vector<std::string> full{"maps"};
+  std::vector<std::string> full{program == "/proc/self/exe" ? "maps" : fs::path(program).filename().string()};
   full.insert(full.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& arg : full) argv.push_back(arg.data());
   argv.push_back(nullptr);
-  const std::string log_path = log.string();
+  const std::string log_path = log ? log->string() : "";
   const pid_t parent = ::getpid();
+  std::fflush(stdout);
+  std::fflush(stderr);
   const pid_t pid = ::fork();
   if (pid < 0) throw std::runtime_error(std::string("fork failed: ") + std::strerror(errno));
   if (pid == 0) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (::getppid() != parent) ::_exit(126);  // the parent died before prctl
-    const int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (fd < 0) ::_exit(125);
-    ::dup2(fd, STDOUT_FILENO);
-    ::dup2(fd, STDERR_FILENO);
-    ::close(fd);
-    ::execv("/proc/self/exe", argv.data());
+    if (!log_path.empty()) {
+      const int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+      if (fd < 0) ::_exit(125);
+      ::dup2(fd, STDOUT_FILENO);
+      ::dup2(fd, STDERR_FILENO);
+    }
+    ::execv(program.c_str(), argv.data());
     ::_exit(127);
   }
   int status = 0;
@@ -122,6 +137,10 @@ int run_self(const std::vector<std::string>& args, const fs::path& log) {
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
   return 1;
+}
+
+int run_self(const std::vector<std::string>& args, const fs::path& log) {
+  return run_program("/proc/self/exe", args, &log);
 }
 
 CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
@@ -148,7 +167,7 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
   if (fs::exists(dir / "config.json")) {
     bool same = false;
     try {
-      same = read_json_file((dir / "config.json").string()) == cell.request;
+      same = same_run_config(read_json_file((dir / "config.json").string()), cell.request);
     } catch (const std::exception&) {
     }
     if (!same) {
@@ -158,19 +177,20 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
       clear_cell(dir);
     }
   }
-  const bool had_state = fs::exists(dir / "last.ckpt") || fs::exists(dir / "best.ckpt");
+  remove_temporaries(dir);
   double seconds = 0.0;
-  std::string error = attempt_cell(dir, cell, threads, seconds);
-  if (!error.empty() && had_state) {
-    std::printf("suite: %s: resuming failed (%s); redoing the cell from nothing\n", cell.name.c_str(), error.c_str());
+  Attempt attempt = attempt_cell(dir, cell, threads, seconds);
+  if (attempt.unreadable_state) {
+    std::printf("suite: %s: resuming failed (%s); redoing the cell from nothing\n", cell.name.c_str(),
+                attempt.error.c_str());
     std::fflush(stdout);
     clear_cell(dir);
-    error = attempt_cell(dir, cell, threads, seconds);
+    attempt = attempt_cell(dir, cell, threads, seconds);
   }
   outcome.seconds = seconds_since(start);
-  if (!error.empty()) {
+  if (!attempt.error.empty()) {
     outcome.status = CellOutcome::Status::kFailed;
-    outcome.error = error;
+    outcome.error = attempt.error;
     return outcome;
   }
   outcome.status = CellOutcome::Status::kFinished;
@@ -227,9 +247,14 @@ int run_suite(const SuiteRunOptions& options) {
   const std::vector<const SuiteCell*> cells = shard_cells(suite, shard, shards);
   const fs::path out(options.out);
   write_or_check_manifest(out, suite);
-  const int jobs = std::clamp(options.jobs > 0 ? options.jobs : default_jobs(options.threads), 1,
-                              std::max(1, static_cast<int>(cells.size())));
   const auto costs = try_load_costs(options.costs);
+  auto estimate = [&costs](const SuiteCell& cell) -> std::optional<double> {
+    try {
+      if (costs) return costs->cell_seconds(cell);
+    } catch (const std::exception&) {
+    }
+    return std::nullopt;
+  };
 
   // What is left, and its estimated CPU time.
   std::vector<const SuiteCell*> left;
@@ -238,14 +263,12 @@ int run_suite(const SuiteRunOptions& options) {
   for (const auto* cell : cells) {
     if (read_result(cell_dir(out, *cell), *cell)) continue;
     left.push_back(cell);
-    if (estimated) {
-      try {
-        estimate_left += costs->cell_seconds(*cell);
-      } catch (const std::exception&) {
-        estimated = false;
-      }
-    }
+    const auto seconds = estimate(*cell);
+    estimated = estimated && seconds.has_value();
+    estimate_left += seconds.value_or(0.0);
   }
+  const int jobs = std::clamp(options.jobs > 0 ? options.jobs : default_jobs(options.threads), 1,
+                              std::max(1, static_cast<int>(left.size())));
   std::printf("suite: %s, shard %d/%d: %zu cells, %zu finished before, %zu to run on %d jobs x %d threads",
               options.config_path.c_str(), shard, shards, cells.size(), cells.size() - left.size(), left.size(), jobs,
               options.threads);
@@ -258,67 +281,69 @@ int run_suite(const SuiteRunOptions& options) {
   ensure_demo_files(suite, left, std::max(1, jobs * options.threads));
 
   std::mutex mutex;
-  std::atomic<std::size_t> next{0};
   std::size_t done = 0, failed = 0, busy = 0;
-  double estimate_done = 0.0;
+  // The ETA scales the estimate of what is left by how the cells finished here went against theirs (wall time
+  // over estimated CPU time, so it already counts the jobs running side by side).
+  double estimate_finished = 0.0;
   const auto start = std::chrono::steady_clock::now();
-  auto worker = [&] {
-    for (std::size_t i = next++; i < left.size(); i = next++) {
-      const SuiteCell& cell = *left[i];
-      CellOutcome outcome;
-      try {
-        outcome = run_cell(out, cell, options.threads);
-      } catch (const std::exception& e) {
-        outcome.status = CellOutcome::Status::kFailed;
-        outcome.error = e.what();
+  auto report = [&](const SuiteCell& cell, const CellOutcome& outcome) {
+    std::string line;
+    switch (outcome.status) {
+      case CellOutcome::Status::kFinished:
+      case CellOutcome::Status::kAlreadyDone: {
+        ++done;
+        char text[256];
+        std::snprintf(text, sizeof(text), "mean score %.3f, best step %lld of %lld, ",
+                      outcome.result["eval"]["mean_score"].get<double>(),
+                      outcome.result["eval"]["best_step"].get<long long>(),
+                      outcome.result["train"]["steps"].get<long long>());
+        line = text;
+        line += outcome.status == CellOutcome::Status::kAlreadyDone ? "finished by another process"
+                                                                    : format_duration(outcome.seconds);
+        break;
       }
-      const std::lock_guard<std::mutex> guard(mutex);
-      char line[512];
-      switch (outcome.status) {
-        case CellOutcome::Status::kFinished:
-        case CellOutcome::Status::kAlreadyDone: {
-          ++done;
-          const Json& eval = outcome.result["eval"];
-          std::snprintf(line, sizeof(line), "mean score %.3f, best step %lld of %lld, %s",
-                        eval.value("mean_score", 0.0), static_cast<long long>(eval.value("best_step", -1LL)),
-                        static_cast<long long>(outcome.result["train"].value("steps", 0LL)),
-                        outcome.status == CellOutcome::Status::kAlreadyDone ? "finished by another process"
-                                                                            : format_duration(outcome.seconds).c_str());
-          break;
-        }
-        case CellOutcome::Status::kBusy:
-          ++busy;
-          std::snprintf(line, sizeof(line), "running in another process (its .lock is held); skipped");
-          break;
-        case CellOutcome::Status::kFailed:
-          ++failed;
-          std::snprintf(line, sizeof(line), "FAILED: %s", outcome.error.c_str());
-          break;
-      }
-      std::printf("[%zu/%zu] %s: %s\n", done + failed + busy, left.size(), cell.name.c_str(), line);
-      if (estimated) {
-        try {
-          estimate_done += costs->cell_seconds(cell);
-        } catch (const std::exception&) {
-        }
-      }
-      const double elapsed = seconds_since(start);
-      const std::size_t remaining = left.size() - done - failed - busy;
-      std::string eta = "unknown";
-      if (estimated && estimate_done > 0.0)
-        eta = format_duration(std::max(0.0, estimate_left - estimate_done) * elapsed / estimate_done);
-      std::printf("suite: %zu of %zu done, %zu failed, %zu elsewhere, %zu left; elapsed %s, ETA %s\n", done,
-                  left.size(), failed, busy, remaining, format_duration(elapsed).c_str(),
-                  remaining == 0 ? "0s" : eta.c_str());
-      std::fflush(stdout);
+      case CellOutcome::Status::kBusy:
+        ++busy;
+        line = "running in another process (its .lock is held); skipped";
+        break;
+      case CellOutcome::Status::kFailed:
+        ++failed;
+        line = "FAILED: " + outcome.error;
+        break;
     }
+    std::printf("[%zu/%zu] %s: %s\n", done + failed + busy, left.size(), cell.name.c_str(), line.c_str());
+    estimate_left -= estimate(cell).value_or(0.0);
+    if (outcome.status == CellOutcome::Status::kFinished) estimate_finished += estimate(cell).value_or(0.0);
+    const double elapsed = seconds_since(start);
+    const std::size_t remaining = left.size() - done - failed - busy;
+    std::string eta = remaining == 0 ? "0s" : "unknown";
+    if (remaining > 0 && estimated && estimate_finished > 0.0)
+      eta = format_duration(std::max(0.0, estimate_left) * elapsed / estimate_finished);
+    std::printf("suite: %zu of %zu done, %zu failed, %zu elsewhere, %zu left; elapsed %s, ETA %s\n", done, left.size(),
+                failed, busy, remaining, format_duration(elapsed).c_str(), eta.c_str());
+    std::fflush(stdout);
   };
-  std::vector<std::thread> pool;
-  for (int j = 0; j < jobs; ++j) pool.emplace_back(worker);
-  for (auto& thread : pool) thread.join();
+  run_tasks_in_parallel(left.size(), jobs, [&](std::size_t i) {
+    const SuiteCell& cell = *left[i];
+    CellOutcome outcome;
+    try {
+      outcome = run_cell(out, cell, options.threads);
+    } catch (const std::exception& e) {
+      outcome.status = CellOutcome::Status::kFailed;
+      outcome.error = e.what();
+    }
+    const std::lock_guard<std::mutex> guard(mutex);
+    report(cell, outcome);
+  });
   std::printf("suite: shard %d/%d finished: %zu cells done, %zu failed, %zu running elsewhere (maps suite status %s)\n",
               shard, shards, done, failed, busy, out.string().c_str());
-  return failed > 0 ? 1 : 0;
+  if (failed > 0) return 1;
+  if (busy > 0) {
+    std::printf("suite: %zu cells were running in another process: rerun once it has stopped to see them finished\n",
+                busy);
+    return 3;
+  }
+  return 0;
 }
 
 }  // namespace maps::experiments

@@ -41,8 +41,11 @@ CellOutcome run_cell(const std::filesystem::path& out, const SuiteCell& cell, in
 // the right task set. Progress goes to stdout.
 void ensure_demo_files(const Suite& suite, const std::vector<const SuiteCell*>& cells, int threads);
 
-// Runs this program (/proc/self/exe) with `args`, its stdout and stderr appended to `log`; the child is killed
-// when the calling thread's process dies. Returns the exit code (128 + signal when killed by one).
+// Runs `program` (a path) with `args`, its stdout and stderr appended to `log` (nullptr: this process's); the
+// child is killed when the calling thread dies. Returns the exit code (128 + signal when killed by one; 127 when
+// it could not be started).
+int run_program(const std::string& program, const std::vector<std::string>& args, const std::filesystem::path* log);
+// run_program on this binary (/proc/self/exe: the same build for the whole suite, even if build/ is rebuilt).
 int run_self(const std::vector<std::string>& args, const std::filesystem::path& log);
 
 }  // namespace maps::experiments

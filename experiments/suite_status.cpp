@@ -2,7 +2,6 @@
 
 #include "experiments/suite_status.h"
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -15,6 +14,7 @@
 #include "experiments/run_folder.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
+#include "experiments/suite_run.h"
 
 namespace maps::experiments {
 
@@ -31,9 +31,9 @@ std::string curve_progress(const fs::path& dir, long long steps) {
   return "step " + last.substr(0, comma) + " of " + std::to_string(steps);
 }
 
-// A finished cell's files but its .lock and last.ckpt (what resuming needs; a finished cell never resumes, and
-// best.ckpt, the policy evaluated, stays). Copies, not hard links: a shard folder edited later must not change
-// the merged one.
+// A finished cell's files but its .lock, temporaries and last.ckpt (what resuming needs; a finished cell never resumes,
+// and best.ckpt, the policy evaluated, stays). Copies, not hard links: a shard folder edited later must not change the
+// merged one.
 void copy_cell(const fs::path& source, const fs::path& target) {
   for (const auto& entry : fs::recursive_directory_iterator(source)) {
     const fs::path to = target / fs::relative(entry.path(), source);
@@ -42,17 +42,20 @@ void copy_cell(const fs::path& source, const fs::path& target) {
       continue;
     }
     const fs::path name = entry.path().filename();
-    if (name == ".lock" || name == "last.ckpt") continue;
+    if (name == ".lock" || name == "last.ckpt" || is_temporary(name)) continue;
     fs::create_directories(to.parent_path());
     fs::copy_file(entry.path(), to);
   }
 }
 
 // Whether two results of one cell agree number for number (wall times, hosts and dates aside).
+// Both were accepted by read_result, which checked these keys.
 bool same_numbers(const Json& a, const Json& b) {
-  return a["config"] == b["config"] && a["eval"]["mean_score"] == b["eval"]["mean_score"] &&
-         a["eval"]["tasks"] == b["eval"]["tasks"] && a["train"]["best_step"] == b["train"]["best_step"] &&
-         a["train"]["best_validation_bc"] == b["train"]["best_validation_bc"];
+  return same_run_config(a.at("config"), b.at("config")) &&
+         a.at("eval").at("mean_score") == b.at("eval").at("mean_score") &&
+         a.at("eval").at("tasks") == b.at("eval").at("tasks") &&
+         a.at("train").at("best_step") == b.at("train").at("best_step") &&
+         a.at("train").at("best_validation_bc") == b.at("train").at("best_validation_bc");
 }
 
 struct CellState {
@@ -173,6 +176,7 @@ int run_suite_merge(const SuiteMergeOptions& options) {
   } else {
     write_json_file((out / "suite.json").string(), manifest);
   }
+  const fs::path staging_root = out / (".merging-" + host_name() + "-" + std::to_string(::getpid()));
   int merged = 0, present = 0;
   for (const auto& cell : first.cells) {
     const fs::path target = cell_dir(out, cell);
@@ -188,8 +192,11 @@ int run_suite_merge(const SuiteMergeOptions& options) {
                                    " and in another shard or " + options.out + "; not merged");
         continue;
       }
+      if (cell_is_locked(target))
+        throw std::runtime_error("cell " + cell.name + " is being run in " + options.out +
+                                 " (its .lock is held); merge into a folder no suite is running in");
       // Staged outside cells/, so a merge killed halfway leaves nothing that looks like a cell.
-      const fs::path staging = out / ".merging" / cell.name;
+      const fs::path staging = staging_root / cell.name;
       fs::remove_all(staging);
       fs::create_directories(staging.parent_path());
       fs::create_directories(target.parent_path());
@@ -200,7 +207,7 @@ int run_suite_merge(const SuiteMergeOptions& options) {
       ++merged;
     }
   }
-  fs::remove_all(out / ".merging");
+  fs::remove_all(staging_root);
   const int finished = present + merged;
   std::printf("merged %d cells from %zu shards into %s: %d of %zu cells finished\n", merged, options.shards.size(),
               options.out.c_str(), finished, first.cells.size());
@@ -213,19 +220,12 @@ int run_report(const ReportOptions& options) {
   if (!fs::exists(fs::path(options.dir) / "suite.json"))
     throw std::runtime_error(options.dir + " is not a suite folder: it has no suite.json (maps suite run writes it)");
   const std::string out = options.out.empty() ? (fs::path(options.dir) / "report").string() : options.out;
-  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  std::fflush(stdout);
-  const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error("fork failed");
-  if (pid == 0) {
-    ::execlp(python.c_str(), python.c_str(), script.c_str(), options.dir.c_str(), out.c_str(),
-             static_cast<char*>(nullptr));
-    std::perror("maps report: cannot run python3 (bash scripts/setup.sh installs it)");
-    ::_exit(127);
-  }
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 1;
+  const std::string python = "/usr/bin/python3";  // Debian's, with matplotlib (scripts/setup.sh)
+  if (!fs::exists(python))
+    throw std::runtime_error("maps report needs " + python + " with matplotlib (bash scripts/setup.sh installs it)");
+  const int code = run_program(python, {script.string(), options.dir, out}, nullptr);
+  if (code == 127) throw std::runtime_error("cannot run " + python);
+  return code;
 }
 
 }  // namespace maps::experiments

@@ -117,12 +117,19 @@ std::string encode(const NamedTensors& tensors, const std::string& config) {
   return file;
 }
 
-void write_atomically(const std::string& path, const std::string& bytes) {
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& bytes, const std::string& what) {
+  auto file_error = [&what](const std::string& name, const std::string& why) {
+    return std::runtime_error(what + " " + name + ": " + why);
+  };
+  char host[64] = {};
+  if (::gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
   static std::atomic<std::uint64_t> counter{0};
   const std::filesystem::path target(path);
   std::string tmp_name = ".";
   tmp_name += target.filename().string();
-  tmp_name += ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
+  tmp_name += ".tmp-" + std::string(host) + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
   const std::string tmp = (target.parent_path() / tmp_name).string();
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) throw file_error(path, "cannot create temporary file " + tmp + ": " + std::strerror(errno));
@@ -154,10 +161,8 @@ void write_atomically(const std::string& path, const std::string& bytes) {
   }
 }
 
-}  // namespace
-
 void save_tensors(const std::string& path, const NamedTensors& tensors, const std::string& config) {
-  write_atomically(path, encode(tensors, config));
+  write_file_atomically(path, encode(tensors, config), "checkpoint");
 }
 
 Checkpoint load_tensors(const std::string& path) {

@@ -5,6 +5,7 @@ then a rerun equal to an uninterrupted run, damaged cells redone rather than tru
 merge of shards equal to a single run. Run by ctest as: suite_run_test.py path/to/maps (from a scratch folder: the
 tiny suite collects its own demo files under data/tiny/ of the working directory)."""
 import copy
+import fcntl
 import json
 import os
 import pathlib
@@ -209,6 +210,44 @@ class SuiteTest(unittest.TestCase):
         error = json.loads((out / "cells/mt10/mt_bc_d400_s0/error.json").read_text())
         self.assertEqual(error["stage"], "train")
         self.assertIn("400", error["error"])
+
+    def test_a_failure_that_is_not_damage_keeps_the_checkpoints(self):
+        out = self.dir / "eval-fails"
+        subprocess.run(["cp", "-r", str(self.reference), str(out)], check=True)
+        cell = out / "cells/mt10/maps_d2_s0"
+        for name in ("result.json", "eval.json"):
+            (cell / name).unlink()
+        (cell / "eval.json").mkdir()  # maps eval cannot write its result: it fails, naming no checkpoint
+        proc = maps("suite", "run", TINY, "--out", out, check=False)
+        self.assertEqual(proc.returncode, 1)
+        self.assertIn("mt10/maps_d2_s0: FAILED: evaluation failed", proc.stdout)
+        self.assertNotIn("redoing the cell from nothing", proc.stdout)
+        self.assertTrue((cell / "last.ckpt").exists() and (cell / "best.ckpt").exists())
+        self.assertEqual(json.loads((cell / "error.json").read_text())["stage"], "eval")
+        (cell / "eval.json").rmdir()
+        proc = maps("suite", "run", TINY, "--out", out)
+        self.assertIn("8 finished before, 1 to run", proc.stdout)
+        self.assertIn("resumed from", (cell / "train.log").read_text())
+        self.assertFalse((cell / "error.json").exists())
+        self.assertEqual(results(out), results(self.reference))
+
+    def test_a_cell_locked_by_another_process_is_skipped(self):
+        out = self.dir / "locked"
+        maps("suite", "run", TINY, "--out", out, "--shard", "99999/100000")
+        lock_dir = out / "cells/gravity/maps_d2_s0"
+        lock_dir.mkdir(parents=True)
+        holder = open(lock_dir / ".lock", "w")
+        fcntl.flock(holder, fcntl.LOCK_EX)  # what a suite running the cell holds
+        try:
+            status = json.loads(maps("suite", "status", out, "--json").stdout)
+            self.assertEqual(status["counts"], {"running": 1, "left": 8})
+            proc = maps("suite", "run", TINY, "--out", out, "--shard", "0/9", check=False)
+            self.assertEqual(proc.returncode, 3)
+            self.assertIn("gravity/maps_d2_s0: running in another process", proc.stdout)
+        finally:
+            holder.close()
+        proc = maps("suite", "run", TINY, "--out", out, "--shard", "0/9")
+        self.assertIn("1 to run", proc.stdout)
 
     def test_a_suite_folder_of_another_config_is_refused(self):
         out = self.dir / "other"
