@@ -178,6 +178,14 @@ def read_error(path):
         return "?", f"unreadable error.json ({e})"
 
 
+def same_where_both_say(a, b):
+    """Run configs agree on every key both name (objects compared key by key): a config written before a key
+    existed (the tool then resolves it to its default, as maps suite does) still matches."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return all(same_where_both_say(a[k], b[k]) for k in a.keys() & b.keys())
+    return a == b
+
+
 def load_suite(root):
     root = pathlib.Path(root)
     suite_file = root / "suite.json"
@@ -204,7 +212,7 @@ def load_suite(root):
             continue
         if cell.name != name:
             suite.damaged.append((path, f"names another cell ({cell.name})"))
-        elif requests.get(name) is not None and cell.config != requests[name]:
+        elif requests.get(name) is not None and not same_where_both_say(cell.config, requests[name]):
             suite.damaged.append((path, "trained with another run config than suite.json's (stale: rerun the"
                                         " suite)"))
         else:

@@ -25,7 +25,12 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
   std::vector<std::int64_t> selector_sizes{S + K};
   selector_sizes.insert(selector_sizes.end(), config.selector_hidden.begin(), config.selector_hidden.end());
   selector_sizes.push_back(M);
-  selector_ = register_module("selector", std::make_shared<nn::MLP>(selector_sizes, activation_, gen));
+  if (config.selector != "learned" && config.selector != "uniform")
+    throw std::invalid_argument("MAPSPolicy: selector must be \"learned\" or \"uniform\", got \"" + config.selector +
+                                "\"");
+  // Drawn either way, so that the modules and the head start from the same numbers for a seed.
+  auto selector = std::make_shared<nn::MLP>(selector_sizes, activation_, gen);
+  if (!uniform_selector()) selector_ = register_module("selector", selector);
   // The head is Linear(M * F -> A) over the concatenated scored features, kept as M blocks [F, A]: then
   // head = sum_i g_i (v_i W_i) + b is one batched matmul and needs no transposing copy. Initialised as that Linear:
   // uniform in +-1/sqrt(M F) (PyTorch's Kaiming-uniform bound for fan_in M F), bias too.
@@ -36,6 +41,7 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
   head_weight_ = register_module("head", head);
   head_bias_ = register_parameter("head_bias", ag::rand({A}, gen, ag::Dtype::Float32, -bound, bound));
   for (const auto& [name, weight] : config.selector_losses) {
+    if (uniform_selector()) break;  // constant under uniform scores
     if (!(weight >= 0.0) || !std::isfinite(weight))
       throw std::invalid_argument("MAPSPolicy: selector loss '" + name + "' needs a finite weight >= 0");
     losses_.push_back(register_module("loss_" + name, make_selector_loss(name)));
@@ -84,6 +90,9 @@ ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<
 }
 
 ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  if (uniform_selector())
+    return ag::full({observations.size(0), config_.modules}, 1.0 / static_cast<double>(config_.modules),
+                    observations.dtype());
   const auto [state_weight, task_rows] = selector_first_layer();
   std::vector<std::int64_t> rows(tasks.size());
   std::iota(rows.begin(), rows.end(), std::int64_t{0});
@@ -107,6 +116,13 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   detail::check_batch("MAPSPolicy::loss", shape(), batch);
   detail::check_observations("MAPSPolicy::loss (previous_observations)", shape(), batch.previous_observations,
                              batch.tasks);
+  LossTerms result;
+  if (uniform_selector()) {
+    const ag::Tensor bc = ag::mse_loss(head(features(obs), checked_scores(obs, batch.tasks)), batch.actions);
+    result.terms.emplace_back("bc", bc);
+    result.total = bc * config_.bc_weight;
+    return result;
+  }
   const std::int64_t n = obs.size(0), K = shape().num_tasks, M = config_.modules;
   SelectorOutputs out;
   out.tasks = batch.tasks;
@@ -133,7 +149,6 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   out.scores = ag::index_select(all, own_task_rows(batch.tasks));
   out.previous_scores = ag::narrow(scored, 0, K * n, n);
 
-  LossTerms result;
   const ag::Tensor bc = ag::mse_loss(head(features(obs), out.scores), batch.actions);
   result.terms.emplace_back("bc", bc);
   ag::Tensor selector_total = ag::zeros({}, obs.dtype());

@@ -26,6 +26,10 @@ struct MAPSConfig {
   // Selector losses and their weights (lambda); the paper's HalfCheetah values by default.
   std::vector<std::pair<std::string, double>> selector_losses = {
       {"share", 1.0}, {"explore", 0.5}, {"sparse", 0.001}, {"smooth", 1.0}};
+  // "learned": G(s, k) as above. "uniform": every score 1/M, no selector and no selector losses: the control that
+  // asks whether MAPS is more than an average of M modules (its modules and head start as the learned model's of
+  // the same seed).
+  std::string selector = "learned";
 };
 
 class MAPSPolicy : public Policy {
@@ -45,6 +49,7 @@ class MAPSPolicy : public Policy {
 
   const MAPSConfig& config() const { return config_; }
   std::int64_t num_modules() const { return config_.modules; }
+  bool uniform_selector() const { return config_.selector == "uniform"; }
 
  protected:
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<MAPSPolicy>(*this); }

@@ -71,13 +71,17 @@ RunConfig parse_run_config(const Json& json) {
     const Json& m = json["maps"];
     check_keys(m, "maps",
                {"modules", "module_hidden", "selector_hidden", "activation", "bc_weight", "selector_weight",
-                "selector_losses"});
+                "selector_losses", "selector"});
     read(m, "maps", "modules", c.maps.modules);
     read(m, "maps", "module_hidden", c.maps.module_hidden);
     read(m, "maps", "selector_hidden", c.maps.selector_hidden);
     read(m, "maps", "activation", c.maps.activation);
     read(m, "maps", "bc_weight", c.maps.bc_weight);
     read(m, "maps", "selector_weight", c.maps.selector_weight);
+    read(m, "maps", "selector", c.maps.selector);
+    if (c.maps.selector != "learned" && c.maps.selector != "uniform")
+      throw std::invalid_argument("config maps.selector: expected \"learned\" or \"uniform\", got \"" +
+                                  c.maps.selector + "\"");
     if (m.contains("selector_losses")) {
       const Json& losses = m["selector_losses"];
       if (!losses.is_object())
@@ -150,6 +154,7 @@ Json to_json(const RunConfig& c) {
         {"activation", c.maps.activation},
         {"bc_weight", c.maps.bc_weight},
         {"selector_weight", c.maps.selector_weight},
+        {"selector", c.maps.selector},
         {"selector_losses", losses}}},
       {"maml",
        {{"inner_lr", c.maml.inner_lr},

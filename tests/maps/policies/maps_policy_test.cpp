@@ -3,10 +3,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "autograd/gradcheck.h"
 #include "nn/optim/adam.h"
+#include "tests/common/max_abs_diff.h"
 
 namespace maps::core {
 namespace {
@@ -267,6 +269,54 @@ TwoTaskProblem make_two_task_problem(std::int64_t per_task) {
   p.tasks = tasks;
   p.per_task = per_task;
   return p;
+}
+
+TEST(MAPSPolicy, UniformSelectorScoresEveryModuleOneOverMAndLearnsOnlyBC) {
+  ag::Generator gen_learned(8), gen_uniform(8);
+  MAPSConfig uniform_config = tiny_config(4);
+  uniform_config.selector = "uniform";
+  MAPSPolicy learned({4, 2, 3}, tiny_config(4), gen_learned);
+  MAPSPolicy uniform({4, 2, 3}, uniform_config, gen_uniform);
+  learned.to(Dtype::Float64);
+  uniform.to(Dtype::Float64);
+  // No selector and no selector losses among its parameters and buffers; the modules and head start as the
+  // learned-selector model's of the same seed.
+  const auto learned_parameters = learned.named_parameters();
+  for (const auto& [name, tensor] : uniform.named_parameters()) {
+    EXPECT_EQ(name.find("selector"), std::string::npos) << name;
+    const auto same = std::find_if(learned_parameters.begin(), learned_parameters.end(),
+                                   [&name](const auto& other) { return other.name == name; });
+    ASSERT_NE(same, learned_parameters.end()) << name;
+    EXPECT_EQ(max_abs_diff(same->tensor, tensor), 0.0) << name;
+  }
+  ag::Generator gen(9);
+  const Batch batch = random_batch(4, 3, 4, 2, gen);
+  const Tensor scores = uniform.scores(batch.observations, batch.tasks);
+  ASSERT_EQ(scores.shape(), (ag::Shape{12, 4}));
+  EXPECT_EQ(max_abs_diff(scores, ag::full({12, 4}, 0.25, Dtype::Float64)), 0.0);
+  const LossTerms terms = uniform.loss(batch);
+  ASSERT_EQ(terms.terms.size(), 1u);
+  EXPECT_EQ(terms.terms[0].first, "bc");
+  EXPECT_NEAR(terms.total.item(), 0.75 * terms.terms[0].second.item(), 1e-12);
+  // act() is the head over the modules' features averaged with weights 1/M.
+  const Tensor expected = uniform.head(uniform.features(batch.observations), ag::full({12, 4}, 0.25, Dtype::Float64));
+  EXPECT_LT(max_abs_diff(uniform.act(batch.observations, batch.tasks), expected), 1e-12);
+  const Tensor obs = batch.observations.detach().requires_grad_();
+  const auto f = [&](const std::vector<Tensor>& in) {
+    Batch b = batch;
+    b.observations = in[0];
+    return uniform.loss(b).total;
+  };
+  const auto check = ag::gradcheck("uniform-selector MAPS loss", ag::SingleFunction(f), {obs});
+  EXPECT_TRUE(check.ok) << check.message;
+  uniform_config.selector = "fixed";
+  ag::Generator gen_bad(1);
+  try {
+    MAPSPolicy bad({4, 2, 3}, uniform_config, gen_bad);
+    FAIL() << "an unknown selector kind was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("\"fixed\""));
+  }
 }
 
 TEST(MAPSPolicy, OverfitsATinyTwoTaskDataset) {
