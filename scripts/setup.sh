@@ -21,6 +21,7 @@ PACKAGES=(
   libpng-dev
   python3             # /usr/bin/python3 runs the result tables and plots (experiments/suites/)
   python3-matplotlib  # plots
+  python3-scipy       # the report's t tests (experiments/suites/suite_stats.py)
 )
 
 export DEBIAN_FRONTEND=noninteractive

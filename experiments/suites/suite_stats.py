@@ -5,6 +5,8 @@ import math
 import statistics
 from dataclasses import dataclass
 
+from scipy.stats import t as scipy_t
+
 from suite_results import groups, task_names, task_score
 
 # Two-sided 95% t quantiles by degrees of freedom (1-30); 1.96 past the table.
@@ -51,6 +53,31 @@ def significance(diffs):
         return 0
     m = mean(diffs)
     return 1 if m - half > 0 else -1 if m + half < 0 else 0
+
+
+def paired_p(diffs):
+    """Two-sided p-value of the paired t test (the mean difference is 0); nan with fewer than 2 pairs."""
+    if len(diffs) < 2:
+        return float("nan")
+    spread = statistics.stdev(diffs)
+    if spread == 0:
+        return 1.0 if mean(diffs) == 0 else 0.0
+    t = mean(diffs) / (spread / math.sqrt(len(diffs)))
+    return float(2 * scipy_t.sf(abs(t), len(diffs) - 1))
+
+
+def holm(p_values):
+    """Holm's step-down adjustment of a family of p-values (nan ones are not in the family and stay nan)."""
+    order = sorted((i for i, p in enumerate(p_values) if not math.isnan(p)), key=lambda i: p_values[i])
+    adjusted, running = [float("nan")] * len(p_values), 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (len(order) - rank) * p_values[i]))
+        adjusted[i] = running
+    return adjusted
+
+
+def fmt_p(p):
+    return "-" if math.isnan(p) else f"{p:.3f}"
 
 
 def total_variation(p, q):

@@ -4,8 +4,8 @@ and routing, Fig. 3's comparison with Single BC, the ablations and the module-co
 import math
 
 from suite_results import ablation_groups, groups, module_sweep_cells, score_name, short_task, task_names, task_score
-from suite_stats import (MUCH_BETTER, fmt, mean, mean_entropy, paired, routing, span, top_share,
-                         usage_distances)
+from suite_stats import (MUCH_BETTER, fmt, fmt_p, holm, mean, mean_entropy, paired, paired_p, routing, span,
+                         top_share, usage_distances)
 
 
 MISSING_SHOWN = 40
@@ -89,12 +89,16 @@ def paired_table(cells):
             continue
         diffs = paired(runs, maps, lambda c: c.mean_score)
         if diffs:
-            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True)])
+            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True), paired_p(diffs)])
     if not rows:
         return []
+    adjusted = holm([row[-1] for row in rows])
+    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    family = sum(1 for a in adjusted if a == a)
     return (["Paired difference of the mean score over tasks, method - MAPS, over the seeds both ran (mean +- 95% CI;"
-             " an interval that excludes 0 is a difference):", ""]
-            + table(["method", "demos", "k", "pairs", "difference"], rows))
+             " p: paired t test; Holm: p adjusted for the " + str(family) + " comparisons of this table; a difference"
+             " holds where the Holm p is below 0.05):", ""]
+            + table(["method", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
 
 def usage_tables(cells):
@@ -164,10 +168,13 @@ def ablation_table(cells):
     lines = table(["variant", "zeroed selector terms", "M", "demos", "k", "seeds", "mean score over tasks",
                    "difference from MAPS (pairs)", "top-module share", "usage distance between tasks (TV)",
                    "per-state entropy"], rows)
-    lines += ["", "Pooled over demo counts (paired over the (demos, seed) blocks both ran; not corrected for"
-              " the number of ablations):", ""]
-    lines += table(["variant", "pairs", "difference from MAPS"],
-                   [[name, len(d), fmt(d, signed=True) if d else "-"] for name, d in pooled.items()])
+    names = list(pooled)
+    adjusted = holm([paired_p(pooled[name]) for name in names])
+    lines += ["", "Pooled over demo counts (paired over the (demos, seed) blocks both ran; p: paired t test; Holm: "
+              f"adjusted for the {sum(1 for a in adjusted if a == a)} ablations):", ""]
+    lines += table(["variant", "pairs", "difference from MAPS", "p", "p (Holm)"],
+                   [[name, len(pooled[name]), fmt(pooled[name], signed=True) if pooled[name] else "-",
+                     fmt_p(paired_p(pooled[name])), fmt_p(a)] for name, a in zip(names, adjusted)])
     return lines
 
 

@@ -194,13 +194,13 @@ class Report(unittest.TestCase):
         gravity = between(self.md, "## Set gravity", "## Set mt10")
         paired = between(gravity, "### Paired differences", "###")
         # Single BC at 5 demos: 0.4 - 0.7 and 0.5 - 0.5: mean -0.15, CI 12.706 * 0.2121 / sqrt(2) = 1.91.
-        self.assertEqual(row_of(paired, ["single_bc", "5"])[3:], ["2", "-0.15 +- 1.91"])
-        self.assertEqual(row_of(paired, ["mt_bc", "5"])[3:], ["2", "-0.15 +- 0.64"])
-        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.05 +- nan"])
+        self.assertEqual(row_of(paired, ["single_bc", "5"])[3:], ["2", "-0.15 +- 1.91", "0.500", "0.749"])
+        self.assertEqual(row_of(paired, ["mt_bc", "5"])[3:], ["2", "-0.15 +- 0.64", "0.205", "0.614"])
+        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.05 +- nan", "-", "-"])
         mt10 = between(self.md, "## Set mt10", "## Fig. 4")
         paired = between(mt10, "### Paired differences", "###")
-        self.assertEqual(row_of(paired, ["maps (no_explore)", "5"])[3:], ["2", "-0.35 +- 0.64"])
-        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.10 +- nan"])
+        self.assertEqual(row_of(paired, ["maps (no_explore)", "5"])[3:], ["2", "-0.35 +- 0.64", "0.090", "0.542"])
+        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.10 +- nan", "-", "-"])
 
     def test_routing_is_computed_per_seed(self):
         routing = between(self.md, "MAPS, 5 demos, k = 10", "MAPS, 10 demos, k = 10")
@@ -233,7 +233,7 @@ class Report(unittest.TestCase):
         self.assertEqual(row_of(fig4, ["maps (no_explore)", "explore", "10", "5"])[5:],
                          ["2", "0.30 +- 0.00", "-0.35 +- 0.64 (2)", "1.00 +- 0.00", "0.00 +- 0.00", "0.05 +- 0.00"])
         # Pooled over (demos, seed): -0.4, -0.3, -0.4, -0.3: CI 3.182 * 0.0577 / 2 = 0.09.
-        self.assertEqual(row_of(fig4, ["maps (no_explore)", "4"]), ["maps (no_explore)", "4", "-0.35 +- 0.09"])
+        self.assertEqual(row_of(fig4, ["maps (no_explore)", "4"]), ["maps (no_explore)", "4", "-0.35 +- 0.09", "0.001", "0.001"])
         fig5 = between(self.md, "## Fig. 5", "## Fig. 6")
         self.assertEqual(row_of(fig5, ["5"]), ["5", "0.55 +- 0.64 (n=2)", "0.85 +- 0.64 (n=2)"])
         self.assertEqual(row_of(fig5, ["10"]), ["10", "0.65 +- 0.64 (n=2)", "0.85 +- 0.64 (n=2)"])
