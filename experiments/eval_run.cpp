@@ -18,23 +18,12 @@ namespace maps::experiments {
 int run_eval(const EvalRunOptions& options) {
   namespace fs = std::filesystem;
   const fs::path dir(options.run);
-  const core::RunConfig config = core::parse_run_config(read_json_file((dir / "config.json").string()));
-  const std::string best_path = (dir / "best.ckpt").string();
-  if (!fs::exists(best_path))
-    throw std::runtime_error(options.run + " has no best.ckpt: train it first (maps train --out " + options.run + ")");
-  const core::DemoDataset data = load_run_dataset(config);
-  const auto policy = core::make_policy(config, {data.observation_size(), data.action_size(), data.num_tasks()});
-  const nlohmann::json best = nlohmann::json::parse(nn::load(*policy, best_path));
-  // The standardizer the policy was trained with; the demo file must still give the same one.
-  const std::vector<double> mean = best.at("standardizer").at("mean"), stddev = best.at("standardizer").at("std");
+  TrainedRun run = load_trained_run(options.run);
+  const core::RunConfig& config = run.config;
+  const core::DemoDataset& data = *run.data;
+  const auto& policy = run.policy;
+  const nlohmann::json& best = run.best;
   const core::Standardizer& standardizer = data.standardizer();
-  for (std::size_t i = 0; i < mean.size(); ++i)
-    if (std::abs(mean[i] - standardizer.mean[static_cast<Eigen::Index>(i)]) > 1e-9 ||
-        std::abs(stddev[i] - standardizer.std[static_cast<Eigen::Index>(i)]) > 1e-9)
-      throw std::runtime_error(config.data_file + " is not the demo file " + options.run +
-                               " was trained on (its observation statistics differ)");
-  policy->eval();
-  policy->prepare_for_evaluation(data);
 
   core::EvalConfig eval;
   eval.episodes = options.episodes > 0 ? options.episodes : config.eval_episodes;

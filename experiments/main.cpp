@@ -125,9 +125,11 @@ int main(int argc, char** argv) {
   CLI::App* render_cmd =
       app.add_subcommand("render", "Draw one frame of a task's scene offscreen (MuJoCo's renderer on OSMesa) to PNG");
   render_cmd->add_option("--task", render.task, "Task name, e.g. mt10/door-open or gravity/1.0")->required();
-  render_cmd->add_option("--seed", render.seed, "Seed of the initial state")
-      ->check(non_negative)
-      ->capture_default_str();
+  auto* render_seed = render_cmd
+                          ->add_option("--seed", render.seed,
+                                       "Seed of the initial state (with --run: default the first evaluation seed)")
+                          ->check(non_negative)
+                          ->capture_default_str();
   render_cmd->add_option("--out", render.out, "PNG file to write")->required();
   render_cmd->add_option("--steps", render.steps, "Steps of the task's expert before the picture")
       ->check(non_negative)
@@ -139,6 +141,15 @@ int main(int argc, char** argv) {
       ->check(positive)
       ->capture_default_str();
   render_cmd->add_option("--camera", render.camera, "A named camera of the model (default: a view made for the task)");
+  render_cmd
+      ->add_option("--run", render.run,
+                   "A trained run folder: a strip of frames of its policy's episode instead of the expert")
+      ->check(CLI::ExistingDirectory);
+  render_cmd->add_option("--module", render.module, "With --run of MAPS: every selector score on this module")
+      ->check(non_negative);
+  render_cmd->add_option("--frames", render.frames, "With --run: frames in the strip, spread over the episode")
+      ->check(positive)
+      ->capture_default_str();
 
   maps::experiments::ExpertEvalOptions expert_eval;
   CLI::App* expert_eval_cmd = app.add_subcommand(
@@ -284,6 +295,7 @@ int main(int argc, char** argv) {
   report_cmd->add_option("--out", report.out, "Report folder (default: DIR/report)");
 
   CLI11_PARSE(app, argc, argv);
+  render.seed_given = render_seed->count() > 0;
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
 
   try {

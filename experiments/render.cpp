@@ -8,16 +8,11 @@
 #include "envs/mujoco_env.h"
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
-
-#ifdef MAPS_HAVE_RENDER
-#include "envs/render/offscreen_renderer.h"
-#endif
+#include "experiments/render_view.h"
 
 namespace maps::experiments {
 
 #ifdef MAPS_HAVE_RENDER
-namespace {
-
 envs::CameraView default_view(const envs::MujocoEnv& env) {
   envs::CameraView view;
   if (env.spec().task.rfind("mt10/", 0) == 0) {
@@ -39,11 +34,10 @@ envs::CameraView default_view(const envs::MujocoEnv& env) {
   }
   return view;
 }
-
-}  // namespace
 #endif
 
 int run_render(const RenderOptions& options) {
+  if (!options.run.empty()) return run_render_policy(options);
 #ifndef MAPS_HAVE_RENDER
   (void)options;
   throw std::runtime_error(

@@ -1,5 +1,6 @@
 #include "experiments/run_folder.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -26,6 +27,32 @@ nlohmann::json read_json_file(const std::string& path) {
 
 core::DemoDataset load_run_dataset(const core::RunConfig& config) {
   return core::DemoDataset(envs::read_demo_file(config.data_file), config.data);
+}
+
+TrainedRun load_trained_run(const std::string& run) {
+  namespace fs = std::filesystem;
+  const fs::path dir(run);
+  TrainedRun loaded;
+  loaded.config = core::parse_run_config(read_json_file((dir / "config.json").string()));
+  const std::string best_path = (dir / "best.ckpt").string();
+  if (!fs::exists(best_path))
+    throw std::runtime_error(run + " has no best.ckpt: train it first (maps train --out " + run + ")");
+  loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config));
+  const core::DemoDataset& data = *loaded.data;
+  loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
+  loaded.best = nlohmann::json::parse(nn::load(*loaded.policy, best_path));
+  // The standardizer the policy was trained with; the demo file must still give the same one.
+  const std::vector<double> mean = loaded.best.at("standardizer").at("mean"),
+                            stddev = loaded.best.at("standardizer").at("std");
+  const core::Standardizer& standardizer = data.standardizer();
+  for (std::size_t i = 0; i < mean.size(); ++i)
+    if (std::abs(mean[i] - standardizer.mean[static_cast<Eigen::Index>(i)]) > 1e-9 ||
+        std::abs(stddev[i] - standardizer.std[static_cast<Eigen::Index>(i)]) > 1e-9)
+      throw std::runtime_error(loaded.config.data_file + " is not the demo file " + run +
+                               " was trained on (its observation statistics differ)");
+  loaded.policy->eval();
+  loaded.policy->prepare_for_evaluation(data);
+  return loaded;
 }
 
 }  // namespace maps::experiments

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -16,5 +17,16 @@ nlohmann::json read_json_file(const std::string& path);
 
 // The run's demonstrations, as its config draws them.
 core::DemoDataset load_run_dataset(const core::RunConfig& config);
+
+// A trained run ready to act: its config, its demonstrations, and its policy at best.ckpt in evaluation mode,
+// prepared for evaluation (MAML fine-tuned per task). Throws naming the folder when best.ckpt is missing, and when
+// the demo file no longer gives the standardizer the policy was trained with.
+struct TrainedRun {
+  core::RunConfig config;
+  std::unique_ptr<core::DemoDataset> data;
+  std::shared_ptr<core::Policy> policy;
+  nlohmann::json best;  // best.ckpt's config: step, validation loss, standardizer
+};
+TrainedRun load_trained_run(const std::string& run);
 
 }  // namespace maps::experiments

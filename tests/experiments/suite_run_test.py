@@ -329,6 +329,32 @@ class SuiteTest(unittest.TestCase):
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("maps_d2_k10_s0: its config.json is not the run config of cell gravity/maps_d2_s0", proc.stderr)
 
+    def test_render_of_a_cell_with_one_module(self):
+        """maps render --run (Fig. 6 right): a strip of frames of a trained MAPS cell forced onto one module."""
+        cell = self.reference / "cells/mt10/maps_d2_s0"
+        out = self.dir / "strip.png"
+        proc = maps("render", "--run", cell, "--task", "mt10/drawer-close", "--module", "1", "--frames", "3",
+                    "--width", "64", "--height", "48", "--out", out, check=False)
+        if "this build has no renderer" in proc.stderr:
+            self.skipTest("built without the renderer")
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn("every score on module 1", proc.stdout)
+        header = out.read_bytes()[:24]
+        self.assertEqual(header[:8], b"\x89PNG\r\n\x1a\n")
+        self.assertEqual((int.from_bytes(header[16:20], "big"), int.from_bytes(header[20:24], "big")), (3 * 64, 48))
+        for args, message in [(["--module", "10"], "has modules 0 to 9"),
+                              (["--task", "gravity/1.0"], "is not a task of"),
+                              (["--frames", "13"], "expected 1 to 12 frames")]:
+            base = {"--task": "mt10/reach", "--module": "0", "--frames": "2"}
+            base.update(dict(zip(args[::2], args[1::2])))
+            flat = [x for pair in base.items() for x in pair]
+            proc = maps("render", "--run", cell, *flat, "--out", out, check=False)
+            self.assertNotEqual(proc.returncode, 0, args)
+            self.assertIn(message, proc.stderr)
+        proc = maps("render", "--run", self.reference / "cells/mt10/mt_bc_d2_s0", "--task", "mt10/reach", "--module",
+                    "0", "--out", out, check=False)
+        self.assertIn("only MAPS has modules", proc.stderr)
+
     def test_status_of_a_folder_that_is_not_a_suite(self):
         proc = maps("suite", "status", self.dir, check=False)
         self.assertNotEqual(proc.returncode, 0)
