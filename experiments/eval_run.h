@@ -10,6 +10,9 @@ struct EvalRunOptions {
   std::string run;
   int episodes = 0;  // 0: the run config's
   int threads = -1;  // -1: the run config's
+  // Also evaluate every step_<N>.ckpt the run kept (train.keep_every), into eval.json's "checkpoints" and
+  // "best_over_checkpoints" (the paper's rule: the best test score over checkpoints, an optimistic one).
+  bool checkpoints = false;
 };
 
 int run_eval(const EvalRunOptions& options);

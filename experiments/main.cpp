@@ -188,6 +188,9 @@ int main(int argc, char** argv) {
       ->check(positive);
   eval_cmd->add_option("--threads", eval_run.threads, "Threads (0: one per core; default: the run config's)")
       ->check(non_negative);
+  eval_cmd->add_flag(
+      "--checkpoints", eval_run.checkpoints,
+      "Also evaluate every kept step_<N>.ckpt (train.keep_every): the paper's best-over-checkpoints rule");
 
   CLI::App* bench_cmd = app.add_subcommand("bench", "Time the library's hot paths");
   bench_cmd->require_subcommand(1);

@@ -29,14 +29,14 @@ core::DemoDataset load_run_dataset(const core::RunConfig& config) {
   return core::DemoDataset(envs::read_demo_file(config.data_file), config.data);
 }
 
-TrainedRun load_trained_run(const std::string& run) {
+TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint) {
   namespace fs = std::filesystem;
   const fs::path dir(run);
   TrainedRun loaded;
   loaded.config = core::parse_run_config(read_json_file((dir / "config.json").string()));
-  const std::string best_path = (dir / "best.ckpt").string();
+  const std::string best_path = (dir / checkpoint).string();
   if (!fs::exists(best_path))
-    throw std::runtime_error(run + " has no best.ckpt: train it first (maps train --out " + run + ")");
+    throw std::runtime_error(run + " has no " + checkpoint + ": train it first (maps train --out " + run + ")");
   loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config));
   const core::DemoDataset& data = *loaded.data;
   loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});

@@ -18,15 +18,16 @@ nlohmann::json read_json_file(const std::string& path);
 // The run's demonstrations, as its config draws them.
 core::DemoDataset load_run_dataset(const core::RunConfig& config);
 
-// A trained run ready to act: its config, its demonstrations, and its policy at best.ckpt in evaluation mode,
+// A trained run ready to act: its config, its demonstrations, and its policy at `checkpoint` (a file of the run
+// folder: best.ckpt, or step_<N>.ckpt) in evaluation mode,
 // prepared for evaluation (MAML fine-tuned per task). Throws naming the folder when best.ckpt is missing, and when
 // the demo file no longer gives the standardizer the policy was trained with.
 struct TrainedRun {
   core::RunConfig config;
   std::unique_ptr<core::DemoDataset> data;
   std::shared_ptr<core::Policy> policy;
-  nlohmann::json best;  // best.ckpt's config: step, validation loss, standardizer
+  nlohmann::json best;  // the checkpoint's config: step, validation loss, standardizer
 };
-TrainedRun load_trained_run(const std::string& run);
+TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint = "best.ckpt");
 
 }  // namespace maps::experiments

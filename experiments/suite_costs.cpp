@@ -55,8 +55,11 @@ double CostTable::cell_seconds(const SuiteCell& cell) const {
   double step = c.at("step_seconds").get<double>() * rows / measured_rows;
   if (cell.method == "maps") step *= r["maps"]["modules"].get<double>() / c.at("modules").get<double>();
   const double tasks = static_cast<double>(envs::task_names(cell.set).size());
+  // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
+  const double keep_every = r["train"].value("keep_every", 0.0);
+  const double evaluations = 1.0 + (keep_every > 0 ? std::floor(r["train"]["steps"].get<double>() / keep_every) : 0.0);
   return c.at("overhead_seconds").get<double>() + r["train"]["steps"].get<double>() * step +
-         r["eval"]["episodes"].get<double>() * tasks * c.at("episode_seconds").get<double>();
+         evaluations * r["eval"]["episodes"].get<double>() * tasks * c.at("episode_seconds").get<double>();
 }
 
 double CostTable::collect_seconds(const std::string& set) const {

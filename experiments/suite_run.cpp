@@ -85,7 +85,9 @@ Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, do
       run_self({"train", "--config", (dir / "request.json").string(), "--out", dir.string(), "--threads", thread_arg},
                dir / "train.log");
   if (train_code != 0) return failed_stage(dir, "train", train_code, dir / "train.log");
-  const int eval_code = run_self({"eval", "--run", dir.string(), "--threads", thread_arg}, dir / "eval.log");
+  std::vector<std::string> eval_args{"eval", "--run", dir.string(), "--threads", thread_arg};
+  if (cell.request["train"].value("keep_every", 0LL) > 0) eval_args.push_back("--checkpoints");
+  const int eval_code = run_self(eval_args, dir / "eval.log");
   if (eval_code != 0) return failed_stage(dir, "eval", eval_code, dir / "eval.log");
   seconds = seconds_since(start);
   Json result{{"format", kCellFormat},

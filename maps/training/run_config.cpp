@@ -58,13 +58,14 @@ RunConfig parse_run_config(const Json& json) {
     const Json& t = json["train"];
     check_keys(t, "train",
                {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
-                "validation_states_per_task"});
+                "validation_states_per_task", "keep_every"});
     read(t, "train", "steps", c.train.steps);
     read(t, "train", "learning_rate", c.train.learning_rate);
     read(t, "train", "states_per_task", c.train.states_per_task);
     read(t, "train", "validate_every", c.train.validate_every);
     read(t, "train", "checkpoint_every", c.train.checkpoint_every);
     read(t, "train", "validation_states_per_task", c.train.validation_states_per_task);
+    read(t, "train", "keep_every", c.train.keep_every);
   }
   c.train.seed = c.seed;
   if (json.contains("maps")) {
@@ -146,7 +147,8 @@ Json to_json(const RunConfig& c) {
         {"states_per_task", c.train.states_per_task},
         {"validate_every", c.train.validate_every},
         {"checkpoint_every", c.train.checkpoint_every},
-        {"validation_states_per_task", c.train.validation_states_per_task}}},
+        {"validation_states_per_task", c.train.validation_states_per_task},
+        {"keep_every", c.train.keep_every}}},
       {"maps",
        {{"modules", c.maps.modules},
         {"module_hidden", c.maps.module_hidden},

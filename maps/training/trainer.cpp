@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 #include <random>
 #include <sstream>
@@ -108,6 +109,19 @@ std::string format_seconds(double seconds) {
   return text;
 }
 
+// What best.ckpt and step_<N>.ckpt say of the policy they hold: its step, its validation loss where one was
+// computed at that step, and the observation standardizer it expects.
+Json policy_record(const DemoDataset& data, std::int64_t step, std::optional<double> validation_bc) {
+  const Standardizer& standardizer = data.standardizer();
+  Json record{
+      {"step", step},
+      {"standardizer",
+       {{"mean", std::vector<double>(standardizer.mean.data(), standardizer.mean.data() + standardizer.mean.size())},
+        {"std", std::vector<double>(standardizer.std.data(), standardizer.std.data() + standardizer.std.size())}}}};
+  if (validation_bc) record["validation_bc"] = *validation_bc;
+  return record;
+}
+
 }  // namespace
 
 double validation_loss(Policy& policy, const Batch& batch) {
@@ -128,6 +142,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
                           const std::string& run_dir, std::ostream* log) {
   if (config.steps < 1 || config.states_per_task < 1 || config.validate_every < 1 || config.checkpoint_every < 1)
     throw std::invalid_argument("train: steps, states_per_task, validate_every and checkpoint_every must be >= 1");
+  if (config.keep_every < 0)
+    throw std::invalid_argument("train: keep_every must be >= 0 (0: keep no step checkpoints)");
   fs::create_directories(run_dir);
   const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
   const std::string best_path = (fs::path(run_dir) / "best.ckpt").string();
@@ -194,15 +210,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       if (valid < progress.best_validation) {
         progress.best_validation = valid;
         progress.best_step = progress.step;
-        const Standardizer& standardizer = data.standardizer();
-        const Json best{{"step", progress.step},
-                        {"validation_bc", valid},
-                        {"standardizer",
-                         {{"mean", std::vector<double>(standardizer.mean.data(),
-                                                       standardizer.mean.data() + standardizer.mean.size())},
-                          {"std", std::vector<double>(standardizer.std.data(),
-                                                      standardizer.std.data() + standardizer.std.size())}}}};
-        nn::save(policy, best_path, best.dump());
+        nn::save(policy, best_path, policy_record(data, progress.step, valid).dump());
       }
       const auto now = std::chrono::steady_clock::now();
       const double window = std::chrono::duration<double>(now - window_start).count();
@@ -227,6 +235,10 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       terms_counted = 0;
       window_start = now;
       window_first_step = progress.step;
+    }
+    if (config.keep_every > 0 && progress.step % config.keep_every == 0) {
+      const std::string kept = (fs::path(run_dir) / ("step_" + std::to_string(progress.step) + ".ckpt")).string();
+      nn::save(policy, kept, policy_record(data, progress.step, std::nullopt).dump());
     }
     if (progress.step % config.checkpoint_every == 0 || last_step) save_last(last_path, policy, adam, progress, rng);
   }

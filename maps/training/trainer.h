@@ -10,11 +10,11 @@
 // Training any Policy on a DemoDataset with Adam, with validation, the best-validation checkpoint, a progress
 // line, a stop on a non-finite loss, and resumption.
 //
-// The run folder holds: last.ckpt (policy, Adam state, step, batch RNG and the best so far: what resume needs,
-// written every checkpoint_every steps and at the end), best.ckpt (the policy at its lowest validation loss,
-// whose config string is JSON with the step, its validation loss and the observation standardizer's mean and std),
-// curve.csv (one row per validation: step, the training loss terms averaged since the last row, the validation
-// BC loss, steps per second).
+// The run folder holds: step_<N>.ckpt (with keep_every: the policy at step N, config as best.ckpt's), last.ckpt
+// (policy, Adam state, step, batch RNG and the best so far: what resume needs, written every checkpoint_every steps and
+// at the end), best.ckpt (the policy at its lowest validation loss, whose config string is JSON with the step, its
+// validation loss and the observation standardizer's mean and std), curve.csv (one row per validation: step, the
+// training loss terms averaged since the last row, the validation BC loss, steps per second).
 namespace maps::core {
 
 struct TrainConfig {
@@ -24,7 +24,10 @@ struct TrainConfig {
   std::int64_t validate_every = 1000;
   std::int64_t checkpoint_every = 1000;
   std::int64_t validation_states_per_task = 2000;  // evenly spaced through the validation demos
-  std::uint64_t seed = 0;                          // the batch draws
+  // Every keep_every steps the policy is also kept as step_<N>.ckpt (0: never), so that every checkpoint can be
+  // evaluated (`maps eval --checkpoints`: the paper's rule of the best test score over checkpoints).
+  std::int64_t keep_every = 0;
+  std::uint64_t seed = 0;  // the batch draws
 };
 
 struct TrainSummary {

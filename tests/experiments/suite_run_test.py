@@ -355,6 +355,32 @@ class SuiteTest(unittest.TestCase):
                     "0", "--out", out, check=False)
         self.assertIn("only MAPS has modules", proc.stderr)
 
+    def test_kept_checkpoints_are_all_evaluated(self):
+        """train.keep_every keeps step_<N>.ckpt; the suite's eval then scores each (the paper's checkpoint rule)."""
+        config = json.loads(TINY.read_text())
+        config["defaults"]["train"]["keep_every"] = 20
+        config["grids"] = [{"name": "kept", "sets": ["mt10"], "methods": ["maps", "maml"], "seeds": [0]}]
+        path = write_config(self.dir, config)
+        out = self.dir / "kept"
+        maps("suite", "run", path, "--out", out, "--jobs", "2")
+        for method in ("maps", "maml"):
+            cell = out / f"cells/mt10/{method}_d2_s0"
+            self.assertEqual(sorted(p.name for p in cell.glob("step_*.ckpt")),
+                             ["step_20.ckpt", "step_40.ckpt", "step_60.ckpt"])
+            evaluation = json.loads((cell / "result.json").read_text())["eval"]
+            self.assertEqual([c["step"] for c in evaluation["checkpoints"]], [20, 40, 60])
+            best = evaluation["best_over_checkpoints"]
+            self.assertGreaterEqual(best["mean_score"], evaluation["mean_score"])
+            self.assertEqual(best["mean_score"],
+                             max([evaluation["mean_score"]] + [c["mean_score"] for c in evaluation["checkpoints"]]))
+            # The kept checkpoint at the best-validation step scores what best.ckpt scored.
+            same = [c for c in evaluation["checkpoints"] if c["step"] == evaluation["best_step"]]
+            if same:
+                self.assertEqual(same[0]["mean_score"], evaluation["mean_score"])
+        proc = maps("eval", "--run", self.reference / "cells/mt10/maps_d2_s0", "--checkpoints", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("kept no step_<N>.ckpt", proc.stderr)
+
     def test_status_of_a_folder_that_is_not_a_suite(self):
         proc = maps("suite", "status", self.dir, check=False)
         self.assertNotEqual(proc.returncode, 0)
