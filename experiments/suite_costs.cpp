@@ -2,6 +2,7 @@
 
 #include "experiments/suite_costs.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -53,7 +54,15 @@ double CostTable::cell_seconds(const SuiteCell& cell) const {
     measured_rows += c.at("query_per_task").get<double>();
   }
   double step = c.at("step_seconds").get<double>() * rows / measured_rows;
-  if (cell.method == "maps") step *= r["maps"]["modules"].get<double>() / c.at("modules").get<double>();
+  if (cell.method == "maps") {
+    step *= r["maps"]["modules"].get<double>() / c.at("modules").get<double>();
+  } else {
+    // A baseline's products grow with the square of its width (measured at 3 x 128).
+    double width = 0.0;
+    for (const auto& h : r["baselines"]["hidden"]) width += h.get<double>();
+    width /= static_cast<double>(std::max<std::size_t>(1, r["baselines"]["hidden"].size()));
+    step *= std::max(1.0, (width / 128.0) * (width / 128.0));
+  }
   const double tasks = static_cast<double>(envs::task_names(cell.set).size());
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
   const double keep_every = r["train"].value("keep_every", 0.0);
