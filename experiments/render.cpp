@@ -37,13 +37,13 @@ envs::CameraView default_view(const envs::MujocoEnv& env) {
 #endif
 
 int run_render(const RenderOptions& options) {
-  if (!options.run.empty()) return run_render_policy(options);
 #ifndef MAPS_HAVE_RENDER
   (void)options;
   throw std::runtime_error(
       "this build has no renderer: install libosmesa6-dev and libpng-dev (scripts/setup.sh does), then reconfigure "
       "with cmake (MAPS_BUILD_RENDER=ON)");
 #else
+  if (!options.run.empty()) return run_render_policy(options);
   auto env = envs::make_env(options.task);
   auto* mujoco_env = dynamic_cast<envs::MujocoEnv*>(env.get());
   if (!mujoco_env) throw std::runtime_error("task '" + options.task + "' is not a MuJoCo env; nothing to draw");

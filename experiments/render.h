@@ -23,7 +23,7 @@ struct RenderOptions {
   bool seed_given = false;  // with run and no --seed: the first evaluation seed (held out from the demonstrations)
 };
 
-// The strip of a trained run's episode (run_render calls it when options.run is set).
+// The strip of a trained run's episode (run_render calls it when options.run is set; built with the renderer).
 int run_render_policy(const RenderOptions& options);
 
 int run_render(const RenderOptions& options);
