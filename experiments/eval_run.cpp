@@ -69,6 +69,7 @@ int run_eval(const EvalRunOptions& options) {
                          {"return_mean", t.return_mean},
                          {"return_std", t.return_std},
                          {"success_rate", t.success_rate},
+                         {"final_success_rate", t.final_success_rate},
                          {"returns", t.returns}};
     if (t.module_usage.size() > 0) {
       entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());

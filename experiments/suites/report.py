@@ -24,12 +24,12 @@ import traceback
 
 import suite_results
 import tables
-from suite_results import SuiteError, load_suite, score_name
+from suite_results import SuiteError, load_suite, score_name, success_scored
 from suite_stats import vs_single_bc
 
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv"]
 RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
-                  "return_mean", "best_step", "steps", "wall_seconds", "grid", "cell"]
+                  "success_at_end", "return_mean", "best_step", "steps", "wall_seconds", "grid", "cell"]
 
 
 def write_results_csv(suite, path):
@@ -41,7 +41,8 @@ def write_results_csv(suite, path):
         for c in cells:
             for t in c.tasks:
                 writer.writerow([c.set, c.method, c.variant, "" if c.modules is None else c.modules, c.demos,
-                                 c.subsample, c.seed, t.task, t.score, t.success, t.return_mean, c.best_step, c.steps,
+                                 c.subsample, c.seed, t.task, t.score, t.success, t.success_at_end, t.return_mean,
+                                 c.best_step, c.steps,
                                  c.wall_seconds, c.grid, c.name])
 
 
@@ -107,6 +108,9 @@ def report_lines(suite, draw):
         lines += ["", f"## Set {set_name}", "", f"Score: {score_name(set_name, mine)}.", "", "### Scores", ""]
         lines += ["Per task: mean +- 95% CI over seeds; mean: the mean over tasks, per seed, then over seeds; best"
                   " step: the range over seeds of the checkpoint evaluated.", ""] + tables.score_table(mine)
+        if success_scored(set_name, mine):
+            rules = tables.success_rules_table(mine)
+            lines += [""] + rules if rules else []
         paired = tables.paired_table(mine)
         lines += ["", "### Paired differences from MAPS", ""] + (paired or [
             "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds)."])

@@ -33,6 +33,7 @@ class TaskResult:
     task: str
     score: float
     success: float
+    success_at_end: float  # the success test at the episode's last step (nan where eval.json predates it)
     return_mean: float
     usage: list = None  # MAPS: mean selector score per module over the task's evaluation states
     entropy: float = None
@@ -158,6 +159,7 @@ def read_cell(path):
     for t in ev["tasks"]:
         usage = [float(u) for u in t["module_usage"]] if "module_usage" in t else None
         tasks.append(TaskResult(str(t["task"]), float(t["score"]), float(t.get("success_rate", float("nan"))),
+                                float(t.get("final_success_rate", float("nan"))),
                                 float(t.get("return_mean", float("nan"))), usage,
                                 optional_float(t.get("selector_entropy")), optional_float(t.get("selector_top_score"))))
     if not tasks:

@@ -67,6 +67,23 @@ def main_results(cells):
     return table(["set", "method", "demos", "k", "seeds", "mean score over tasks"], rows)
 
 
+def success_rules_table(cells):
+    """Success at any step (the score) beside success at the episode's last step, mean over tasks, per method and
+    count; [] where the evaluations predate the second."""
+    rows = []
+    for key, runs in groups(cells).items():
+        ends = [mean([t.success_at_end for t in c.tasks]) for c in runs]
+        if not ends or any(math.isnan(e) for e in ends):
+            continue
+        rows.append([key.label, key.demos, key.subsample, len(runs),
+                     fmt([mean([t.success for t in c.tasks]) for c in runs]), fmt(ends)])
+    if not rows:
+        return []
+    return (["Success at any step of the episode (the score) and at its last step (the policy holds the goal), mean"
+             " over tasks, mean +- 95% CI over seeds:", ""]
+            + table(["method", "demos", "k", "seeds", "success at any step", "success at the last step"], rows))
+
+
 def score_table(cells):
     tasks = task_names(cells)
     rows = []

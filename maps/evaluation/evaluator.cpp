@@ -181,6 +181,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   ev.episodes = episodes;
   ev.returns.assign(static_cast<std::size_t>(episodes), 0.0);
   ev.successes.assign(static_cast<std::size_t>(episodes), false);
+  ev.final_successes.assign(static_cast<std::size_t>(episodes), false);
   Eigen::VectorXd usage_sum;
   double entropy_sum = 0.0, top_score_sum = 0.0;
   std::int64_t usage_rows = 0;
@@ -235,6 +236,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
       ev.returns[stepped[j].episode] += r.reward;
       if (r.success) ev.successes[stepped[j].episode] = true;
       if (r.done()) {
+        ev.final_successes[stepped[j].episode] = r.success;
         freed.push_back(stepped[j].env);
       } else {
         check_observation(r.observation);
@@ -266,6 +268,8 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   for (double r : ev.returns) return_ss += (r - ev.return_mean) * (r - ev.return_mean);
   ev.return_std = std::sqrt(return_ss / n);
   ev.success_rate = static_cast<double>(std::count(ev.successes.begin(), ev.successes.end(), true)) / n;
+  ev.final_success_rate =
+      static_cast<double>(std::count(ev.final_successes.begin(), ev.final_successes.end(), true)) / n;
   ev.score = std::accumulate(scores.begin(), scores.end(), 0.0) / n;
   double score_ss = 0.0;
   for (double s : scores) score_ss += (s - ev.score) * (s - ev.score);

@@ -38,12 +38,14 @@ struct TaskEvaluation {
   std::string task;
   int episodes = 0;
   double return_mean = 0.0;
-  double return_std = 0.0;       // population std over episodes
-  double success_rate = 0.0;     // share of episodes where the task's success test held at some step
-  double score = 0.0;            // mean over episodes of max(0, return / expert return), or the success rate
-  double score_std_error = 0.0;  // sample std of the per-episode scores / sqrt(episodes); 0 for one episode
-  std::vector<double> returns;   // per episode, in seed order
+  double return_std = 0.0;          // population std over episodes
+  double success_rate = 0.0;        // share of episodes where the task's success test held at some step
+  double final_success_rate = 0.0;  // share where it held at the episode's last step (another reading of success)
+  double score = 0.0;               // mean over episodes of max(0, return / expert return), or the success rate
+  double score_std_error = 0.0;     // sample std of the per-episode scores / sqrt(episodes); 0 for one episode
+  std::vector<double> returns;      // per episode, in seed order
   std::vector<bool> successes;
+  std::vector<bool> final_successes;  // the success test at each episode's last step
   // Mean selector score of each module over every state visited in this task's episodes; empty unless a
   // ModuleUsageFn was given.
   Eigen::VectorXd module_usage;

@@ -154,7 +154,8 @@ class Report(unittest.TestCase):
         with (self.out / "results.csv").open() as f:
             reader = csv.DictReader(f)
             self.assertEqual(reader.fieldnames, ["set", "method", "variant", "modules", "demos", "subsample", "seed",
-                                                 "task", "score", "success", "return_mean", "best_step", "steps",
+                                                 "task", "score", "success", "success_at_end", "return_mean",
+                                                 "best_step", "steps",
                                                  "wall_seconds", "grid", "cell"])
             rows = list(reader)
         expected = expected_results()

@@ -179,6 +179,7 @@ PolicyShape shape_of(const std::string& task, std::int64_t num_tasks) {
 struct AloneResult {
   std::vector<double> returns;
   std::vector<bool> successes;
+  std::vector<bool> final_successes;  // the success test at the episode's last step
   Eigen::VectorXd usage_sum;
   std::int64_t usage_rows = 0;
 };
@@ -192,7 +193,7 @@ AloneResult run_alone(const EnvFactory& make_env, Policy& policy, const Standard
     auto env = make_env(task);
     Eigen::VectorXd obs = env->reset(config.first_seed + static_cast<std::uint64_t>(e));
     double total = 0.0;
-    bool success = false;
+    bool success = false, final_success = false;
     for (bool done = false; !done;) {
       const Eigen::MatrixXd row = obs.transpose();
       const ag::Tensor x = standardizer.apply(row, config.dtype);
@@ -206,11 +207,13 @@ AloneResult run_alone(const EnvFactory& make_env, Policy& policy, const Standard
       const envs::StepResult r = env->step(action);
       total += r.reward;
       success = success || r.success;
+      final_success = r.success;
       obs = r.observation;
       done = r.done();
     }
     out.returns.push_back(total);
     out.successes.push_back(success);
+    out.final_successes.push_back(final_success);
   }
   return out;
 }
@@ -239,6 +242,9 @@ TEST(Evaluator, BatchedStepsMatchEpisodesSteppedAloneWhenEpisodesEndAtDifferentS
       EXPECT_EQ(result.tasks[i].episodes, 13);
       EXPECT_EQ(result.tasks[i].returns, alone.returns) << tasks[i] << ", max_envs_per_task " << max_envs;
       EXPECT_EQ(result.tasks[i].successes, alone.successes) << tasks[i] << ", max_envs_per_task " << max_envs;
+      EXPECT_EQ(result.tasks[i].final_successes, alone.final_successes) << tasks[i] << ", max_envs " << max_envs;
+      const auto at_end = std::count(alone.final_successes.begin(), alone.final_successes.end(), true);
+      EXPECT_DOUBLE_EQ(result.tasks[i].final_success_rate, static_cast<double>(at_end) / 13.0);
     }
   }
 }
