@@ -25,6 +25,13 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
   std::vector<std::int64_t> selector_sizes{S + K};
   selector_sizes.insert(selector_sizes.end(), config.selector_hidden.begin(), config.selector_hidden.end());
   selector_sizes.push_back(M);
+  if (config.observations != "standardized" && config.observations != "raw_clipped")
+    throw std::invalid_argument("MAPSPolicy: observations must be \"standardized\" or \"raw_clipped\", got \"" +
+                                config.observations + "\"");
+  if (raw_inputs()) {
+    observation_mean_ = register_buffer("observation_mean", ag::zeros({S}));
+    observation_std_ = register_buffer("observation_std", ag::ones({S}));
+  }
   if (config.selector != "learned" && config.selector != "uniform")
     throw std::invalid_argument("MAPSPolicy: selector must be \"learned\" or \"uniform\", got \"" + config.selector +
                                 "\"");
@@ -49,7 +56,31 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
   }
 }
 
-ag::Tensor MAPSPolicy::features(const ag::Tensor& observations) {
+void MAPSPolicy::set_observation_statistics(const Eigen::VectorXd& mean, const Eigen::VectorXd& std) {
+  if (!raw_inputs()) return;
+  const std::int64_t S = shape().observation_size;
+  if (mean.size() != S || std.size() != S)
+    throw std::invalid_argument("MAPSPolicy::set_observation_statistics: expected " + std::to_string(S) +
+                                " means and stds, got " + std::to_string(mean.size()) + " and " +
+                                std::to_string(std.size()));
+  ag::Tensor m = buffer_at(observation_mean_), d = buffer_at(observation_std_);
+  m.detach().copy_(ag::from_vector(std::vector<double>(mean.data(), mean.data() + S), {S}, m.dtype()));
+  d.detach().copy_(ag::from_vector(std::vector<double>(std.data(), std.data() + S), {S}, d.dtype()));
+}
+
+ag::Tensor MAPSPolicy::selector_inputs(const ag::Tensor& observations) const {
+  if (!raw_inputs()) return observations;
+  const ag::Tensor& mean = buffer_at(observation_mean_);
+  const ag::Tensor& std = buffer_at(observation_std_);
+  return observations * std.to(observations.dtype()) + mean.to(observations.dtype());
+}
+
+ag::Tensor MAPSPolicy::module_inputs(const ag::Tensor& observations) const {
+  return raw_inputs() ? ag::clamp(selector_inputs(observations), -5.0, 5.0) : observations;
+}
+
+ag::Tensor MAPSPolicy::features(const ag::Tensor& standardized) {
+  const ag::Tensor observations = module_inputs(standardized);
   if (const auto fused = nn::fused_activation(activation_)) {  // the whole stack as one op, module by module
     std::vector<ag::Tensor> weights, biases;
     for (std::size_t slot : module_layers_) {
@@ -96,7 +127,8 @@ ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std:
   const auto [state_weight, task_rows] = selector_first_layer();
   std::vector<std::int64_t> rows(tasks.size());
   std::iota(rows.begin(), rows.end(), std::int64_t{0});
-  return ag::softmax(selector_logits(ag::linear(observations, state_weight), rows, task_rows, tasks), 1);
+  return ag::softmax(selector_logits(ag::linear(selector_inputs(observations), state_weight), rows, task_rows, tasks),
+                     1);
 }
 
 ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores) {
@@ -132,7 +164,8 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   // scores are rows of it) and the previous states under their own tasks. The first layer's state part is computed
   // once per state, then each task's row is added (PAPER.md's G(s, k) on [s, one_hot(k)], factored).
   const auto [state_weight, task_rows] = selector_first_layer();  // [H, S], [K, H]
-  const ag::Tensor state_parts = ag::linear(ag::concat({obs, batch.previous_observations}, 0), state_weight);
+  const ag::Tensor state_parts =
+      ag::linear(selector_inputs(ag::concat({obs, batch.previous_observations}, 0)), state_weight);
   // Rows 0..Kn-1: state j under task k at k n + j; rows Kn..(K+1)n-1: the previous states under their own tasks.
   std::vector<std::int64_t> state_rows, row_tasks;
   state_rows.reserve(static_cast<std::size_t>((K + 1) * n));

@@ -30,6 +30,10 @@ struct MAPSConfig {
   // asks whether MAPS is more than an average of M modules (its modules and head start as the learned model's of
   // the same seed).
   std::string selector = "learned";
+  // "standardized": modules and selector see the standardised observations. "raw_clipped": the paper's code's
+  // inputs: the modules see the raw observations clipped to [-5, 5], the selector the raw ones (recovered from the
+  // standardised input with the statistics set_observation_statistics gave, kept as buffers).
+  std::string observations = "standardized";
 };
 
 class MAPSPolicy : public Policy {
@@ -50,6 +54,8 @@ class MAPSPolicy : public Policy {
   const MAPSConfig& config() const { return config_; }
   std::int64_t num_modules() const { return config_.modules; }
   bool uniform_selector() const { return config_.selector == "uniform"; }
+  bool raw_inputs() const { return config_.observations == "raw_clipped"; }
+  void set_observation_statistics(const Eigen::VectorXd& mean, const Eigen::VectorXd& std) override;
 
  protected:
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<MAPSPolicy>(*this); }
@@ -68,13 +74,18 @@ class MAPSPolicy : public Policy {
   ag::Tensor selector_logits(const ag::Tensor& state_parts, const std::vector<std::int64_t>& state_rows,
                              const ag::Tensor& task_rows, const std::vector<std::int64_t>& tasks);
 
+  // What the modules and the selector see of standardised observations [n, S] (the identity but for raw_clipped).
+  ag::Tensor module_inputs(const ag::Tensor& observations) const;
+  ag::Tensor selector_inputs(const ag::Tensor& observations) const;
+
   MAPSConfig config_;
   nn::Activation activation_;
-  std::vector<std::size_t> module_layers_;  // child slots of the ParallelLinear layers
-  std::size_t selector_ = 0;                // child slot of the selector MLP
-  std::size_t head_weight_ = 0;             // child slot of the head's ParallelLinear (no bias)
-  std::size_t head_bias_ = 0;               // parameter slot [A]
-  std::vector<std::size_t> losses_;         // child slots of the selector losses
+  std::size_t observation_mean_ = 0, observation_std_ = 0;  // buffer slots (raw_clipped only)
+  std::vector<std::size_t> module_layers_;                  // child slots of the ParallelLinear layers
+  std::size_t selector_ = 0;                                // child slot of the selector MLP
+  std::size_t head_weight_ = 0;                             // child slot of the head's ParallelLinear (no bias)
+  std::size_t head_bias_ = 0;                               // parameter slot [A]
+  std::vector<std::size_t> losses_;                         // child slots of the selector losses
   std::vector<double> loss_weights_;
 };
 

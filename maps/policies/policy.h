@@ -1,5 +1,6 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -39,6 +40,10 @@ class Policy : public nn::Module {
   virtual std::int64_t batch_per_task(std::int64_t states_per_task) const { return states_per_task; }
   // Called once after training, before evaluation (MAML fine-tunes on each task here).
   virtual void prepare_for_evaluation(const DemoDataset& /*data*/) {}
+  // The statistics the observations it is given were standardised with (mean, std [S]); called by the trainer
+  // before training. A policy that wants the raw observations back (MAPS with observations "raw_clipped") keeps
+  // them as buffers, so that its checkpoints carry them.
+  virtual void set_observation_statistics(const Eigen::VectorXd& /*mean*/, const Eigen::VectorXd& /*std*/) {}
 
   const PolicyShape& shape() const { return shape_; }
 

@@ -72,7 +72,7 @@ RunConfig parse_run_config(const Json& json) {
     const Json& m = json["maps"];
     check_keys(m, "maps",
                {"modules", "module_hidden", "selector_hidden", "activation", "bc_weight", "selector_weight",
-                "selector_losses", "selector"});
+                "selector_losses", "selector", "observations"});
     read(m, "maps", "modules", c.maps.modules);
     read(m, "maps", "module_hidden", c.maps.module_hidden);
     read(m, "maps", "selector_hidden", c.maps.selector_hidden);
@@ -80,6 +80,10 @@ RunConfig parse_run_config(const Json& json) {
     read(m, "maps", "bc_weight", c.maps.bc_weight);
     read(m, "maps", "selector_weight", c.maps.selector_weight);
     read(m, "maps", "selector", c.maps.selector);
+    read(m, "maps", "observations", c.maps.observations);
+    if (c.maps.observations != "standardized" && c.maps.observations != "raw_clipped")
+      throw std::invalid_argument("config maps.observations: expected \"standardized\" or \"raw_clipped\", got \"" +
+                                  c.maps.observations + "\"");
     if (c.maps.selector != "learned" && c.maps.selector != "uniform")
       throw std::invalid_argument("config maps.selector: expected \"learned\" or \"uniform\", got \"" +
                                   c.maps.selector + "\"");
@@ -157,6 +161,7 @@ Json to_json(const RunConfig& c) {
         {"bc_weight", c.maps.bc_weight},
         {"selector_weight", c.maps.selector_weight},
         {"selector", c.maps.selector},
+        {"observations", c.maps.observations},
         {"selector_losses", losses}}},
       {"maml",
        {{"inner_lr", c.maml.inner_lr},

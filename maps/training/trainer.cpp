@@ -150,6 +150,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   const std::string curve_path = (fs::path(run_dir) / "curve.csv").string();
 
   policy.train();
+  policy.set_observation_statistics(data.standardizer().mean, data.standardizer().std);
   optim::Adam adam(policy.parameters(), {.lr = config.learning_rate});
   std::mt19937_64 rng(envs::splitmix64(config.seed ^ 0x6261746368657321ULL));  // "batches!"
   Progress progress;

@@ -381,6 +381,26 @@ class SuiteTest(unittest.TestCase):
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("kept no step_<N>.ckpt", proc.stderr)
 
+    def test_maps_on_raw_clipped_observations(self):
+        """maps.observations "raw_clipped" (the paper's code's inputs): its statistics travel in the checkpoints, so
+        an evaluation of best.ckpt by a fresh process scores what the suite's did."""
+        config = json.loads(TINY.read_text())
+        config["variants"]["raw"] = {"maps": {"observations": "raw_clipped"}}
+        config["grids"] = [{"name": "raw", "sets": ["gravity"], "methods": ["maps"], "variants": ["raw"], "seeds": [0]}]
+        path = write_config(self.dir, config)
+        out = self.dir / "raw"
+        maps("suite", "run", path, "--out", out)
+        cell = out / "cells/gravity/maps-raw_d2_s0"
+        first = json.loads((cell / "result.json").read_text())
+        self.assertEqual(first["config"]["maps"]["observations"], "raw_clipped")
+        maps("eval", "--run", cell)
+        again = json.loads((cell / "eval.json").read_text())
+        self.assertEqual(again["mean_score"], first["eval"]["mean_score"])
+        self.assertEqual([t["returns"] for t in again["tasks"]], [t["returns"] for t in first["eval"]["tasks"]])
+        standardized = json.loads((self.reference / "cells/gravity/maps_d2_s0/result.json").read_text())
+        self.assertNotEqual([t["returns"] for t in again["tasks"]],
+                            [t["returns"] for t in standardized["eval"]["tasks"]])
+
     def test_status_of_a_folder_that_is_not_a_suite(self):
         proc = maps("suite", "status", self.dir, check=False)
         self.assertNotEqual(proc.returncode, 0)

@@ -319,6 +319,52 @@ TEST(MAPSPolicy, UniformSelectorScoresEveryModuleOneOverMAndLearnsOnlyBC) {
   }
 }
 
+TEST(MAPSPolicy, RawClippedObservationsAreWhatTheModulesAndTheSelectorSee) {
+  ag::Generator gen_raw(11), gen_std(11);
+  MAPSConfig raw_config = tiny_config(3);
+  raw_config.observations = "raw_clipped";
+  MAPSPolicy raw({4, 2, 3}, raw_config, gen_raw);
+  MAPSPolicy standardized({4, 2, 3}, tiny_config(3), gen_std);
+  raw.to(Dtype::Float64);
+  standardized.to(Dtype::Float64);
+  Eigen::VectorXd mean(4), stddev(4);
+  mean << 1.0, -2.0, 0.5, 30.0;
+  stddev << 2.0, 0.5, 10.0, 1.0;
+  raw.set_observation_statistics(mean, stddev);
+  ag::Generator gen(12);
+  const Batch batch = random_batch(4, 3, 4, 2, gen);
+  // The raw observations of the batch: x * std + mean, some of them past +-5 (column 3 is about 30).
+  Tensor raw_obs = batch.observations * ag::from_vector({2.0, 0.5, 10.0, 1.0}, {4}, Dtype::Float64) +
+                   ag::from_vector({1.0, -2.0, 0.5, 30.0}, {4}, Dtype::Float64);
+  EXPECT_LT(max_abs_diff(raw.features(batch.observations), standardized.features(ag::clamp(raw_obs, -5.0, 5.0))),
+            1e-12);
+  EXPECT_LT(max_abs_diff(raw.scores(batch.observations, batch.tasks), standardized.scores(raw_obs, batch.tasks)),
+            1e-12);
+  const Tensor obs = batch.observations.detach().requires_grad_();
+  const auto f = [&](const std::vector<Tensor>& in) {
+    Batch b = batch;
+    b.observations = in[0];
+    return raw.loss(b).total;
+  };
+  const auto check = ag::gradcheck("raw-clipped MAPS loss", ag::SingleFunction(f), {obs});
+  EXPECT_TRUE(check.ok) << check.message;
+  // The statistics are buffers: a checkpoint carries them.
+  const auto named = raw.named_buffers();
+  ASSERT_EQ(named.size(), 2u);
+  EXPECT_EQ(named[1].name, "observation_std");
+  EXPECT_EQ(max_abs_diff(named[1].tensor, ag::from_vector({2.0, 0.5, 10.0, 1.0}, {4}, Dtype::Float64)), 0.0);
+  EXPECT_TRUE(standardized.named_buffers().empty());
+  try {
+    raw.set_observation_statistics(Eigen::VectorXd::Zero(3), Eigen::VectorXd::Ones(3));
+    FAIL() << "statistics of the wrong size were accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("expected 4"));
+  }
+  raw_config.observations = "raw";
+  ag::Generator gen_bad(1);
+  EXPECT_THROW(MAPSPolicy({4, 2, 3}, raw_config, gen_bad), std::invalid_argument);
+}
+
 TEST(MAPSPolicy, OverfitsATinyTwoTaskDataset) {
   ag::Generator gen(6);
   MAPSConfig config = tiny_config(3);
