@@ -36,6 +36,18 @@ Batch random_batch(std::int64_t per_task, std::int64_t K, std::int64_t S, std::i
   return b;
 }
 
+// The policy's loss against central differences in the batch's observations (float64 policy and batch).
+void expect_loss_gradcheck_in_observations(MAPSPolicy& policy, const Batch& batch, const std::string& name) {
+  const Tensor obs = batch.observations.detach().requires_grad_();
+  const auto f = [&](const std::vector<Tensor>& in) {
+    Batch b = batch;
+    b.observations = in[0];
+    return policy.loss(b).total;
+  };
+  const auto check = ag::gradcheck(name, ag::SingleFunction(f), {obs});
+  EXPECT_TRUE(check.ok) << check.message;
+}
+
 TEST(MAPSPolicy, ShapesScoresAndModulesThatIgnoreTheTask) {
   ag::Generator gen(1);
   MAPSPolicy policy({4, 2, 3}, tiny_config(), gen);
@@ -301,14 +313,7 @@ TEST(MAPSPolicy, UniformSelectorScoresEveryModuleOneOverMAndLearnsOnlyBC) {
   // act() is the head over the modules' features averaged with weights 1/M.
   const Tensor expected = uniform.head(uniform.features(batch.observations), ag::full({12, 4}, 0.25, Dtype::Float64));
   EXPECT_LT(max_abs_diff(uniform.act(batch.observations, batch.tasks), expected), 1e-12);
-  const Tensor obs = batch.observations.detach().requires_grad_();
-  const auto f = [&](const std::vector<Tensor>& in) {
-    Batch b = batch;
-    b.observations = in[0];
-    return uniform.loss(b).total;
-  };
-  const auto check = ag::gradcheck("uniform-selector MAPS loss", ag::SingleFunction(f), {obs});
-  EXPECT_TRUE(check.ok) << check.message;
+  expect_loss_gradcheck_in_observations(uniform, batch, "uniform-selector MAPS loss");
   uniform_config.selector = "fixed";
   ag::Generator gen_bad(1);
   try {
@@ -340,14 +345,7 @@ TEST(MAPSPolicy, RawClippedObservationsAreWhatTheModulesAndTheSelectorSee) {
             1e-12);
   EXPECT_LT(max_abs_diff(raw.scores(batch.observations, batch.tasks), standardized.scores(raw_obs, batch.tasks)),
             1e-12);
-  const Tensor obs = batch.observations.detach().requires_grad_();
-  const auto f = [&](const std::vector<Tensor>& in) {
-    Batch b = batch;
-    b.observations = in[0];
-    return raw.loss(b).total;
-  };
-  const auto check = ag::gradcheck("raw-clipped MAPS loss", ag::SingleFunction(f), {obs});
-  EXPECT_TRUE(check.ok) << check.message;
+  expect_loss_gradcheck_in_observations(raw, batch, "raw-clipped MAPS loss");
   // The statistics are buffers: a checkpoint carries them.
   const auto named = raw.named_buffers();
   ASSERT_EQ(named.size(), 2u);
