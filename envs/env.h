@@ -39,6 +39,9 @@ struct StepResult {
   bool terminated = false;  // the task itself ended the episode (a real terminal state)
   bool truncated = false;   // the time limit was reached: bootstrap from `observation`
   bool success = false;     // the task's success test holds at this step
+  // What Gym's HalfCheetah (v2-v4) would charge beyond `reward`'s cost: its control cost is on the action as
+  // given, ours on the action clipped to the bounds (DESIGN.md). 0 inside the bounds and for tasks without one.
+  double unclipped_control_cost = 0.0;
   bool done() const { return terminated || truncated; }
 };
 

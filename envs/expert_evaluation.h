@@ -14,8 +14,11 @@ struct ExpertEpisodes {
   std::vector<bool> successes;            // success at some step
   std::vector<int> first_success_steps;   // -1 where never
   std::vector<double> failure_fractions;  // share of steps in the env's failure state (HalfCheetah: turned over)
+  // Per episode, the return with Gym's control cost on the unclipped action (StepResult::unclipped_control_cost).
+  std::vector<double> returns_unclipped_cost;
 
   double mean_return() const;
+  double mean_return_unclipped_cost() const;
   double return_std() const;  // population
   int success_count() const;
   // Episodes that spent more than half their steps in the failure state (HalfCheetah: ran on its back).

@@ -120,6 +120,8 @@ Eigen::VectorXd HalfCheetahEnv::reset_model(std::mt19937_64& rng) {
   return observation();
 }
 
+double HalfCheetahEnv::control_cost_weight() const { return kCtrlCostWeight; }
+
 StepResult HalfCheetahEnv::step_clipped(const Eigen::VectorXd& action) {
   const double x_before = x_position();
   do_simulation(action);

@@ -50,6 +50,7 @@ class HalfCheetahEnv : public MujocoEnv {
  protected:
   Eigen::VectorXd reset_model(std::mt19937_64& rng) override;
   StepResult step_clipped(const Eigen::VectorXd& action) override;
+  double control_cost_weight() const override;
 
  private:
   HalfCheetahVariant variant_;

@@ -126,6 +126,8 @@ StepResult MujocoEnv::step(const Eigen::VectorXd& action) {
   }
   clipped_ = action.cwiseMax(spec_.action_low).cwiseMin(spec_.action_high);
   StepResult result = step_clipped(clipped_);
+  if (const double weight = control_cost_weight(); weight > 0.0)
+    result.unclipped_control_cost = weight * (action.squaredNorm() - clipped_.squaredNorm());
   check_capacity();
   ++elapsed_steps_;
   if (spec_.horizon > 0 && elapsed_steps_ >= spec_.horizon) result.truncated = true;

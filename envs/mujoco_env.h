@@ -72,6 +72,8 @@ class MujocoEnv : public Env {
   // One env step with an action already checked and clipped to the bounds. `terminated`,
   // `truncated` are left for the base to complete (it ORs in the time limit).
   virtual StepResult step_clipped(const Eigen::VectorXd& action) = 0;
+  // The weight of a squared-norm control cost in the reward (0: none), for StepResult::unclipped_control_cost.
+  virtual double control_cost_weight() const { return 0.0; }
 
   // Copies `ctrl` (size nu) into data->ctrl and calls mj_step frame_skip times.
   void do_simulation(const Eigen::VectorXd& ctrl);

@@ -68,6 +68,7 @@ int run_eval(const EvalRunOptions& options) {
                          {"score_ci95", t.score_ci95()},
                          {"return_mean", t.return_mean},
                          {"return_std", t.return_std},
+                         {"return_mean_unclipped_cost", t.return_mean_unclipped_cost},
                          {"success_rate", t.success_rate},
                          {"final_success_rate", t.final_success_rate},
                          {"returns", t.returns}};

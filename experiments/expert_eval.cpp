@@ -65,6 +65,7 @@ int run_expert_eval(const ExpertEvalOptions& options) {
                      {"first_seed", options.first_seed},
                      {"return_mean", s.mean_return()},
                      {"return_std", s.return_std()},
+                     {"return_mean_unclipped_cost", s.mean_return_unclipped_cost()},
                      {"success_rate", static_cast<double>(s.success_count()) / options.episodes},
                      {"mean_first_success_step", first},
                      {"failed_episodes", s.failed_count()}});

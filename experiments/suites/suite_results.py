@@ -38,6 +38,8 @@ class TaskResult:
     usage: list = None  # MAPS: mean selector score per module over the task's evaluation states
     entropy: float = None
     top_score: float = None
+    # HalfCheetah: the return with Gym's control cost on the unclipped action (nan where eval.json predates it)
+    return_unclipped_cost: float = float("nan")
 
 
 @dataclass
@@ -161,7 +163,8 @@ def read_cell(path):
         tasks.append(TaskResult(str(t["task"]), float(t["score"]), float(t.get("success_rate", float("nan"))),
                                 float(t.get("final_success_rate", float("nan"))),
                                 float(t.get("return_mean", float("nan"))), usage,
-                                optional_float(t.get("selector_entropy")), optional_float(t.get("selector_top_score"))))
+                                optional_float(t.get("selector_entropy")), optional_float(t.get("selector_top_score")),
+                                return_unclipped_cost=float(t.get("return_mean_unclipped_cost", float("nan")))))
     if not tasks:
         raise ValueError("no tasks in eval")
     return Cell(path.parent, str(ident["name"]), str(ident.get("grid", "")), str(ident["set"]), str(ident["method"]),

@@ -15,6 +15,8 @@ struct Batch {
   std::vector<std::int64_t> tasks;   // [n], task indices in [0, K)
   // > 0 when the batch is balanced: rows grouped by task, task 0's first, per_task rows each (n = K * per_task).
   std::int64_t per_task = 0;
+  // Seeds the noise of a sampled BC loss (Policy::use_sampled_bc_loss); the trainer sets one per step.
+  std::uint64_t noise_seed = 0;
 
   std::int64_t size() const { return static_cast<std::int64_t>(tasks.size()); }
 };

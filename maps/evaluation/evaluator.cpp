@@ -186,6 +186,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   double entropy_sum = 0.0, top_score_sum = 0.0;
   std::int64_t usage_rows = 0;
 
+  double unclipped_cost = 0.0;  // summed over every episode
   std::vector<envs::StepResult> steps;
   while (!running.empty() && !cancel) {
     const auto n = static_cast<std::int64_t>(running.size());
@@ -234,6 +235,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
     for (std::size_t j = 0; j < stepped.size(); ++j) {
       const envs::StepResult& r = steps[j];
       ev.returns[stepped[j].episode] += r.reward;
+      unclipped_cost += r.unclipped_control_cost;
       if (r.success) ev.successes[stepped[j].episode] = true;
       if (r.done()) {
         ev.final_successes[stepped[j].episode] = r.success;
@@ -264,6 +266,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
     scores[e] = by_return ? std::max(0.0, ev.returns[e] / expert_return) : (ev.successes[e] ? 1.0 : 0.0);
   const double n = episodes;
   ev.return_mean = std::accumulate(ev.returns.begin(), ev.returns.end(), 0.0) / n;
+  ev.return_mean_unclipped_cost = ev.return_mean - unclipped_cost / n;
   double return_ss = 0.0;
   for (double r : ev.returns) return_ss += (r - ev.return_mean) * (r - ev.return_mean);
   ev.return_std = std::sqrt(return_ss / n);

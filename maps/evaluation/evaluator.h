@@ -44,6 +44,9 @@ struct TaskEvaluation {
   double score = 0.0;               // mean over episodes of max(0, return / expert return), or the success rate
   double score_std_error = 0.0;     // sample std of the per-episode scores / sqrt(episodes); 0 for one episode
   std::vector<double> returns;      // per episode, in seed order
+  // The mean return with Gym's control cost on the unclipped action (StepResult::unclipped_control_cost): equal
+  // to return_mean for MT10 and for policies whose actions stay in bounds. Scores use return_mean.
+  double return_mean_unclipped_cost = 0.0;
   std::vector<bool> successes;
   std::vector<bool> final_successes;  // the success test at each episode's last step
   // Mean selector score of each module over every state visited in this task's episodes; empty unless a

@@ -227,4 +227,12 @@ void MAML::prepare_for_evaluation(const DemoDataset& data) {
   adapt(train, valid);
 }
 
+double MAML::validation_loss(const Batch& validation, const DemoDataset& data) {
+  if (config_.validate != "adapted") return Policy::validation_loss(validation, data);
+  prepare_for_evaluation(data);
+  const double loss = mean_action_error(*this, validation);
+  clear_adaptation();
+  return loss;
+}
+
 }  // namespace maps::core

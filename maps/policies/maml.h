@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "maps/policies/baseline_util.h"
@@ -17,6 +18,9 @@ struct MAMLConfig {
   std::int64_t query_per_task = 160;  // the paper's meta-batch (PAPER.md: 160 for the cheetah sets, 40 for MT10)
   int finetune_steps = 10;            // the most SGD steps prepare_for_evaluation takes per task
   std::uint64_t finetune_seed = 0;    // draws the fine-tuning training batches in prepare_for_evaluation
+  // What chooses the checkpoint: "unadapted": the validation error of theta itself; "adapted": of the fine-tuned
+  // policies that are evaluated (prepare_for_evaluation at every validation, then cleared).
+  std::string validate = "unadapted";
 };
 
 // MAML (PAPER.md, "Baselines"): the policy MLP S -> 128 -> 128 -> 128 -> A on the state only, meta-trained with
@@ -46,6 +50,9 @@ class MAML : public Policy {
   // Fine-tunes on every task: a training batch of the support size per task (the whole task's training set when
   // no support size is known yet), the task's validation demos to choose the step count; see adapt().
   void prepare_for_evaluation(const DemoDataset& data) override;
+  // With validate "adapted": the validation error after prepare_for_evaluation(data), the adaptation then cleared
+  // (training goes on from theta). Otherwise the base rule.
+  double validation_loss(const Batch& validation, const DemoDataset& data) override;
 
   // For each task k: up to finetune_steps plain SGD steps (lr inner_lr) from theta on train_per_task[k], keeping
   // the step count in 0..finetune_steps with the lowest loss on valid_per_task[k] (the fewest steps on ties; all

@@ -150,7 +150,7 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
                              batch.tasks);
   LossTerms result;
   if (uniform_selector()) {
-    const ag::Tensor bc = ag::mse_loss(head(features(obs), checked_scores(obs, batch.tasks)), batch.actions);
+    const ag::Tensor bc = bc_loss(head(features(obs), checked_scores(obs, batch.tasks)), batch);
     result.terms.emplace_back("bc", bc);
     result.total = bc * config_.bc_weight;
     return result;
@@ -182,7 +182,7 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   out.scores = ag::index_select(all, own_task_rows(batch.tasks));
   out.previous_scores = ag::narrow(scored, 0, K * n, n);
 
-  const ag::Tensor bc = ag::mse_loss(head(features(obs), out.scores), batch.actions);
+  const ag::Tensor bc = bc_loss(head(features(obs), out.scores), batch);
   result.terms.emplace_back("bc", bc);
   ag::Tensor selector_total = ag::zeros({}, obs.dtype());
   for (std::size_t j = 0; j < losses_.size(); ++j) {

@@ -25,7 +25,7 @@ ag::Tensor MTBC::act(const ag::Tensor& observations, const std::vector<std::int6
 
 LossTerms MTBC::loss(const Batch& batch) {
   detail::check_batch("MTBC::loss", shape(), batch);
-  return detail::bc_terms(ag::mse_loss(forward(batch.observations, batch.tasks), batch.actions));
+  return detail::bc_terms(bc_loss(forward(batch.observations, batch.tasks), batch));
 }
 
 }  // namespace maps::core

@@ -33,7 +33,7 @@ ag::Tensor MTMHBC::predict(const Batch& batch) {
 
 LossTerms MTMHBC::loss(const Batch& batch) {
   detail::check_batch("MTMHBC::loss", shape(), batch);
-  return detail::bc_terms(ag::mse_loss(predict(batch), batch.actions));
+  return detail::bc_terms(bc_loss(predict(batch), batch));
 }
 
 }  // namespace maps::core

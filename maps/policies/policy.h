@@ -47,12 +47,31 @@ class Policy : public nn::Module {
 
   const PolicyShape& shape() const { return shape_; }
 
+  // The paper's code's BC loss (train.bc_loss "sampled"): the squared error of a Gaussian sample
+  // mean + exp(log_std) * eps instead of the mean, with a learned state-independent log_std [A] (parameter
+  // "log_std", starting at 0). Its expectation is the mean's squared error plus exp(2 log_std), so log_std falls
+  // through training and the noise on the mean's gradient anneals itself. Call before training or loading.
+  void use_sampled_bc_loss();
+  bool sampled_bc_loss() const { return log_std_slot_ >= 0; }
+
+  // The loss that chooses the checkpoint: the mean squared error of act() on the validation rows. `data` is the
+  // run's dataset, for a policy that must adapt first (MAML with validate "adapted").
+  virtual double validation_loss(const Batch& validation, const DemoDataset& data);
+
  protected:
   Policy(const Policy&) = default;
 
+  // BC loss of the predicted mean actions [n, A] against batch.actions: their squared error, or with
+  // use_sampled_bc_loss() that of a sample whose noise comes from batch.noise_seed.
+  ag::Tensor bc_loss(const ag::Tensor& mean_actions, const Batch& batch) const;
+
  private:
   PolicyShape shape_;
+  std::int64_t log_std_slot_ = -1;
 };
+
+// The mean squared error of policy.act() on a batch, in chunks, without gradients.
+double mean_action_error(Policy& policy, const Batch& batch);
 
 // Rows j of a [K * n, ...] tensor holding every task's output for n inputs, task-major: row tasks[j] * n + j.
 std::vector<std::int64_t> own_task_rows(const std::vector<std::int64_t>& tasks);

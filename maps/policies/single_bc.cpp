@@ -48,7 +48,7 @@ ag::Tensor SingleBC::predict(const Batch& batch) {
 
 LossTerms SingleBC::loss(const Batch& batch) {
   detail::check_batch("SingleBC::loss", shape(), batch);
-  return detail::bc_terms(ag::mse_loss(predict(batch), batch.actions));
+  return detail::bc_terms(bc_loss(predict(batch), batch));
 }
 
 }  // namespace maps::core

@@ -58,7 +58,7 @@ RunConfig parse_run_config(const Json& json) {
     const Json& t = json["train"];
     check_keys(t, "train",
                {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
-                "validation_states_per_task", "keep_every"});
+                "validation_states_per_task", "keep_every", "bc_loss"});
     read(t, "train", "steps", c.train.steps);
     read(t, "train", "learning_rate", c.train.learning_rate);
     read(t, "train", "states_per_task", c.train.states_per_task);
@@ -66,6 +66,14 @@ RunConfig parse_run_config(const Json& json) {
     read(t, "train", "checkpoint_every", c.train.checkpoint_every);
     read(t, "train", "validation_states_per_task", c.train.validation_states_per_task);
     read(t, "train", "keep_every", c.train.keep_every);
+    read(t, "train", "bc_loss", c.train.bc_loss);
+    if (c.train.bc_loss != "mean" && c.train.bc_loss != "sampled")
+      throw std::invalid_argument("config train.bc_loss: expected \"mean\" or \"sampled\", got \"" + c.train.bc_loss +
+                                  "\"");
+    if (c.train.bc_loss == "sampled" && c.method == "maml")
+      throw std::invalid_argument(
+          "config train.bc_loss: \"sampled\" is not available for maml (its inner and fine-tuning steps use the "
+          "mean's squared error); use \"mean\"");
   }
   c.train.seed = c.seed;
   if (json.contains("maps")) {
@@ -101,12 +109,16 @@ RunConfig parse_run_config(const Json& json) {
   }
   if (json.contains("maml")) {
     const Json& m = json["maml"];
-    check_keys(m, "maml", {"inner_lr", "inner_steps", "first_order", "query_per_task", "finetune_steps"});
+    check_keys(m, "maml", {"inner_lr", "inner_steps", "first_order", "query_per_task", "finetune_steps", "validate"});
     read(m, "maml", "inner_lr", c.maml.inner_lr);
     read(m, "maml", "inner_steps", c.maml.inner_steps);
     read(m, "maml", "first_order", c.maml.first_order);
     read(m, "maml", "query_per_task", c.maml.query_per_task);
     read(m, "maml", "finetune_steps", c.maml.finetune_steps);
+    read(m, "maml", "validate", c.maml.validate);
+    if (c.maml.validate != "unadapted" && c.maml.validate != "adapted")
+      throw std::invalid_argument("config maml.validate: expected \"unadapted\" or \"adapted\", got \"" +
+                                  c.maml.validate + "\"");
   }
   c.maml.finetune_seed = c.seed;
   if (json.contains("baselines")) {
@@ -152,7 +164,8 @@ Json to_json(const RunConfig& c) {
         {"validate_every", c.train.validate_every},
         {"checkpoint_every", c.train.checkpoint_every},
         {"validation_states_per_task", c.train.validation_states_per_task},
-        {"keep_every", c.train.keep_every}}},
+        {"keep_every", c.train.keep_every},
+        {"bc_loss", c.train.bc_loss}}},
       {"maps",
        {{"modules", c.maps.modules},
         {"module_hidden", c.maps.module_hidden},
@@ -168,7 +181,8 @@ Json to_json(const RunConfig& c) {
         {"inner_steps", c.maml.inner_steps},
         {"first_order", c.maml.first_order},
         {"query_per_task", c.maml.query_per_task},
-        {"finetune_steps", c.maml.finetune_steps}}},
+        {"finetune_steps", c.maml.finetune_steps},
+        {"validate", c.maml.validate}}},
       {"baselines", {{"hidden", c.baseline_hidden}}},
       {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}}};
 }
@@ -176,13 +190,22 @@ Json to_json(const RunConfig& c) {
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {
   // The initialisation's own stream of the run's seed ("init").
   ag::Generator gen(envs::splitmix64(config.seed ^ 0x696e6974ULL));
-  if (config.method == "maps") return std::make_shared<MAPSPolicy>(shape, config.maps, gen);
   const auto& hidden = config.baseline_hidden;
-  if (config.method == "single_bc") return std::make_shared<SingleBC>(shape, gen, hidden);
-  if (config.method == "mt_bc") return std::make_shared<MTBC>(shape, gen, hidden);
-  if (config.method == "mt_mh_bc") return std::make_shared<MTMHBC>(shape, gen, hidden);
-  if (config.method == "maml") return std::make_shared<MAML>(shape, gen, config.maml, hidden);
-  throw std::invalid_argument("unknown method '" + config.method + "'");
+  std::shared_ptr<Policy> policy;
+  if (config.method == "maps")
+    policy = std::make_shared<MAPSPolicy>(shape, config.maps, gen);
+  else if (config.method == "single_bc")
+    policy = std::make_shared<SingleBC>(shape, gen, hidden);
+  else if (config.method == "mt_bc")
+    policy = std::make_shared<MTBC>(shape, gen, hidden);
+  else if (config.method == "mt_mh_bc")
+    policy = std::make_shared<MTMHBC>(shape, gen, hidden);
+  else if (config.method == "maml")
+    policy = std::make_shared<MAML>(shape, gen, config.maml, hidden);
+  else
+    throw std::invalid_argument("unknown method '" + config.method + "'");
+  if (config.train.bc_loss == "sampled") policy->use_sampled_bc_loss();
+  return policy;
 }
 
 }  // namespace maps::core

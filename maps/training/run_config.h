@@ -20,10 +20,12 @@
 //    "seed": 0,                              // data draw, initialisation and batches all derive from it
 //    "data": {"file": "data/gravity.h5", "demos_per_task": 5, "subsample": 20},
 //    "train": {"steps": 30000, "learning_rate": 3e-4, "states_per_task": 128, "validate_every": 1000,
-//              "checkpoint_every": 1000, "validation_states_per_task": 2000},
+//              "checkpoint_every": 1000, "validation_states_per_task": 2000, "keep_every": 0,
+//              "bc_loss": "mean"},                      // or "sampled" (the paper's code; not for maml)
 //    "maps": {"modules": 10, "activation": "tanh", "selector": "learned",   // or "uniform" (scores 1/M)
 //             "selector_losses": {"share": 1, "explore": 0.5, "sparse": 0.001, "smooth": 1}},
-//    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10},
+//    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10,
+//             "validate": "unadapted"},              // or "adapted": checkpoints judged after fine-tuning
 //    "baselines": {"hidden": [128, 128, 128]},  // the MLP of Single BC, MT-BC, MT-MH-BC and MAML
 //    "eval": {"episodes": 100, "threads": 0}}
 //

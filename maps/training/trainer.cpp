@@ -25,7 +25,6 @@ using Json = nlohmann::json;
 
 constexpr const char* kPolicyPrefix = "policy.";
 constexpr const char* kAdamPrefix = "adam.";
-constexpr std::int64_t kValidationChunk = 4096;  // rows per act() call: bounds MAPS's [M, n, F] features
 
 struct Progress {
   std::int64_t step = 0;
@@ -124,19 +123,7 @@ Json policy_record(const DemoDataset& data, std::int64_t step, std::optional<dou
 
 }  // namespace
 
-double validation_loss(Policy& policy, const Batch& batch) {
-  ag::NoGradGuard no_grad;
-  const std::int64_t n = batch.size();
-  if (n == 0) throw std::invalid_argument("validation_loss: empty batch");
-  double total = 0.0;
-  for (std::int64_t start = 0; start < n; start += kValidationChunk) {
-    const std::int64_t count = std::min(kValidationChunk, n - start);
-    const std::vector<std::int64_t> tasks(batch.tasks.begin() + start, batch.tasks.begin() + start + count);
-    const ag::Tensor prediction = policy.act(ag::narrow(batch.observations, 0, start, count), tasks);
-    total += ag::mse_loss(prediction, ag::narrow(batch.actions, 0, start, count)).item() * static_cast<double>(count);
-  }
-  return total / static_cast<double>(n);
-}
+double validation_loss(Policy& policy, const Batch& batch) { return mean_action_error(policy, batch); }
 
 TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
                           const std::string& run_dir, std::ostream* log) {
@@ -153,6 +140,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   policy.set_observation_statistics(data.standardizer().mean, data.standardizer().std);
   optim::Adam adam(policy.parameters(), {.lr = config.learning_rate});
   std::mt19937_64 rng(envs::splitmix64(config.seed ^ 0x6261746368657321ULL));  // "batches!"
+  // A function of the seed and the step, so a resumed run draws the same noise without saving a generator.
+  const std::uint64_t noise_stream = envs::splitmix64(config.seed ^ 0x6e6f697365ULL);  // "noise"
   Progress progress;
   TrainSummary summary;
   if (fs::exists(last_path)) {
@@ -173,7 +162,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   auto window_start = start;
   std::int64_t window_first_step = progress.step;
   while (progress.step < config.steps) {
-    const Batch batch = data.sample(per_task, rng, ag::Dtype::Float32);
+    Batch batch = data.sample(per_task, rng, ag::Dtype::Float32);
+    batch.noise_seed = envs::splitmix64(noise_stream ^ static_cast<std::uint64_t>(progress.step));
     const LossTerms terms = policy.loss(batch);
     const double total = terms.total.item();
     if (!std::isfinite(total)) {
@@ -206,7 +196,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
 
     const bool last_step = progress.step == config.steps;
     if (progress.step % config.validate_every == 0 || last_step) {
-      const double valid = validation_loss(policy, validation);
+      const double valid = policy.validation_loss(validation, data);
       policy.train();
       if (valid < progress.best_validation) {
         progress.best_validation = valid;

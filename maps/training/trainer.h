@@ -28,6 +28,9 @@ struct TrainConfig {
   // evaluated (`maps eval --checkpoints`: the paper's rule of the best test score over checkpoints).
   std::int64_t keep_every = 0;
   std::uint64_t seed = 0;  // the batch draws
+  // "mean": the squared error of the mean action. "sampled": the paper's code's (Policy::use_sampled_bc_loss).
+  // make_policy reads it; the trainer draws the noise seed of each step from `seed`.
+  std::string bc_loss = "mean";
 };
 
 struct TrainSummary {

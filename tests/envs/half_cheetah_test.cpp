@@ -182,6 +182,17 @@ TEST(HalfCheetah, OutOfRangeActionIsClippedIncludingControlCost) {
   EXPECT_EQ(c.step(infinite).observation, rb.observation);
 }
 
+// Gym charges the control cost on the action as given; the step reports that difference beside the reward.
+TEST(HalfCheetah, ReportsTheExtraControlCostGymWouldChargeOnTheUnclippedAction) {
+  HalfCheetahEnv env("test/cheetah", 0);
+  env.reset(5);
+  const Eigen::VectorXd inside = (Eigen::VectorXd(6) << 0.5, -0.25, 1.0, -1.0, 0.1, 0.0).finished();
+  EXPECT_EQ(env.step(inside).unclipped_control_cost, 0.0);
+  const Eigen::VectorXd wild = (Eigen::VectorXd(6) << 3.0, -2.0, 0.5, 0.0, -1.5, -0.2).finished();
+  // 0.1 * ((9 + 4 + 2.25) - (1 + 1 + 1)) over the entries past the bounds.
+  EXPECT_NEAR(env.step(wild).unclipped_control_cost, 0.1 * (15.25 - 3.0), 1e-12);
+}
+
 TEST(HalfCheetah, NanActionIsAnErrorNamingTheTask) {
   HalfCheetahEnv env("gravity/0.5", 0);
   env.reset(0);

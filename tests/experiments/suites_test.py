@@ -155,7 +155,7 @@ class Report(unittest.TestCase):
             reader = csv.DictReader(f)
             self.assertEqual(reader.fieldnames, ["set", "method", "variant", "modules", "demos", "subsample", "seed",
                                                  "task", "score", "success", "success_at_end", "return_mean",
-                                                 "best_step", "steps",
+                                                 "return_unclipped_cost", "best_step", "steps",
                                                  "wall_seconds", "grid", "cell"])
             rows = list(reader)
         expected = expected_results()

@@ -396,6 +396,18 @@ TEST(Evaluator, HalfCheetahScoreIsReturnOverExpertReturn) {
   EXPECT_NEAR(result.mean_score, good.score / 2.0, 1e-12);
 }
 
+TEST(Evaluator, ReportsTheReturnWithGymsControlCostOnTheUnclippedAction) {
+  // A constant action of 2 on each of the 6 joints: Gym would charge 0.1 * 6 * (4 - 1) = 1.8 more per step.
+  const std::vector<std::string> tasks{"gravity/1.5"};
+  const Standardizer standardizer = make_standardizer(17);
+  FnPolicy policy = expert_policy(shape_of("gravity/1.0", 1), tasks, standardizer, {{"gravity/1.5", 2.0}});
+  EvalConfig config;
+  config.episodes = 2;
+  config.dtype = ag::Dtype::Float64;
+  const TaskEvaluation t = evaluate(policy, standardizer, tasks, {1000.0}, config).tasks[0];
+  EXPECT_NEAR(t.return_mean - t.return_mean_unclipped_cost, 1.8 * 1000, 1e-6);
+}
+
 TEST(Evaluator, Mt10ScoreIsSuccessRate) {
   // mt10/reach run by its scripted expert succeeds; mt10/push with a zero action never does.
   const std::vector<std::string> tasks{"mt10/reach", "mt10/push"};
