@@ -16,6 +16,64 @@
 
 namespace maps::experiments {
 
+namespace {
+
+nlohmann::json score_lists(const core::EvaluationResult& result) {
+  std::vector<double> scores, success, success_at_end;
+  for (const auto& t : result.tasks) {
+    scores.push_back(t.score);
+    success.push_back(t.success_rate);
+    success_at_end.push_back(t.final_success_rate);
+  }
+  return {{"mean_score", result.mean_score},
+          {"scores", scores},
+          {"success_rate", success},
+          {"final_success_rate", success_at_end}};
+}
+
+int evaluate_each_module(const std::string& run, core::MAPSPolicy& policy, const core::DemoDataset& data,
+                         const std::vector<double>& expert_returns, const core::EvalConfig& eval,
+                         const nlohmann::json& best) {
+  const auto& names = data.task_names();
+  std::printf("maps eval --each-module: %s, %d episodes per task, %lld modules\n", run.c_str(), eval.episodes,
+              static_cast<long long>(policy.num_modules()));
+  std::printf("| policy |");
+  for (const auto& name : names) std::printf(" %s |", name.c_str());
+  std::printf(" mean |\n|---|");
+  for (std::size_t k = 0; k <= names.size(); ++k) std::printf("---|");
+  std::printf("\n");
+  auto print_row = [&](const std::string& label, const core::EvaluationResult& r) {
+    std::printf("| %s |", label.c_str());
+    for (const auto& t : r.tasks) std::printf(" %.2f |", t.score);
+    std::printf(" %.3f |\n", r.mean_score);
+    std::fflush(stdout);
+  };
+  policy.force_module(-1);
+  const core::EvaluationResult full = core::evaluate(policy, data.standardizer(), names, expert_returns, eval);
+  print_row("selector", full);
+  nlohmann::json modules = nlohmann::json::array();
+  for (std::int64_t j = 0; j < policy.num_modules(); ++j) {
+    policy.force_module(j);
+    const core::EvaluationResult r = core::evaluate(policy, data.standardizer(), names, expert_returns, eval);
+    print_row("module " + std::to_string(j), r);
+    nlohmann::json entry = score_lists(r);
+    entry["module"] = j;
+    modules.push_back(entry);
+  }
+  policy.force_module(-1);
+  const nlohmann::json record{{"format", "maps-eval-modules/1"},
+                              {"best_step", best.at("step")},
+                              {"episodes", eval.episodes},
+                              {"first_seed", eval.first_seed},
+                              {"tasks", names},
+                              {"selector", score_lists(full)},
+                              {"modules", modules}};
+  write_json_file((std::filesystem::path(run) / "eval_modules.json").string(), record);
+  return 0;
+}
+
+}  // namespace
+
 int run_eval(const EvalRunOptions& options) {
   namespace fs = std::filesystem;
   const fs::path dir(options.run);
@@ -48,6 +106,12 @@ int run_eval(const EvalRunOptions& options) {
     expert_returns.push_back(by_return ? data.demo_mean_return(k) : std::numeric_limits<double>::quiet_NaN());
   core::ModuleUsageFn usage;
   auto* maps_policy = dynamic_cast<core::MAPSPolicy*>(policy.get());
+  if (options.each_module) {
+    if (maps_policy == nullptr)
+      throw std::invalid_argument("--each-module: " + options.run + " is a " + config.method +
+                                  " run; only MAPS has modules");
+    return evaluate_each_module(options.run, *maps_policy, data, expert_returns, eval, best);
+  }
   if (maps_policy)
     usage = [maps_policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
       return maps_policy->scores(obs, tasks);

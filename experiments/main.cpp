@@ -191,6 +191,11 @@ int main(int argc, char** argv) {
   eval_cmd->add_flag(
       "--checkpoints", eval_run.checkpoints,
       "Also evaluate every kept step_<N>.ckpt (train.keep_every): the paper's best-over-checkpoints rule");
+  eval_cmd
+      ->add_flag("--each-module", eval_run.each_module,
+                 "MAPS: score every task with the selector forced onto each module in turn, into eval_modules.json "
+                 "(eval.json is left alone)")
+      ->excludes("--checkpoints");
 
   CLI::App* bench_cmd = app.add_subcommand("bench", "Time the library's hot paths");
   bench_cmd->require_subcommand(1);

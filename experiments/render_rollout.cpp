@@ -38,19 +38,13 @@ int run_render_policy(const RenderOptions& options) {
     if (options.module >= maps_policy->num_modules())
       throw std::invalid_argument("--module " + std::to_string(options.module) + ": " + options.run +
                                   " has modules 0 to " + std::to_string(maps_policy->num_modules() - 1));
+    maps_policy->force_module(options.module);
   }
   const ag::Dtype dtype = ag::Dtype::Float32;
   auto act = [&](const Eigen::VectorXd& observation) {
     ag::NoGradGuard no_grad;
     const ag::Tensor x = data.standardizer().apply(Eigen::MatrixXd(observation.transpose()), dtype);
-    ag::Tensor action;
-    if (options.module >= 0) {
-      ag::Tensor scores = ag::zeros({1, maps_policy->num_modules()}, dtype);
-      scores.data<float>()[options.module] = 1.0f;
-      action = maps_policy->head(maps_policy->features(x), scores);
-    } else {
-      action = run.policy->act(x, {task});
-    }
+    const ag::Tensor action = run.policy->act(x, {task});
     return Eigen::VectorXd(ag::to_eigen_double(action).row(0).transpose());
   };
   const std::uint64_t seed = options.seed_given ? options.seed : envs::kEvalSeedBegin;

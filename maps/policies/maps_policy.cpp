@@ -117,7 +117,19 @@ ag::Tensor MAPSPolicy::selector_logits(const ag::Tensor& state_parts, const std:
 
 ag::Tensor MAPSPolicy::scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("MAPSPolicy::scores", shape(), observations, tasks);
-  return checked_scores(observations, tasks);
+  return evaluation_scores(observations, tasks);
+}
+
+void MAPSPolicy::force_module(std::int64_t module) {
+  if (module < -1 || module >= config_.modules)
+    throw std::invalid_argument("MAPSPolicy::force_module: module " + std::to_string(module) + " is not one of 0.." +
+                                std::to_string(config_.modules - 1) + " (or -1: none)");
+  forced_module_ = module;
+}
+
+ag::Tensor MAPSPolicy::evaluation_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  if (forced_module_ < 0) return checked_scores(observations, tasks);
+  return ag::one_hot(std::vector<std::int64_t>(tasks.size(), forced_module_), config_.modules, observations.dtype());
 }
 
 ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
@@ -140,7 +152,7 @@ ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores
 
 ag::Tensor MAPSPolicy::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("MAPSPolicy::act", shape(), observations, tasks);
-  return head(features(observations), checked_scores(observations, tasks));
+  return head(features(observations), evaluation_scores(observations, tasks));
 }
 
 LossTerms MAPSPolicy::loss(const Batch& batch) {

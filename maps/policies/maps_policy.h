@@ -57,12 +57,19 @@ class MAPSPolicy : public Policy {
   bool raw_inputs() const { return config_.observations == "raw_clipped"; }
   void set_observation_statistics(const Eigen::VectorXd& mean, const Eigen::VectorXd& std) override;
 
+  // Puts every score of act() and scores() on module `module` (-1: the selector's own scores again), the paper's
+  // Fig. 6 probe of what one module does alone. The loss is unaffected; this is not saved with the state.
+  void force_module(std::int64_t module);
+  std::int64_t forced_module() const { return forced_module_; }
+
  protected:
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<MAPSPolicy>(*this); }
 
  private:
   // scores() for inputs the caller has already checked (act and loss check theirs once, up front).
   ag::Tensor checked_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks);
+  // checked_scores, or the forced module's one-hot rows.
+  ag::Tensor evaluation_scores(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks);
   // The selector's first layer is linear in [s, one_hot(k)]: W [s; e_k] + b = W_s s + (W_k + b). state_weight is
   // W_s [H, S]; task_rows [K, H] holds W_k + b for each task.
   struct SelectorFirstLayer {
@@ -87,6 +94,7 @@ class MAPSPolicy : public Policy {
   std::size_t head_bias_ = 0;                               // parameter slot [A]
   std::vector<std::size_t> losses_;                         // child slots of the selector losses
   std::vector<double> loss_weights_;
+  std::int64_t forced_module_ = -1;
 };
 
 }  // namespace maps::core

@@ -9,6 +9,7 @@ import fcntl
 import json
 import os
 import pathlib
+import shutil
 import signal
 import subprocess
 import sys
@@ -400,6 +401,69 @@ class SuiteTest(unittest.TestCase):
         standardized = json.loads((self.reference / "cells/gravity/maps_d2_s0/result.json").read_text())
         self.assertNotEqual([t["returns"] for t in again["tasks"]],
                             [t["returns"] for t in standardized["eval"]["tasks"]])
+
+    def test_each_module_probe(self):
+        """maps eval --each-module (Fig. 6): every task scored with the selector and forced onto each module, and
+        experiments/suites/fig6_probe.py's table and strips from it; a damaged probe file is named, not trusted."""
+        cell = self.dir / "cell"
+        shutil.copytree(self.reference / "cells/mt10/maps_d2_s0", cell)
+        own = (cell / "eval.json").read_bytes()
+        maps("eval", "--run", cell, "--each-module", "--episodes", "2", "--threads", "1")
+        self.assertEqual((cell / "eval.json").read_bytes(), own)
+        probe = json.loads((cell / "eval_modules.json").read_text())
+        self.assertEqual(probe["format"], "maps-eval-modules/1")
+        self.assertEqual(len(probe["tasks"]), 10)
+        self.assertEqual([m["module"] for m in probe["modules"]], list(range(10)))
+        reference = json.loads((cell / "result.json").read_text())["eval"]
+        for entry in [probe["selector"]] + probe["modules"]:
+            self.assertEqual(len(entry["scores"]), 10)
+            self.assertAlmostEqual(entry["mean_score"], sum(entry["scores"]) / 10)
+        # The selector's row is the cell's own policy: its first two episodes per task as in the suite's evaluation.
+        for k, t in enumerate(reference["tasks"]):
+            self.assertEqual(probe["tasks"][k], t["task"])
+        proc = maps("eval", "--run", self.reference / "cells/mt10/mt_bc_d2_s0", "--each-module", check=False)
+        self.assertIn("only MAPS has modules", proc.stderr)
+
+        script = ROOT / "experiments" / "suites" / "fig6_probe.py"
+        out = self.dir / "fig6"
+        proc = subprocess.run([sys.executable, script, cell, "--out", out, "--tasks", "reach", "--maps", MAPS],
+                              cwd=WORK, capture_output=True, text=True)
+        if "this build has no renderer" not in proc.stderr:
+            self.assertEqual(proc.returncode, 0, proc.stderr)
+            text = (out / "modules.md").read_text()
+            self.assertIn("| reach |", text)
+            self.assertTrue((out / "reach_selector.png").exists())
+        (cell / "eval_modules.json").write_text('{"format": "maps-eval-modules/1", "tasks": ["mt10/reach"]')
+        proc = subprocess.run([sys.executable, script, cell, "--out", out, "--maps", MAPS], cwd=WORK,
+                              capture_output=True, text=True)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("eval_modules.json: not a readable module probe", proc.stderr)
+
+    def test_paper_protocol_options(self):
+        """The paper's options (train.bc_loss "sampled", maps.observations "raw_clipped", kept checkpoints, MAML's
+        checkpoint judged after fine-tuning) run through the suite, and a fresh process's evaluation of best.ckpt
+        (which holds the learned log-std) scores what the suite's did."""
+        config = json.loads(TINY.read_text())
+        config["variants"]["paper"] = {"maps": {"observations": "raw_clipped"},
+                                       "train": {"bc_loss": "sampled", "keep_every": 30}}
+        config["variants"]["adapted"] = {"maml": {"validate": "adapted"}}
+        config["grids"] = [
+            {"name": "paper", "sets": ["mt10"], "methods": ["maps", "mt_bc"], "variants": ["paper"], "seeds": [0]},
+            {"name": "maml", "sets": ["mt10"], "methods": ["maml"], "variants": ["adapted"], "seeds": [0]}]
+        path = write_config(self.dir, config)
+        out = self.dir / "paper"
+        maps("suite", "run", path, "--out", out, "--jobs", "2")
+        for name in ("maps-paper_d2_s0", "mt_bc-paper_d2_s0", "maml-adapted_d2_s0"):
+            cell = out / "cells/mt10" / name
+            first = json.loads((cell / "result.json").read_text())
+            if name.startswith("maml"):
+                self.assertEqual(first["config"]["maml"]["validate"], "adapted")
+            else:
+                self.assertEqual(first["config"]["train"]["bc_loss"], "sampled")
+                self.assertIn("best_over_checkpoints", first["eval"])
+            maps("eval", "--run", cell)
+            again = json.loads((cell / "eval.json").read_text())
+            self.assertEqual(again["mean_score"], first["eval"]["mean_score"], name)
 
     def test_status_of_a_folder_that_is_not_a_suite(self):
         proc = maps("suite", "status", self.dir, check=False)

@@ -8,6 +8,7 @@
 
 #include "autograd/gradcheck.h"
 #include "nn/optim/adam.h"
+#include "tests/common/error_of.h"
 #include "tests/common/max_abs_diff.h"
 
 namespace maps::core {
@@ -361,6 +362,26 @@ TEST(MAPSPolicy, RawClippedObservationsAreWhatTheModulesAndTheSelectorSee) {
   raw_config.observations = "raw";
   ag::Generator gen_bad(1);
   EXPECT_THROW(MAPSPolicy({4, 2, 3}, raw_config, gen_bad), std::invalid_argument);
+}
+
+TEST(MAPSPolicy, AForcedModuleTakesEveryScoreInActAndScoresButNotInTheLoss) {
+  ag::Generator gen(12);
+  MAPSPolicy policy({4, 2, 3}, tiny_config(), gen);
+  policy.to(Dtype::Float64);
+  const Batch batch = random_batch(2, 3, 4, 2, gen);
+  const double loss = policy.loss(batch).total.item();
+  const Tensor own_action = policy.act(batch.observations, batch.tasks);
+  policy.force_module(1);
+  EXPECT_EQ(policy.forced_module(), 1);
+  const Tensor one_hot = ag::one_hot(std::vector<std::int64_t>(6, 1), 3, Dtype::Float64);
+  EXPECT_EQ(policy.scores(batch.observations, batch.tasks).to_vector(), one_hot.to_vector());
+  EXPECT_EQ(policy.act(batch.observations, batch.tasks).to_vector(),
+            policy.head(policy.features(batch.observations), one_hot).to_vector());
+  EXPECT_EQ(policy.loss(batch).total.item(), loss);
+  policy.force_module(-1);
+  EXPECT_EQ(policy.act(batch.observations, batch.tasks).to_vector(), own_action.to_vector());
+  EXPECT_THAT(error_of([&] { policy.force_module(3); }), HasSubstr("module 3 is not one of 0..2"));
+  EXPECT_THAT(error_of([&] { policy.force_module(-2); }), HasSubstr("module -2"));
 }
 
 TEST(MAPSPolicy, OverfitsATinyTwoTaskDataset) {
