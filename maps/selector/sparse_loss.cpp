@@ -10,7 +10,9 @@
 namespace maps::core {
 namespace {
 
-// Scores that underflow to 0 would give 0 * log 0 = NaN; this floor changes the loss by less than 1e-28 per score.
+// Scores that underflow to 0 would give 0 * log 0 = NaN. A score at the floor contributes
+// -(1e-30)^(1/log M) log(1e-30) instead of 0: 69 * 1e-30^(1/log M), which grows with M (1e-30 itself is raised to a
+// power below 1): 1.6e-17 per score at M = 5, 6.5e-12 at M = 10, 6.7e-9 at M = 20: far below any logged digit.
 constexpr double kScoreFloor = 1e-30;
 
 class SparseLoss : public SelectorLoss {

@@ -96,6 +96,54 @@ TEST(SelectorLosses, ShareIsZeroWhenTasksAgreeAndForOneTask) {
   EXPECT_EQ(make_share_loss()->forward(out).item(), 0.0);
 }
 
+// The pairwise definition, summed in long double: the reference the one-pass form must match.
+double pairwise_share(const std::vector<double>& a, std::int64_t K, std::int64_t b, std::int64_t M) {
+  long double sum = 0.0L;
+  for (std::int64_t k1 = 0; k1 < K; ++k1)
+    for (std::int64_t k2 = 0; k2 < K; ++k2)
+      for (std::int64_t j = 0; j < b * M; ++j) {
+        const long double d = static_cast<long double>(a[static_cast<std::size_t>(k1 * b * M + j)]) -
+                              static_cast<long double>(a[static_cast<std::size_t>(k2 * b * M + j)]);
+        sum += d * d;
+      }
+  return static_cast<double>(sum / static_cast<long double>(K * (K - 1) * b * M));
+}
+
+// Near its optimum (tasks almost agreeing) the share term must keep its digits: the form
+// 2K sum a^2 - 2 (sum_k a)^2 cancelled there (negative values, 37% error near 1e-8 in float32).
+TEST(SelectorLosses, ShareIsNeverNegativeAndAccurateNearZero) {
+  const std::int64_t K = 10, b = 32, M = 10;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<double> base(static_cast<std::size_t>(b * M));
+  for (double& v : base) v = unit(rng);
+  for (const double spread : {1e-1, 1e-3, 1e-5, 1e-7}) {
+    std::vector<double> a;
+    for (std::int64_t k = 0; k < K; ++k)
+      for (double v : base) a.push_back(v + spread * (unit(rng) - 0.5));
+    const double reference = pairwise_share(a, K, b, M);
+    SelectorOutputs out = small_batch();
+    out.all_task_scores = ag::from_vector(a, {K, b, M}, Dtype::Float64);
+    EXPECT_NEAR(make_share_loss()->forward(out).item(), reference, 1e-12 * reference) << "float64, spread " << spread;
+    // float32 scores: rounding the inputs alone changes the reference; compare with the float32-rounded inputs'.
+    std::vector<double> rounded;
+    for (double v : a) rounded.push_back(static_cast<double>(static_cast<float>(v)));
+    const double rounded_reference = pairwise_share(rounded, K, b, M);
+    out.all_task_scores = ag::from_vector(a, {K, b, M}, Dtype::Float32);
+    const double single = make_share_loss()->forward(out).item();
+    EXPECT_GE(single, 0.0) << "spread " << spread;
+    EXPECT_NEAR(single, rounded_reference, 1e-3 * rounded_reference) << "float32, spread " << spread;
+  }
+  // Exactly agreeing tasks: exactly 0 in both dtypes.
+  std::vector<double> same;
+  for (std::int64_t k = 0; k < K; ++k) same.insert(same.end(), base.begin(), base.end());
+  for (const Dtype dtype : {Dtype::Float32, Dtype::Float64}) {
+    SelectorOutputs out = small_batch();
+    out.all_task_scores = ag::from_vector(same, {K, b, M}, dtype);
+    EXPECT_EQ(make_share_loss()->forward(out).item(), 0.0);
+  }
+}
+
 // Each loss as a function of selector logits (softmax keeps the scores valid as gradcheck perturbs them).
 TEST(SelectorLosses, PassGradcheck) {
   const int K = 3, b = 4, M = 5;
