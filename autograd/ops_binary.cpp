@@ -14,16 +14,22 @@ using Needs = std::vector<bool>;
 
 Tensor add(const Tensor& a, const Tensor& b) {
   Tensor out = binary_kernel(a, b, "add", [](auto x, auto y) { return x + y; });
-  return record("add", out, {a, b}, [sa = a.shape(), sb = b.shape()](const Tensor& g, const Needs& n, Node&) {
-    return Grads{n[0] ? sum_to(g, sa) : Tensor(), n[1] ? sum_to(g, sb) : Tensor()};
-  });
+  return record(
+      "add", out, {a, b},
+      [sa = a.shape(), sb = b.shape()](const Tensor& g, const Needs& n, Node&) {
+        return Grads{n[0] ? sum_to(g, sa) : Tensor(), n[1] ? sum_to(g, sb) : Tensor()};
+      },
+      false, Reads::none());
 }
 
 Tensor sub(const Tensor& a, const Tensor& b) {
   Tensor out = binary_kernel(a, b, "sub", [](auto x, auto y) { return x - y; });
-  return record("sub", out, {a, b}, [sa = a.shape(), sb = b.shape()](const Tensor& g, const Needs& n, Node&) {
-    return Grads{n[0] ? sum_to(g, sa) : Tensor(), n[1] ? sum_to(neg(g), sb) : Tensor()};
-  });
+  return record(
+      "sub", out, {a, b},
+      [sa = a.shape(), sb = b.shape()](const Tensor& g, const Needs& n, Node&) {
+        return Grads{n[0] ? sum_to(g, sa) : Tensor(), n[1] ? sum_to(neg(g), sb) : Tensor()};
+      },
+      false, Reads::none());
 }
 
 Tensor mul(const Tensor& a, const Tensor& b) {
@@ -113,34 +119,42 @@ Tensor where(const Tensor& condition, const Tensor& a, const Tensor& b) {
                                 " and b " + to_string(b.shape()) + " must share one shape");
   }
   detail::check_same_dtype(a, b, "where");
-  const Tensor picks_a = condition.dtype() == a.dtype() ? condition.detach() : condition.detach().to(a.dtype());
+  // An own copy: the backward rule routes by it, so a later in-place change of `condition` must not reach it.
+  const Tensor picks_a = condition.dtype() == a.dtype() ? condition.detach().clone() : condition.detach().to(a.dtype());
   Tensor out = empty(a.shape(), a.dtype());
   dispatch_dtype(a.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     out.array<T>() = (picks_a.array<T>() != T(0)).select(a.array<T>(), b.array<T>());
   });
-  return record("where", out, {a, b}, [picks_a](const Tensor& g, const Needs& n, Node&) {
-    const Tensor zero = zeros_like(g);
-    return Grads{n[0] ? where(picks_a, g, zero) : Tensor(), n[1] ? where(picks_a, zero, g) : Tensor()};
-  });
+  return record(
+      "where", out, {a, b},
+      [picks_a](const Tensor& g, const Needs& n, Node&) {
+        const Tensor zero = zeros_like(g);
+        return Grads{n[0] ? where(picks_a, g, zero) : Tensor(), n[1] ? where(picks_a, zero, g) : Tensor()};
+      },
+      false, Reads::none());
 }
 
 Tensor add(const Tensor& a, double b) {
   Tensor out =
       detail::unary_kernel(a, "add", [b](const auto& x) { return x + static_cast<detail::scalar_of<decltype(x)>>(b); });
-  return record("add_scalar", out, {a}, [](const Tensor& g, const Needs&, Node&) { return Grads{g}; });
+  return record(
+      "add_scalar", out, {a}, [](const Tensor& g, const Needs&, Node&) { return Grads{g}; }, false, Reads::none());
 }
 
 Tensor mul(const Tensor& a, double b) {
   Tensor out =
       detail::unary_kernel(a, "mul", [b](const auto& x) { return x * static_cast<detail::scalar_of<decltype(x)>>(b); });
-  return record("mul_scalar", out, {a}, [b](const Tensor& g, const Needs&, Node&) { return Grads{mul(g, b)}; });
+  return record(
+      "mul_scalar", out, {a}, [b](const Tensor& g, const Needs&, Node&) { return Grads{mul(g, b)}; }, false,
+      Reads::none());
 }
 
 Tensor rsub(double a, const Tensor& b) {
   Tensor out = detail::unary_kernel(b, "rsub",
                                     [a](const auto& x) { return static_cast<detail::scalar_of<decltype(x)>>(a) - x; });
-  return record("rsub", out, {b}, [](const Tensor& g, const Needs&, Node&) { return Grads{neg(g)}; });
+  return record(
+      "rsub", out, {b}, [](const Tensor& g, const Needs&, Node&) { return Grads{neg(g)}; }, false, Reads::none());
 }
 
 Tensor rdiv(double a, const Tensor& b) {

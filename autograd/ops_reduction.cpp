@@ -128,10 +128,12 @@ Tensor sum(const Tensor& x, const std::vector<std::int64_t>& dims, bool keepdim)
     reduced = reduce_dims(x, ds, Reduce::Sum, "sum").reshape(reduced_shape(x.shape(), ds, keepdim));
   }
   Tensor out = reduced.detach();
-  return record("sum", out, {x},
-                [shape = x.shape(), kept = keepdim_shape(x.shape(), ds)](const Tensor& g, const Needs&, Node&) {
-                  return Grads{expand(reshape(g, kept), shape)};
-                });
+  return record(
+      "sum", out, {x},
+      [shape = x.shape(), kept = keepdim_shape(x.shape(), ds)](const Tensor& g, const Needs&, Node&) {
+        return Grads{expand(reshape(g, kept), shape)};
+      },
+      false, Reads::none());
 }
 
 Tensor sum(const Tensor& x) {
@@ -141,8 +143,9 @@ Tensor sum(const Tensor& x) {
     using T = typename decltype(tag)::type;
     out.data<T>()[0] = x.array<T>().sum();
   });
-  return record("sum", out, {x},
-                [shape = x.shape()](const Tensor& g, const Needs&, Node&) { return Grads{expand(g, shape)}; });
+  return record(
+      "sum", out, {x}, [shape = x.shape()](const Tensor& g, const Needs&, Node&) { return Grads{expand(g, shape)}; },
+      false, Reads::none());
 }
 
 Tensor mean(const Tensor& x, const std::vector<std::int64_t>& dims, bool keepdim) {

@@ -51,8 +51,10 @@ Tensor reshape(const Tensor& x, const Shape& shape) {
   impl->shape = target;
   impl->dtype = x.dtype();
   impl->storage = x.impl()->storage;  // contiguous, so a reshape is a view
-  return record("reshape", Tensor(impl), {x},
-                [original = x.shape()](const Tensor& g, const Needs&, Node&) { return Grads{reshape(g, original)}; });
+  return record(
+      "reshape", Tensor(impl), {x},
+      [original = x.shape()](const Tensor& g, const Needs&, Node&) { return Grads{reshape(g, original)}; }, false,
+      Reads::none());
 }
 
 Tensor transpose(const Tensor& x, std::int64_t dim0, std::int64_t dim1) {
@@ -93,8 +95,9 @@ Tensor transpose(const Tensor& x, std::int64_t dim0, std::int64_t dim1) {
       }
     }
   });
-  return record("transpose", out, {x},
-                [d0, d1](const Tensor& g, const Needs&, Node&) { return Grads{transpose(g, d0, d1)}; });
+  return record(
+      "transpose", out, {x}, [d0, d1](const Tensor& g, const Needs&, Node&) { return Grads{transpose(g, d0, d1)}; },
+      false, Reads::none());
 }
 
 Tensor expand(const Tensor& x, const Shape& shape) {
@@ -119,8 +122,10 @@ Tensor expand(const Tensor& x, const Shape& shape) {
       }
     });
   });
-  return record("expand", out, {x},
-                [original = x.shape()](const Tensor& g, const Needs&, Node&) { return Grads{sum_to(g, original)}; });
+  return record(
+      "expand", out, {x},
+      [original = x.shape()](const Tensor& g, const Needs&, Node&) { return Grads{sum_to(g, original)}; }, false,
+      Reads::none());
 }
 
 Tensor sum_to(const Tensor& x, const Shape& shape) {
@@ -173,13 +178,16 @@ Tensor concat(const std::vector<Tensor>& tensors, std::int64_t dim) {
     sizes.push_back(size);
     start += size;
   }
-  return record("concat", out, tensors, [d, starts, sizes](const Tensor& g, const Needs& need, Node&) {
-    Grads grads(sizes.size());
-    for (std::size_t i = 0; i < sizes.size(); ++i) {
-      if (need[i]) grads[i] = narrow(g, d, starts[i], sizes[i]);
-    }
-    return grads;
-  });
+  return record(
+      "concat", out, tensors,
+      [d, starts, sizes](const Tensor& g, const Needs& need, Node&) {
+        Grads grads(sizes.size());
+        for (std::size_t i = 0; i < sizes.size(); ++i) {
+          if (need[i]) grads[i] = narrow(g, d, starts[i], sizes[i]);
+        }
+        return grads;
+      },
+      false, Reads::none());
 }
 
 Tensor stack(const std::vector<Tensor>& tensors, std::int64_t dim) {
@@ -220,21 +228,24 @@ Tensor narrow(const Tensor& x, std::int64_t dim, std::int64_t start, std::int64_
     std::memcpy(bytes_ptr(out) + bytes_of(out, o * chunk), bytes_ptr(x) + bytes_of(x, (o * size + start) * split.inner),
                 bytes_of(x, chunk));
   }
-  return record("narrow", out, {x}, [d, start, length, full = x.shape()](const Tensor& g, const Needs&, Node&) {
-    // The adjoint pads the gradient with zeros back to the full size.
-    std::vector<Tensor> parts;
-    Shape pad = full;
-    if (start > 0) {
-      pad[d] = start;
-      parts.push_back(zeros(pad, g.dtype()));
-    }
-    parts.push_back(g);
-    if (start + length < full[d]) {
-      pad[d] = full[d] - start - length;
-      parts.push_back(zeros(pad, g.dtype()));
-    }
-    return Grads{parts.size() == 1 ? g : concat(parts, d)};
-  });
+  return record(
+      "narrow", out, {x},
+      [d, start, length, full = x.shape()](const Tensor& g, const Needs&, Node&) {
+        // The adjoint pads the gradient with zeros back to the full size.
+        std::vector<Tensor> parts;
+        Shape pad = full;
+        if (start > 0) {
+          pad[d] = start;
+          parts.push_back(zeros(pad, g.dtype()));
+        }
+        parts.push_back(g);
+        if (start + length < full[d]) {
+          pad[d] = full[d] - start - length;
+          parts.push_back(zeros(pad, g.dtype()));
+        }
+        return Grads{parts.size() == 1 ? g : concat(parts, d)};
+      },
+      false, Reads::none());
 }
 
 namespace {
@@ -261,8 +272,10 @@ Tensor index_select(const Tensor& x, const std::vector<std::int64_t>& indices) {
     std::memcpy(bytes_ptr(out) + bytes_of(out, static_cast<std::int64_t>(i) * row),
                 bytes_ptr(x) + bytes_of(x, indices[i] * row), bytes_of(x, row));
   }
-  return record("index_select", out, {x},
-                [indices, rows](const Tensor& g, const Needs&, Node&) { return Grads{index_add(g, indices, rows)}; });
+  return record(
+      "index_select", out, {x},
+      [indices, rows](const Tensor& g, const Needs&, Node&) { return Grads{index_add(g, indices, rows)}; }, false,
+      Reads::none());
 }
 
 Tensor index_add(const Tensor& source, const std::vector<std::int64_t>& indices, std::int64_t rows) {
@@ -290,8 +303,10 @@ Tensor index_add(const Tensor& source, const std::vector<std::int64_t>& indices,
       }
     });
   });
-  return record("index_add", out, {source},
-                [indices](const Tensor& g, const Needs&, Node&) { return Grads{index_select(g, indices)}; });
+  return record(
+      "index_add", out, {source},
+      [indices](const Tensor& g, const Needs&, Node&) { return Grads{index_select(g, indices)}; }, false,
+      Reads::none());
 }
 
 }  // namespace maps::ag

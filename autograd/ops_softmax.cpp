@@ -135,7 +135,7 @@ Tensor softmax(const Tensor& x, std::int64_t dim) {
         if (!GradMode::is_enabled() && d == y.dim() - 1) return Grads{softmax_backward_last_dim(g, y)};
         return Grads{mul(y, sub(g, sum(mul(g, y), {d}, true)))};
       },
-      true);
+      true, Reads::none());
 }
 
 Tensor log_softmax(const Tensor& x, std::int64_t dim) {
@@ -147,7 +147,7 @@ Tensor log_softmax(const Tensor& x, std::int64_t dim) {
       [d](const Tensor& g, const Needs&, Node& self) {
         return Grads{sub(g, mul(exp(self.output()), sum(g, {d}, true)))};
       },
-      true);
+      true, Reads::none());
 }
 
 }  // namespace maps::ag

@@ -30,14 +30,16 @@ Tensor mask_of(const Tensor& x, Pred pred) {
 
 Tensor neg(const Tensor& x) {
   Tensor out = unary_kernel(x, "neg", [](const auto& a) { return -a; });
-  return record("neg", out, {x}, [](const Tensor& g, const Needs&, Node&) { return Grads{neg(g)}; });
+  return record(
+      "neg", out, {x}, [](const Tensor& g, const Needs&, Node&) { return Grads{neg(g)}; }, false, Reads::none());
 }
 
 Tensor exp(const Tensor& x) {
   Tensor out = unary_kernel(
       x, "exp", [](const auto& a) { return a.exp(); }, kTranscendentalGrain);
   return record(
-      "exp", out, {x}, [](const Tensor& g, const Needs&, Node& self) { return Grads{mul(g, self.output())}; }, true);
+      "exp", out, {x}, [](const Tensor& g, const Needs&, Node& self) { return Grads{mul(g, self.output())}; }, true,
+      Reads::none());
 }
 
 Tensor log(const Tensor& x) {
@@ -50,7 +52,8 @@ Tensor sqrt(const Tensor& x) {
   Tensor out = unary_kernel(x, "sqrt", [](const auto& a) { return a.sqrt(); });
   return record(
       "sqrt", out, {x},
-      [](const Tensor& g, const Needs&, Node& self) { return Grads{div(mul(g, 0.5), self.output())}; }, true);
+      [](const Tensor& g, const Needs&, Node& self) { return Grads{div(mul(g, 0.5), self.output())}; }, true,
+      Reads::none());
 }
 
 Tensor abs(const Tensor& x) {
@@ -94,7 +97,8 @@ Tensor tanh(const Tensor& x) {
       x, "tanh", [](const auto& a) { return a.tanh(); }, kTranscendentalGrain);
   return record(
       "tanh", out, {x},
-      [](const Tensor& g, const Needs&, Node& self) { return Grads{tanh_backward(g, self.output())}; }, true);
+      [](const Tensor& g, const Needs&, Node& self) { return Grads{tanh_backward(g, self.output())}; }, true,
+      Reads::none());
 }
 
 Tensor tanh_backward(const Tensor& grad, const Tensor& output) {

@@ -201,8 +201,9 @@ Tensor Tensor::clone() const {
   check_defined("clone");
   Tensor out(make_impl(shape(), dtype()));
   std::memcpy(out.impl()->storage->data(), impl_->storage->data(), impl_->storage->bytes());
-  return record("clone", out, {*this},
-                [](const Tensor& g, const std::vector<bool>&, Node&) { return std::vector<Tensor>{g}; });
+  return record(
+      "clone", out, {*this}, [](const Tensor& g, const std::vector<bool>&, Node&) { return std::vector<Tensor>{g}; },
+      false, Reads::none());
 }
 
 Tensor Tensor::to(Dtype target) const {
@@ -217,9 +218,10 @@ Tensor Tensor::to(Dtype target) const {
     });
   });
   const Dtype source = dtype();
-  return record("to", out, {*this}, [source](const Tensor& g, const std::vector<bool>&, Node&) {
-    return std::vector<Tensor>{g.to(source)};
-  });
+  return record(
+      "to", out, {*this},
+      [source](const Tensor& g, const std::vector<bool>&, Node&) { return std::vector<Tensor>{g.to(source)}; }, false,
+      Reads::none());
 }
 
 void Tensor::backward(const Tensor& gradient, bool retain_graph, bool create_graph) const {
@@ -237,6 +239,17 @@ void Tensor::copy_(const Tensor& source) {
   if (source.impl()->storage != impl_->storage) {
     std::memcpy(impl_->storage->data(), source.impl()->storage->data(), impl_->storage->bytes());
   }
+  impl_->storage->bump_version();
+}
+
+void Tensor::bump_version() {
+  check_defined("bump_version");
+  impl_->storage->bump_version();
+}
+
+std::uint64_t Tensor::version() const {
+  check_defined("version");
+  return impl_->storage->version();
 }
 
 void Tensor::fill_(double value) {
@@ -245,6 +258,7 @@ void Tensor::fill_(double value) {
     using T = typename decltype(tag)::type;
     array<T>().setConstant(static_cast<T>(value));
   });
+  impl_->storage->bump_version();
 }
 
 Tensor Tensor::reshape(const Shape& new_shape) const { return ag::reshape(*this, new_shape); }

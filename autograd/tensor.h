@@ -24,10 +24,15 @@ class Storage {
   Storage& operator=(const Storage&) = delete;
   void* data() const { return data_; }
   std::size_t bytes() const { return bytes_; }
+  // Counts in-place changes (copy_, fill_, optimiser steps, ...). A node notes the versions of what its backward
+  // rule will read and refuses to run if one moved, as PyTorch does, instead of using the changed values.
+  std::uint64_t version() const { return version_; }
+  void bump_version() { ++version_; }
 
  private:
   void* data_;
   std::size_t bytes_;
+  std::uint64_t version_ = 0;
 };
 
 struct TensorImpl {
@@ -100,9 +105,14 @@ class Tensor {
   void backward(const Tensor& gradient = Tensor(), bool retain_graph = false, bool create_graph = false) const;
 
   // Copies values from `source` (same shape and dtype) into this tensor's storage, recording nothing.
-  // For optimisers and loading; never use it on a tensor the graph still needs.
+  // For optimisers and loading. Both count as an in-place change: a backward pass that needs the old values then
+  // fails naming the op, instead of using the new ones.
   void copy_(const Tensor& source);
   void fill_(double value);
+  // Code that changes values through data(), matrix() or array() after creation calls this, so that graphs that
+  // saved this storage notice (every tensor sharing the storage shares the count).
+  void bump_version();
+  std::uint64_t version() const;
 
   // Shape ops (graph-recorded; see ops.h for the rest).
   Tensor reshape(const Shape& shape) const;

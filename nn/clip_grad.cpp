@@ -31,6 +31,7 @@ double clip_grad_norm_(const std::vector<ag::Tensor>& parameters, double max_nor
       if (!p.defined()) continue;
       ag::Tensor g = p.grad();
       if (!g.defined()) continue;
+      g.bump_version();
       ag::dispatch_dtype(g.dtype(), [&](auto tag) {
         using T = typename decltype(tag)::type;
         g.array<T>() *= static_cast<T>(coef);

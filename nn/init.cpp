@@ -16,6 +16,7 @@ void check_defined(const ag::Tensor& tensor, const char* what) {
 template <typename Fn>
 void fill_with(ag::Tensor& tensor, Fn&& fn) {
   ag::NoGradGuard no_grad;
+  tensor.bump_version();
   ag::dispatch_dtype(tensor.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     T* data = tensor.data<T>();
@@ -111,6 +112,7 @@ ag::Tensor& orthogonal_(ag::Tensor& tensor, double gain, ag::Generator& gen) {
   if (wide) q.transposeInPlace();
   q *= gain;
   ag::NoGradGuard no_grad;
+  tensor.bump_version();
   ag::dispatch_dtype(tensor.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     T* data = tensor.data<T>();

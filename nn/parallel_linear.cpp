@@ -32,6 +32,8 @@ void ParallelLinear::reset_parameters(ag::Generator& gen) {
   const double b_bound = 1.0 / std::sqrt(static_cast<double>(in_));
   ag::Tensor w = weight();
   ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
+  w.bump_version();
+  if (has_bias_) b.bump_version();
   ag::dispatch_dtype(w.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     T* wd = w.data<T>();

@@ -94,6 +94,7 @@ void Adam::step() {
       s.exp_avg_sq = ag::zeros(param.shape(), param.dtype());
     }
     s.step += 1;
+    param.bump_version();  // an in-place update: a graph that saved the old values must not use the new ones
     const double t = static_cast<double>(s.step);
     const double bias_correction1 = 1.0 - std::pow(o.beta1, t);
     const double bias_correction2_sqrt = std::sqrt(1.0 - std::pow(o.beta2, t));

@@ -42,6 +42,7 @@ void SGD::step() {
     ag::Tensor& buffer = momentum_buffers_[i];
     const bool first = o.momentum != 0.0 && !buffer.defined();
     if (first) buffer = ag::zeros(param.shape(), param.dtype());
+    param.bump_version();  // an in-place update: a graph that saved the old values must not use the new ones
 
     ag::dispatch_dtype(param.dtype(), [&](auto tag) {
       using T = typename decltype(tag)::type;

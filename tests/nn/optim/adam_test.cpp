@@ -67,6 +67,16 @@ TEST(Adam, MatchesPyTorchInFloat32WithWeightDecay) {
   for (int i = 0; i < 6; ++i) EXPECT_NEAR(p.data<float>()[i], expected[i], 1e-6) << "element " << i;
 }
 
+// A step changes the parameters in place: a graph kept from before it (retain_graph) must not be reused.
+TEST(Adam, AStepMakesAGraphThatSavedTheOldParametersRefuseBackward) {
+  Tensor p = ag::from_vector(std::vector<double>{0.5, -0.5}, {2}).requires_grad_();
+  const Tensor loss = ag::sum(p * p);
+  loss.backward(Tensor(), /*retain_graph=*/true);
+  maps::optim::Adam adam({p});
+  adam.step();
+  EXPECT_THAT(error_of([&] { loss.backward(); }), HasSubstr("changed in place"));
+}
+
 TEST(Adam, SkipsParametersWithoutGrad) {
   Tensor p = ag::ones({2}).requires_grad_(), q = ag::ones({2}).requires_grad_();
   maps::optim::Adam adam({p, q});
