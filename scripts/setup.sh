@@ -17,6 +17,7 @@ PACKAGES=(
   libmujoco-dev
   libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r
   libhdf5-dev
+  hdf5-tools  # h5diff: the kill tests compare demo files by content (tests/experiments/kill_test.py)
   libosmesa6-dev  # offscreen rendering (maps render); optional for the build
   libpng-dev
   python3             # /usr/bin/python3 runs the result tables and plots (experiments/suites/)

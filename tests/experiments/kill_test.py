@@ -1,0 +1,141 @@
+#!/usr/bin/python3
+"""Kill -9 at random moments (issue 15, item 5): `maps train` and `maps collect` killed again and again, then run
+to the end, must end exactly where an uninterrupted run ends, and must never leave a file that a later step
+trusts half-written (checkpoints and demo files are written to a temporary and renamed). The suite's own kill test
+is in suite_run_test.py. Run by ctest as: kill_test.py path/to/maps (needs h5diff, from hdf5-tools)."""
+import csv
+import json
+import os
+import pathlib
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+MAPS = None  # set from argv
+WORK = None  # scratch folder
+
+
+def run(*args, cwd=None):
+    return subprocess.run([MAPS, *map(str, args)], cwd=cwd or WORK, capture_output=True, text=True)
+
+
+def timed(*args, cwd=None):
+    start = time.monotonic()
+    proc = run(*args, cwd=cwd)
+    if proc.returncode != 0:
+        raise AssertionError(f"maps {' '.join(map(str, args))}: {proc.stderr}")
+    return time.monotonic() - start
+
+
+def kill_at(args, seconds):
+    """Starts maps with args, SIGKILLs it after `seconds` unless it ended first; True if it was killed."""
+    proc = subprocess.Popen([MAPS, *map(str, args)], cwd=WORK, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        proc.wait(timeout=seconds)
+        if proc.returncode != 0:
+            raise AssertionError(f"maps {' '.join(map(str, args))} failed: {proc.stderr.read().decode()}")
+        return False
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        return True
+    finally:
+        proc.stderr.close()
+
+
+def curve_without_timing(path):
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    keep = [i for i, name in enumerate(rows[0]) if name != "steps_per_second"]
+    return [[row[i] for i in keep] for row in rows]
+
+
+def same_demo_files(a, b):
+    """h5diff compares the content (HDF5 stamps creation times into object headers, so bytes differ)."""
+    return subprocess.run(["h5diff", str(a), str(b)], capture_output=True).returncode == 0
+
+
+class KillTest(unittest.TestCase):
+    demos = None  # a small MT10 demo file, collected once
+
+    @classmethod
+    def setUpClass(cls):
+        if shutil.which("h5diff") is None:
+            raise unittest.SkipTest("h5diff not found (bash scripts/setup.sh installs hdf5-tools)")
+        # Collected in a folder of its own under the name the killed collections use: the file records its
+        # command line, which must match for the contents to compare equal.
+        reference = pathlib.Path(WORK) / "reference"
+        reference.mkdir()
+        cls.collect_seconds = timed("collect", "--set", "mt10", "--demos", "8", "--out", "collected.h5",
+                                    cwd=reference)
+        cls.demos = reference / "collected.h5"
+
+    def setUp(self):
+        self.rng = random.Random(int(os.environ.get("MAPS_KILL_SEED", "0")))
+
+    def test_train_killed_anywhere_ends_where_an_uninterrupted_run_ends(self):
+        config = pathlib.Path(WORK) / "train.json"
+        config.write_text(json.dumps({
+            "method": "maps", "seed": 3,
+            "data": {"file": str(self.demos), "demos_per_task": 4, "subsample": 1},
+            "maps": {"modules": 3, "module_hidden": [32], "selector_hidden": [16]},
+            # A checkpoint every 10 steps: a good share of the kills land inside a checkpoint write.
+            "train": {"steps": 1500, "states_per_task": 8, "validate_every": 10, "checkpoint_every": 10,
+                      "validation_states_per_task": 20}}))
+        reference = pathlib.Path(WORK) / "train_reference"
+        seconds = timed("train", "--config", config, "--out", reference)
+        killed_dir = pathlib.Path(WORK) / "train_killed"
+        kills = 0
+        for _ in range(40):
+            # Early kills: each rerun resumes, so a kill must come before the rest of the run is done.
+            if not kill_at(["train", "--config", config, "--out", killed_dir], self.rng.uniform(0.0, seconds / 4)):
+                break
+            kills += 1
+        else:
+            self.fail("the run never finished within 40 starts")
+        self.assertGreaterEqual(kills, 5, "too few kills landed: the run is too short for this machine")
+        for name in ("last.ckpt", "best.ckpt"):
+            self.assertEqual((killed_dir / name).read_bytes(), (reference / name).read_bytes(), name)
+        self.assertEqual(curve_without_timing(killed_dir / "curve.csv"), curve_without_timing(reference / "curve.csv"))
+        a = json.loads((reference / "train.json").read_text())
+        b = json.loads((killed_dir / "train.json").read_text())
+        for key in ("best_step", "best_validation_bc", "steps", "training_demo_seeds"):
+            self.assertEqual(a[key], b[key], key)
+        self.assertTrue(b["resumed"])
+        # Killed writers leave their temporaries behind; no later run may take one for a checkpoint.
+        leftovers = [p.name for p in killed_dir.iterdir() if p.name not in
+                     {"last.ckpt", "best.ckpt", "curve.csv", "train.json", "config.json"}]
+        for name in leftovers:
+            self.assertIn("tmp", name)
+
+    def test_collect_killed_anywhere_leaves_the_file_complete_or_absent(self):
+        out = pathlib.Path(WORK) / "collected.h5"
+        complete = 0
+        for _ in range(12):
+            out.unlink(missing_ok=True)
+            kill_at(["collect", "--set", "mt10", "--demos", "8", "--out", out.name],
+                    self.rng.uniform(0.0, self.collect_seconds * 1.1))
+            if out.exists():
+                self.assertTrue(same_demo_files(self.demos, out), "a killed collect left a different demo file")
+                complete += 1
+        # A temporary left by a killed writer is never read as the demo file: training on the folder's file fails
+        # cleanly when it is absent, and a rerun writes it whole.
+        out.unlink(missing_ok=True)
+        proc = run("collect", "--set", "mt10", "--demos", "8", "--out", out.name)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertTrue(same_demo_files(self.demos, out))
+        self.assertLess(complete, 12, "no kill landed before the rename: the collection is too short")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
+    with tempfile.TemporaryDirectory(prefix="maps-kill-test-") as scratch:
+        WORK = scratch
+        unittest.main()
