@@ -222,7 +222,9 @@ void backward(const std::vector<Tensor>& outputs, const std::vector<Tensor>& gra
   GraphTask task(std::move(targets), retain_graph.value_or(create_graph), create_graph);
   task.run(outputs, seeds);
 
-  for (const auto& [key, grad] : task.leaf_grads()) {
+  for (const auto& entry : task.leaf_grads()) {
+    const auto& key = entry.first;
+    const Tensor& grad = entry.second;  // not a structured binding: clang 14 cannot capture one in a lambda
     Tensor leaf = task.leaf_tensors().at(key);
     Tensor existing = leaf.grad();
     if (create_graph) {
@@ -236,6 +238,7 @@ void backward(const std::vector<Tensor>& outputs, const std::vector<Tensor>& gra
         using T = typename decltype(tag)::type;
         existing.array<T>() += grad.array<T>();
       });
+      existing.bump_version();
     } else if (!existing.defined() && !grad.requires_grad() && grad.impl().use_count() == 1 &&
                grad.impl()->storage.use_count() == 1) {
       // A fresh tensor that nothing else holds (not another leaf's, not a view): it becomes the stored gradient

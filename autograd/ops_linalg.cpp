@@ -42,8 +42,10 @@ Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_
     bad_product(op, a, b, "supported ranks are 2-d @ 2-d, 3-d @ 3-d and 3-d @ 2-d");
   }
   if (tall && transpose_a) bad_product(op, a, b, "a 3-d left operand cannot be transposed against a 2-d right one");
-  const auto [n, k] = op_dims(a, transpose_a);
-  const auto [kb, m] = op_dims(b, transpose_b);
+  // Plain variables, not structured bindings: clang 14 cannot capture those in the lambdas below.
+  const auto a_dims = op_dims(a, transpose_a);
+  const auto b_dims = op_dims(b, transpose_b);
+  const auto n = a_dims.first, k = a_dims.second, kb = b_dims.first, m = b_dims.second;
   if (k != kb) {
     bad_product(op, a, b,
                 "inner sizes " + std::to_string(k) + " and " + std::to_string(kb) + " differ" +
