@@ -14,6 +14,8 @@ PACKAGES=(
   nlohmann-json3-dev
   libcli11-dev
   clang-format
+  clang               # fuzz/run.sh: libFuzzer targets (clang 14 with libclang-rt-14-dev)
+  libclang-rt-14-dev
   libmujoco-dev
   libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r
   libhdf5-dev

@@ -1,7 +1,9 @@
 #include "maps/training/run_config.h"
 
+#include <algorithm>
 #include <set>
 #include <stdexcept>
+#include <type_traits>
 
 #include "envs/portable_random.h"
 #include "maps/policies/mt_bc.h"
@@ -24,15 +26,73 @@ void check_keys(const Json& json, const std::string& where, const std::set<std::
   }
 }
 
+// nlohmann converts any number to an integer (2.5 -> 2, 1.2e9 -> 1200000000, -1 -> 2^64 - 1 for unsigned): an
+// integer field must hold an integer of its sign.
+template <typename T>
+bool fits(const Json& value) {
+  if constexpr (std::is_same_v<T, bool>) {
+    return value.is_boolean();
+  } else if constexpr (std::is_integral_v<T> && std::is_unsigned_v<T>) {
+    return value.is_number_unsigned();
+  } else if constexpr (std::is_integral_v<T>) {
+    return value.is_number_integer();
+  } else if constexpr (std::is_floating_point_v<T>) {
+    return value.is_number();
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    return value.is_string();
+  } else {
+    if (!value.is_array()) return false;
+    for (const Json& element : value)
+      if (!fits<typename T::value_type>(element)) return false;
+    return true;
+  }
+}
+
 template <typename T>
 void read(const Json& json, const std::string& where, const char* key, T& out) {
   if (!json.contains(key)) return;
-  try {
-    out = json.at(key).get<T>();
-  } catch (const std::exception&) {
-    throw std::invalid_argument("config " + where + "." + key + ": wrong type (" + json.at(key).dump() + ")");
-  }
+  const Json& value = json.at(key);
+  if (!fits<T>(value))
+    throw std::invalid_argument("config " + where + (where.empty() ? "" : ".") + key + ": wrong type (" + value.dump() +
+                                ")" +
+                                (std::is_integral_v<T> && !std::is_same_v<T, bool> ? ", expected an integer" : ""));
+  out = value.get<T>();
 }
+
+// Parameters of an MLP with these layer sizes (weights and biases).
+double mlp_parameters(const std::vector<std::int64_t>& sizes) {
+  double count = 0.0;
+  for (std::size_t i = 0; i + 1 < sizes.size(); ++i)
+    count += static_cast<double>(sizes[i]) * static_cast<double>(sizes[i + 1]) + static_cast<double>(sizes[i + 1]);
+  return count;
+}
+
+// An upper estimate of the policy's parameter count, computed before anything is allocated.
+double parameter_estimate(const RunConfig& c, const PolicyShape& shape) {
+  auto with_ends = [](std::int64_t in, const std::vector<std::int64_t>& hidden, std::int64_t out) {
+    std::vector<std::int64_t> sizes{in};
+    sizes.insert(sizes.end(), hidden.begin(), hidden.end());
+    sizes.push_back(out);
+    return sizes;
+  };
+  const double K = static_cast<double>(shape.num_tasks);
+  if (c.method == "maps") {
+    const double M = static_cast<double>(c.maps.modules);
+    std::vector<std::int64_t> module{shape.observation_size};
+    module.insert(module.end(), c.maps.module_hidden.begin(), c.maps.module_hidden.end());
+    const double features = static_cast<double>(module.back());
+    return M * mlp_parameters(module) +
+           mlp_parameters(with_ends(shape.observation_size + shape.num_tasks, c.maps.selector_hidden, c.maps.modules)) +
+           M * features * static_cast<double>(shape.action_size);
+  }
+  const double one = mlp_parameters(
+      with_ends(shape.observation_size + shape.num_tasks, c.baseline_hidden, shape.action_size * shape.num_tasks));
+  return c.method == "single_bc" ? K * one : one;
+}
+
+// Far above any model the paper or this library trains (MAPS at M = 20: about 0.8M); a bigger request is a typo
+// (a size of 12E8) that would otherwise fail deep inside an allocation.
+constexpr double kMaxParameters = 1e8;
 
 const std::set<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"};
 
@@ -89,6 +149,16 @@ RunConfig parse_run_config(const Json& json) {
     read(m, "maps", "selector_weight", c.maps.selector_weight);
     read(m, "maps", "selector", c.maps.selector);
     read(m, "maps", "observations", c.maps.observations);
+    if (c.maps.modules < 1)
+      throw std::invalid_argument("config maps.modules: expected at least 1, got " + std::to_string(c.maps.modules));
+    if (c.maps.module_hidden.empty())
+      throw std::invalid_argument("config maps.module_hidden: expected at least one layer size (the features)");
+    for (const auto* sizes : {&c.maps.module_hidden, &c.maps.selector_hidden})
+      for (const std::int64_t size : *sizes)
+        if (size < 1)
+          throw std::invalid_argument(std::string("config maps.") +
+                                      (sizes == &c.maps.module_hidden ? "module_hidden" : "selector_hidden") +
+                                      ": layer sizes must be >= 1, got " + std::to_string(size));
     if (c.maps.observations != "standardized" && c.maps.observations != "raw_clipped")
       throw std::invalid_argument("config maps.observations: expected \"standardized\" or \"raw_clipped\", got \"" +
                                   c.maps.observations + "\"");
@@ -189,6 +259,13 @@ Json to_json(const RunConfig& c) {
 
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {
   // The initialisation's own stream of the run's seed ("init").
+  const double parameters = parameter_estimate(config, shape);
+  if (parameters > kMaxParameters)
+    throw std::invalid_argument(
+        "config: this " + config.method + " policy would have about " +
+        std::to_string(static_cast<long long>(std::min(parameters, 9e18))) +
+        " parameters, more than the 1e8 this library accepts; check " +
+        (config.method == "maps" ? "maps.modules, maps.module_hidden and maps.selector_hidden" : "baselines.hidden"));
   ag::Generator gen(envs::splitmix64(config.seed ^ 0x696e6974ULL));
   const auto& hidden = config.baseline_hidden;
   std::shared_ptr<Policy> policy;

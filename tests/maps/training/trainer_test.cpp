@@ -12,6 +12,7 @@
 #include "maps/policies/mt_bc.h"
 #include "maps/training/run_config.h"
 #include "nn/serialize.h"
+#include "tests/common/error_of.h"
 #include "tests/maps/data/synthetic_demos.h"
 
 namespace maps::core {
@@ -187,6 +188,36 @@ TEST(RunConfig, BaselineHiddenSizesReachEveryBaselineAndAreChecked) {
   maps_run.method = "maps";
   maps_run.baseline_hidden = detail::default_hidden_sizes();
   EXPECT_NO_THROW(parse_run_config(to_json(maps_run)));
+}
+
+// Found by fuzz/fuzz_run_config.cpp: a float where an integer belongs was truncated silently, and a size of 12E8
+// reached the allocator (ASan: allocation-size-too-big) instead of an error naming the key.
+TEST(RunConfig, IntegersMustBeIntegersAndModelsMustFitInMemory) {
+  const auto with = [](const std::string& patch) {
+    nlohmann::json j = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
+    j.merge_patch(nlohmann::json::parse(patch));
+    return j;
+  };
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"maps": {"modules": 2.5}})")); }),
+              HasSubstr("config maps.modules: wrong type (2.5), expected an integer"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"maps": {"module_hidden": [128, 12E8]}})")); }),
+              HasSubstr("config maps.module_hidden: wrong type"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"seed": -1})")); }), HasSubstr("config seed: wrong type (-1)"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"train": {"steps": 1e4}})")); }),
+              HasSubstr("config train.steps: wrong type (10000.0), expected an integer"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"maps": {"modules": 0}})")); }),
+              HasSubstr("config maps.modules: expected at least 1, got 0"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"maps": {"selector_hidden": [4, -2]}})")); }),
+              HasSubstr("config maps.selector_hidden: layer sizes must be >= 1, got -2"));
+  const RunConfig huge =
+      parse_run_config(with(R"({"maps": {"modules": 46, "module_hidden": [128, 128, 1200000000]}})"));
+  EXPECT_THAT(error_of([&] {
+                make_policy(huge, {39, 4, 10});
+              }),
+              HasSubstr("parameters, more than the 1e8 this library accepts; check maps.modules"));
+  nlohmann::json wide = nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x.h5"},
+                                                  "baselines": {"hidden": [100000, 100000]}})");
+  EXPECT_THAT(error_of([&] { make_policy(parse_run_config(wide), {39, 4, 10}); }), HasSubstr("check baselines.hidden"));
 }
 
 // A run folder written before "baselines" existed resolves to the same config as today's request for the same run,
