@@ -17,6 +17,8 @@ import time
 import unittest
 
 MAPS = None  # set from argv
+# MAPS_TEST_QUICK=1 (CI's sanitizer pass, where every step is several times slower): fewer kills.
+QUICK = os.environ.get("MAPS_TEST_QUICK") == "1"
 WORK = None  # scratch folder
 
 
@@ -98,7 +100,7 @@ class KillTest(unittest.TestCase):
             kills += 1
         else:
             self.fail("the run never finished within 40 starts")
-        self.assertGreaterEqual(kills, 5, "too few kills landed: the run is too short for this machine")
+        self.assertGreaterEqual(kills, 2 if QUICK else 5, "too few kills landed: the run is too short for this machine")
         for name in ("last.ckpt", "best.ckpt"):
             self.assertEqual((killed_dir / name).read_bytes(), (reference / name).read_bytes(), name)
         self.assertEqual(curve_without_timing(killed_dir / "curve.csv"), curve_without_timing(reference / "curve.csv"))
@@ -116,7 +118,8 @@ class KillTest(unittest.TestCase):
     def test_collect_killed_anywhere_leaves_the_file_complete_or_absent(self):
         out = pathlib.Path(WORK) / "collected.h5"
         complete = 0
-        for _ in range(12):
+        trials = 4 if QUICK else 12
+        for _ in range(trials):
             out.unlink(missing_ok=True)
             kill_at(["collect", "--set", "mt10", "--demos", "8", "--out", out.name],
                     self.rng.uniform(0.0, self.collect_seconds * 1.1))
@@ -129,7 +132,7 @@ class KillTest(unittest.TestCase):
         proc = run("collect", "--set", "mt10", "--demos", "8", "--out", out.name)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         self.assertTrue(same_demo_files(self.demos, out))
-        self.assertLess(complete, 12, "no kill landed before the rename: the collection is too short")
+        self.assertLess(complete, trials, "no kill landed before the rename: the collection is too short")
 
 
 if __name__ == "__main__":
