@@ -601,6 +601,16 @@ class Reader {
     hsize_t position = 0;
     check(H5Literate(data.get(), H5_INDEX_NAME, H5_ITER_NATIVE, &position, collect_name, &members), "data",
           "list members");
+    // Compared before anything is built per demo: a damaged num_demos (up to 2^31 - 1) would otherwise make the
+    // reader spend minutes and gigabytes naming demos that are not there (found by fuzz/fuzz_demo_file.cpp).
+    if (static_cast<std::size_t>(num_demos) > members.size()) {
+      // Among demo_0 .. demo_<members> at least one is absent: name the first.
+      const std::set<std::string> present(members.begin(), members.end());
+      for (int i = 0;; ++i)
+        if (!present.contains(demo_name(i)))
+          fail("data/" + demo_name(i), "missing group (attribute num_demos is " + std::to_string(num_demos) +
+                                           ", data holds " + std::to_string(members.size()) + " members)");
+    }
     std::map<std::string, int> demos;
     for (int i = 0; i < num_demos; ++i) demos.emplace(demo_name(i), i);
     for (const std::string& m : members)

@@ -320,6 +320,30 @@ TEST_F(DemoFileTest, MissingAttributeIsNamed) {
   EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }), HasSubstr("data: missing attribute 'task_names'"));
 }
 
+// Found by fuzz/fuzz_demo_file.cpp: num_demos = 2^31 - 1 made the reader name two billion demos before noticing
+// they are not there (a hang of minutes and gigabytes).
+TEST_F(DemoFileTest, ANumDemosOtherThanTheMembersIsRefusedAtOnce) {
+  for (const std::int64_t claimed : {std::int64_t{2147483647}, std::int64_t{6}, std::int64_t{4}, std::int64_t{0}}) {
+    write_demo_file(path("demos.h5"), make_file());
+    edit(path("demos.h5"), [&](hid_t f) {
+      ASSERT_GE(H5Adelete_by_name(f, "data", "num_demos", H5P_DEFAULT), 0);
+      const hid_t space = H5Screate(H5S_SCALAR);
+      const hid_t attr =
+          H5Acreate_by_name(f, "data", "num_demos", H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      ASSERT_GE(attr, 0);
+      ASSERT_GE(H5Awrite(attr, H5T_NATIVE_INT64, &claimed), 0);
+      H5Aclose(attr);
+      H5Sclose(space);
+    });
+    const std::string error = error_of([&] { read_demo_file(path("demos.h5")); });
+    if (claimed > 5)
+      EXPECT_THAT(error, HasSubstr("data/demo_5: missing group (attribute num_demos is " + std::to_string(claimed) +
+                                   ", data holds 5 members)"));
+    else
+      EXPECT_THAT(error, HasSubstr("data/demo_" + std::to_string(claimed) + ": unexpected member"));
+  }
+}
+
 TEST_F(DemoFileTest, WrongShapeNamesTheDemo) {
   write_demo_file(path("demos.h5"), make_file());
   // demo_1 has 7 steps; give it 6 rows of actions.
