@@ -12,11 +12,26 @@
 #include <exception>
 #include <numeric>
 #include <random>
-#include <source_location>
+#include <source_location>  // may define nothing (clang 14 with libstdc++ 12): see SourceLocation below
 #include <string>
 #include <vector>
 
 #include "autograd/autograd.h"
+
+namespace agtest {
+// Where a helper was called from, for failure messages. clang 14 lacks __builtin_source_location, so its
+// libstdc++ <source_location> is empty; that build (fuzz and sanitizer builds with clang) reports "?" instead.
+#if defined(__cpp_lib_source_location)
+using SourceLocation = std::source_location;
+#else
+struct SourceLocation {
+  static constexpr SourceLocation current() noexcept { return {}; }
+  constexpr const char* file_name() const noexcept { return "?"; }
+  constexpr unsigned line() const noexcept { return 0; }
+  constexpr const char* function_name() const noexcept { return "?"; }
+};
+#endif
+}  // namespace agtest
 
 namespace agtest {
 
@@ -137,7 +152,7 @@ inline double tolerance(Dtype dtype) { return dtype == kF32 ? 1e-5 : 1e-12; }
 
 // Expects `actual` to have `shape` and the row-major `expected` values, to a relative-or-absolute tolerance.
 inline void expect_values(const Tensor& actual, const Shape& shape, const std::vector<double>& expected,
-                          double tol = 1e-12, std::source_location loc = std::source_location::current()) {
+                          double tol = 1e-12, SourceLocation loc = SourceLocation::current()) {
   ::testing::ScopedTrace trace(loc.file_name(), static_cast<int>(loc.line()), "expect_values");
   ASSERT_TRUE(actual.defined());
   ASSERT_EQ(ag::to_string(actual.shape()), ag::to_string(shape));
@@ -150,7 +165,7 @@ inline void expect_values(const Tensor& actual, const Shape& shape, const std::v
 
 // Expects two tensors of the same shape with close values.
 inline void expect_close(const Tensor& actual, const Tensor& expected, double tol = 1e-12,
-                         std::source_location loc = std::source_location::current()) {
+                         SourceLocation loc = SourceLocation::current()) {
   ::testing::ScopedTrace trace(loc.file_name(), static_cast<int>(loc.line()), "expect_close");
   ASSERT_TRUE(actual.defined());
   ASSERT_TRUE(expected.defined());
@@ -160,7 +175,7 @@ inline void expect_close(const Tensor& actual, const Tensor& expected, double to
 // ----- gradcheck / gradgradcheck expectations -----
 
 template <typename F>
-void expect_check(const char* which, const std::string& op, F&& run, std::source_location loc) {
+void expect_check(const char* which, const std::string& op, F&& run, SourceLocation loc) {
   try {
     ag::GradcheckResult result = run();
     if (!result.ok) {
@@ -173,25 +188,25 @@ void expect_check(const char* which, const std::string& op, F&& run, std::source
 }
 
 inline void expect_gradcheck(const std::string& op, const ag::SingleFunction& f, const std::vector<Tensor>& inputs,
-                             std::source_location loc = std::source_location::current()) {
+                             SourceLocation loc = SourceLocation::current()) {
   expect_check(
       "gradcheck", op, [&] { return ag::gradcheck(op, f, inputs); }, loc);
 }
 
 inline void expect_gradcheck(const std::string& op, const ag::MultiFunction& f, const std::vector<Tensor>& inputs,
-                             std::source_location loc = std::source_location::current()) {
+                             SourceLocation loc = SourceLocation::current()) {
   expect_check(
       "gradcheck", op, [&] { return ag::gradcheck(op, f, inputs); }, loc);
 }
 
 inline void expect_gradgradcheck(const std::string& op, const ag::SingleFunction& f, const std::vector<Tensor>& inputs,
-                                 std::source_location loc = std::source_location::current()) {
+                                 SourceLocation loc = SourceLocation::current()) {
   expect_check(
       "gradgradcheck", op, [&] { return ag::gradgradcheck(op, f, inputs); }, loc);
 }
 
 inline void expect_gradgradcheck(const std::string& op, const ag::MultiFunction& f, const std::vector<Tensor>& inputs,
-                                 std::source_location loc = std::source_location::current()) {
+                                 SourceLocation loc = SourceLocation::current()) {
   expect_check(
       "gradgradcheck", op, [&] { return ag::gradgradcheck(op, f, inputs); }, loc);
 }
@@ -199,7 +214,7 @@ inline void expect_gradgradcheck(const std::string& op, const ag::MultiFunction&
 // Both first and second derivatives.
 inline void expect_grad_and_gradgrad(const std::string& op, const ag::SingleFunction& f,
                                      const std::vector<Tensor>& inputs,
-                                     std::source_location loc = std::source_location::current()) {
+                                     SourceLocation loc = SourceLocation::current()) {
   expect_gradcheck(op, f, inputs, loc);
   expect_gradgradcheck(op, f, inputs, loc);
 }
@@ -209,7 +224,7 @@ inline void expect_grad_and_gradgrad(const std::string& op, const ag::SingleFunc
 // Expects `fn` to throw a std::exception whose message contains every one of `needles`.
 template <typename Fn>
 void expect_throw_with(Fn&& fn, const std::vector<std::string>& needles,
-                       std::source_location loc = std::source_location::current()) {
+                       SourceLocation loc = SourceLocation::current()) {
   try {
     fn();
   } catch (const std::exception& e) {

@@ -295,7 +295,9 @@ TEST(MAPSPolicy, UniformSelectorScoresEveryModuleOneOverMAndLearnsOnlyBC) {
   // No selector and no selector losses among its parameters and buffers; the modules and head start as the
   // learned-selector model's of the same seed.
   const auto learned_parameters = learned.named_parameters();
-  for (const auto& [name, tensor] : uniform.named_parameters()) {
+  for (const auto& entry : uniform.named_parameters()) {
+    const std::string& name = entry.name;  // not a structured binding: clang 14 cannot capture one
+    const ag::Tensor& tensor = entry.tensor;
     EXPECT_EQ(name.find("selector"), std::string::npos) << name;
     const auto same = std::find_if(learned_parameters.begin(), learned_parameters.end(),
                                    [&name](const auto& other) { return other.name == name; });
