@@ -20,6 +20,10 @@ import unittest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 TINY = ROOT / "experiments" / "suites" / "tiny.json"
 MAPS = None  # set from argv
+# MAPS_TEST_QUICK=1 (CI's sanitizer pass, where the tool runs several times slower): the tests that run whole extra
+# suites are left to the Release pass; the rest exercise every subcommand's code under the sanitizers.
+QUICK = os.environ.get("MAPS_TEST_QUICK") == "1"
+heavy = unittest.skipIf(QUICK, "MAPS_TEST_QUICK: a whole extra suite run, left to the Release pass")
 WORK = None  # the scratch working directory (demo files are collected here once)
 
 
@@ -198,6 +202,7 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("redoing the cell from nothing", proc.stdout)
         self.assertEqual(results(out), results(self.reference))
 
+    @heavy
     def test_a_failed_cell_is_reported_and_the_rest_finish(self):
         config = json.loads(TINY.read_text())
         config["grids"] = [{"name": "bad", "sets": ["mt10"], "methods": ["mt_bc"], "demos": [2, 400], "seeds": [0]}]
@@ -213,6 +218,7 @@ class SuiteTest(unittest.TestCase):
         self.assertEqual(error["stage"], "train")
         self.assertIn("400", error["error"])
 
+    @heavy
     def test_a_failure_that_is_not_damage_keeps_the_checkpoints(self):
         out = self.dir / "eval-fails"
         subprocess.run(["cp", "-r", str(self.reference), str(out)], check=True)
@@ -233,6 +239,7 @@ class SuiteTest(unittest.TestCase):
         self.assertFalse((cell / "error.json").exists())
         self.assertEqual(results(out), results(self.reference))
 
+    @heavy
     def test_a_cell_locked_by_another_process_is_skipped(self):
         out = self.dir / "locked"
         maps("suite", "run", TINY, "--out", out, "--shard", "99999/100000")
@@ -267,6 +274,7 @@ class SuiteTest(unittest.TestCase):
         proc = maps("suite", "run", path, "--out", out, "--shard", "0/1000")
         self.assertIn("1 finished before", proc.stdout)
 
+    @heavy
     def test_merged_shards_equal_a_single_run(self):
         shards = []
         for shard in range(3):
@@ -298,6 +306,7 @@ class SuiteTest(unittest.TestCase):
         proc = maps("suite", "merge", "--out", self.dir / "m2", self.reference, self.dir / "failing", check=False)
         self.assertNotEqual(proc.returncode, 0)
 
+    @heavy
     def test_import_of_an_old_grid(self):
         """experiments/suites/import_grid.py: run_grid.sh's folders become cells equal to the suite's own runs."""
         config = json.loads(TINY.read_text())
@@ -356,6 +365,7 @@ class SuiteTest(unittest.TestCase):
                     "0", "--out", out, check=False)
         self.assertIn("only MAPS has modules", proc.stderr)
 
+    @heavy
     def test_kept_checkpoints_are_all_evaluated(self):
         """train.keep_every keeps step_<N>.ckpt; the suite's eval then scores each (the paper's checkpoint rule)."""
         config = json.loads(TINY.read_text())
@@ -382,6 +392,7 @@ class SuiteTest(unittest.TestCase):
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("kept no step_<N>.ckpt", proc.stderr)
 
+    @heavy
     def test_maps_on_raw_clipped_observations(self):
         """maps.observations "raw_clipped" (the paper's code's inputs): its statistics travel in the checkpoints, so
         an evaluation of best.ckpt by a fresh process scores what the suite's did."""
