@@ -30,10 +30,12 @@ export ASAN_OPTIONS=detect_leaks=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 for target in "${targets[@]}"; do
   mkdir -p "build-fuzz/corpus/$target"
-  echo "== $target (${limit[*]})"
+  log="build-fuzz/$target.log"
+  echo "== $target (${limit[*]}; log: $log)"
+  status=0
   (cd build-fuzz && "bin/$target" "${limit[@]}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-     "corpus/$target" "../fuzz/corpus/$target" 2>&1 | grep -E "^#[0-9]+ +(DONE|INITED)|stat::|ERROR|SUMMARY|Done" || true)
-  # grep hides libFuzzer's progress lines; the exit status is the fuzzer's.
-  [[ ${PIPESTATUS[0]:-0} -eq 0 ]] || { echo "$target found a failure: see build-fuzz/" >&2; exit 1; }
+     "corpus/$target" "../fuzz/corpus/$target") > "$log" 2>&1 || status=$?
+  grep -E "^#[0-9]+[[:space:]]+DONE|^Done|ERROR|SUMMARY" "$log" || true
+  [[ $status -eq 0 ]] || { echo "$target found a failure (exit $status): see $log and build-fuzz/" >&2; exit 1; }
 done
 echo "fuzz: every target ran clean"
