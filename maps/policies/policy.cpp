@@ -6,7 +6,7 @@
 namespace maps::core {
 
 namespace {
-// Bounds the validation forward's memory (rows per act() call).
+// Rows per act() call: bounds the validation forward's memory (MAPS's [M, n, F] features).
 constexpr std::int64_t kValidationChunk = 4096;
 }  // namespace
 

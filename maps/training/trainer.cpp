@@ -123,8 +123,6 @@ Json policy_record(const DemoDataset& data, std::int64_t step, std::optional<dou
 
 }  // namespace
 
-double validation_loss(Policy& policy, const Batch& batch) { return mean_action_error(policy, batch); }
-
 TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
                           const std::string& run_dir, std::ostream* log) {
   if (config.steps < 1 || config.states_per_task < 1 || config.validate_every < 1 || config.checkpoint_every < 1)

@@ -47,7 +47,4 @@ struct TrainSummary {
 TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
                           const std::string& run_dir, std::ostream* log);
 
-// The BC loss (mean squared action error) of policy.act on a batch, in chunks of rows, recording no graph.
-double validation_loss(Policy& policy, const Batch& batch);
-
 }  // namespace maps::core

@@ -57,7 +57,7 @@ TEST(Trainer, LearnsKeepsTheBestCheckpointAndWritesTheCurve) {
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   auto policy = small_maps(1);
   const Batch validation = data.validation_batch(ag::Dtype::Float32);
-  const double before = validation_loss(*policy, validation);
+  const double before = mean_action_error(*policy, validation);
   const fs::path dir = fresh_dir("learns");
   TrainConfig config = small_config();
   config.steps = 200;
@@ -66,7 +66,7 @@ TEST(Trainer, LearnsKeepsTheBestCheckpointAndWritesTheCurve) {
   EXPECT_EQ(summary.steps_done, 200);
   EXPECT_LT(summary.best_validation_loss, 0.5 * before);
   // The policy left in memory is the best checkpoint's.
-  EXPECT_NEAR(validation_loss(*policy, validation), summary.best_validation_loss, 1e-6);
+  EXPECT_NEAR(mean_action_error(*policy, validation), summary.best_validation_loss, 1e-6);
   std::ifstream curve(dir / "curve.csv");
   std::string header;
   std::getline(curve, header);
