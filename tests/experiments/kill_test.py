@@ -50,6 +50,37 @@ def kill_at(args, seconds):
         proc.stderr.close()
 
 
+def curve_rows(path):
+    try:
+        with open(path) as f:
+            return sum(1 for _ in f)
+    except FileNotFoundError:
+        return 0
+
+
+def kill_after_progress(args, curve, extra_seconds):
+    """Starts maps with args, waits until `curve` has grown by a row (the run got past its start-up and resumed
+    work), then SIGKILLs it `extra_seconds` later unless it ended first; True if it was killed. Waiting for progress
+    rather than killing at a fixed time keeps every start useful on a loaded machine, where start-up alone can take
+    longer than a fixed delay (CI once killed 40 starts in a row before any of them trained a step)."""
+    rows = curve_rows(curve)
+    proc = subprocess.Popen([MAPS, *map(str, args)], cwd=WORK, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        while proc.poll() is None and curve_rows(curve) <= rows:
+            time.sleep(0.005)
+        try:
+            proc.wait(timeout=extra_seconds)
+        except subprocess.TimeoutExpired:
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+            return True
+        if proc.returncode != 0:
+            raise AssertionError(f"maps {' '.join(map(str, args))} failed: {proc.stderr.read().decode()}")
+        return False
+    finally:
+        proc.stderr.close()
+
+
 def curve_without_timing(path):
     with open(path) as f:
         rows = list(csv.reader(f))
@@ -92,10 +123,16 @@ class KillTest(unittest.TestCase):
         reference = pathlib.Path(WORK) / "train_reference"
         seconds = timed("train", "--config", config, "--out", reference)
         killed_dir = pathlib.Path(WORK) / "train_killed"
+        args = ["train", "--config", config, "--out", killed_dir]
         kills = 0
-        for _ in range(40):
-            # Early kills: each rerun resumes, so a kill must come before the rest of the run is done.
-            if not kill_at(["train", "--config", config, "--out", killed_dir], self.rng.uniform(0.0, seconds / 4)):
+        for start in range(40):
+            # Every third start is killed at any moment from its launch (start-up, loading, the first checkpoint
+            # write); the others after they have trained past a validation row, so the run always moves on.
+            if start % 3 == 0:
+                killed = kill_at(args, self.rng.uniform(0.0, seconds / 4))
+            else:
+                killed = kill_after_progress(args, killed_dir / "curve.csv", self.rng.uniform(0.0, seconds / 8))
+            if not killed:
                 break
             kills += 1
         else:
