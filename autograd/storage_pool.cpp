@@ -77,6 +77,8 @@ void pool_release(void* data, std::size_t bytes) noexcept {
   std::free(data);
 }
 
+bool pool_enabled() { return MAPS_STORAGE_POOL != 0; }
+
 std::size_t pool_cached_bytes() {
   Pool& p = pool();
   const std::lock_guard<std::mutex> lock(p.mutex);

@@ -14,5 +14,7 @@ void* pool_allocate(std::size_t bytes);
 void pool_release(void* data, std::size_t bytes) noexcept;
 // Bytes held for reuse (for tests).
 std::size_t pool_cached_bytes();
+// False in AddressSanitizer builds (gcc's or clang's), where every block goes straight back to the system.
+bool pool_enabled();
 
 }  // namespace maps::ag::detail

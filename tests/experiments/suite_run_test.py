@@ -20,8 +20,9 @@ import unittest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 TINY = ROOT / "experiments" / "suites" / "tiny.json"
 MAPS = None  # set from argv
-# MAPS_TEST_QUICK=1 (CI's sanitizer pass, where the tool runs several times slower): the tests that run whole extra
-# suites are left to the Release pass; the rest exercise every subcommand's code under the sanitizers.
+# MAPS_TEST_QUICK=1 (CI's sanitizer pass, where a training step at the paper's shapes is some 30 times slower): the
+# tests that run whole extra suites are left to the Release pass, and the rest run tiny.json with small networks
+# (quick_tiny below); they still exercise every subcommand's code under the sanitizers.
 QUICK = os.environ.get("MAPS_TEST_QUICK") == "1"
 heavy = unittest.skipIf(QUICK, "MAPS_TEST_QUICK: a whole extra suite run, left to the Release pass")
 WORK = None  # the scratch working directory (demo files are collected here once)
@@ -482,10 +483,23 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("has no suite.json", proc.stderr)
 
 
+def quick_tiny(folder):
+    """tiny.json with MAPS's networks small (M = 10 modules still) and fewer validation states: the same cells and
+    per-set settings (the tests check those), a fraction of the arithmetic. MT-BC keeps its sizes: a MAPS run refuses
+    baselines.hidden, and one MLP is cheap."""
+    config = json.loads(TINY.read_text())
+    defaults = config.setdefault("defaults", {})
+    defaults.setdefault("maps", {}).update({"module_hidden": [32], "selector_hidden": [16]})
+    defaults.setdefault("train", {})["validation_states_per_task"] = 40
+    return write_config(folder, config, "tiny_quick.json")
+
+
 if __name__ == "__main__":
     if len(sys.argv) < 2:
         sys.exit(__doc__)
     MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
     with tempfile.TemporaryDirectory(prefix="maps-suite-test-") as scratch:
         WORK = scratch
+        if QUICK:
+            TINY = quick_tiny(scratch)
         unittest.main()
