@@ -17,6 +17,7 @@
 #include "envs/mujoco_env.h"
 #include "envs/source_folders.h"
 #include "envs/task_sets.h"
+#include "experiments/output_path.h"
 #include "experiments/parallel_tasks.h"
 
 namespace maps::experiments {
@@ -48,6 +49,7 @@ int run_collect(const CollectOptions& options) {
   if (options.demos < 2) throw std::invalid_argument("--demos: a train/valid split needs at least 2 per task");
   if (!(options.train_fraction > 0.0 && options.train_fraction < 1.0))
     throw std::invalid_argument("--train-fraction: must be in (0, 1)");
+  check_output_file("--out", options.out);
   envs::DemoCollectionConfig config;
   config.demos = options.demos;
   config.actions = envs::parse_demo_actions(options.actions);

@@ -13,6 +13,7 @@
 #include "envs/expert_evaluation.h"
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
+#include "experiments/output_path.h"
 #include "experiments/parallel_tasks.h"
 
 namespace maps::experiments {
@@ -40,6 +41,7 @@ int run_expert_eval(const ExpertEvalOptions& options) {
   const std::vector<std::string> tasks =
       options.task.empty() ? envs::task_names(options.task_set) : std::vector<std::string>{options.task};
   for (const auto& task : tasks) envs::task_index(task);  // an unknown task fails here, before any work
+  if (!options.json_out.empty()) check_output_file("--json", options.json_out);
   const int threads = worker_count(options.threads, tasks.size());
   std::printf("maps expert-eval: %zu tasks, %d episodes each from seed %llu (mean actions), %d threads\n", tasks.size(),
               options.episodes, static_cast<unsigned long long>(options.first_seed), threads);

@@ -2,8 +2,12 @@
 // function declared in its own header under experiments/.
 
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
 #include <exception>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include "experiments/bench_eval.h"
@@ -22,15 +26,61 @@
 namespace {
 
 // Sign checks with short messages ("--steps: must be a number > 0, got '-3'"). CLI11's PositiveNumber prints
-// DBL_MAX in full, and CLI11 2.1 turns "-1" into 2^64-1 for an unsigned option without a check.
+// DBL_MAX in full, and CLI11 2.1 turns "-1" into 2^64-1 for an unsigned option without a check. Infinities and
+// NaN are refused too: "--seconds inf" ran `bench step` forever, "--lr inf" trained to NaN.
 CLI::Validator sign_check(bool allow_zero) {
   return CLI::Validator(
       [allow_zero](std::string& input) -> std::string {
         double value = 0.0;
-        if (CLI::detail::lexical_cast(input, value) && (value > 0.0 || (allow_zero && value == 0.0))) return {};
-        return std::string(allow_zero ? "must be a number >= 0" : "must be a number > 0") + ", got '" + input + "'";
+        if (CLI::detail::lexical_cast(input, value) && std::isfinite(value) &&
+            (value > 0.0 || (allow_zero && value == 0.0)))
+          return {};
+        return std::string(allow_zero ? "must be a finite number >= 0" : "must be a finite number > 0") + ", got '" +
+               input + "'";
       },
       allow_zero ? "NONNEGATIVE" : "POSITIVE");
+}
+
+// Seeds are 64-bit unsigned; CLI11 2.1 saturates a larger number to 2^64-1 without a word.
+CLI::Validator seed_check() {
+  return CLI::Validator(
+      [](std::string& input) -> std::string {
+        std::uint64_t value = 0;
+        const auto [end, error] = std::from_chars(input.data(), input.data() + input.size(), value);
+        if (!input.empty() && error == std::errc() && end == input.data() + input.size()) return {};
+        return "must be an integer in [0, 18446744073709551615], got '" + input + "'";
+      },
+      "UINT64");
+}
+
+// A 64-bit integer option: CLI11 2.1 saturates a number past int64's range instead of refusing it.
+CLI::Validator integer_check(std::int64_t low, std::int64_t high) {
+  return CLI::Validator(
+      [low, high](std::string& input) -> std::string {
+        std::int64_t value = 0;
+        const auto [end, error] = std::from_chars(input.data(), input.data() + input.size(), value);
+        if (!input.empty() && error == std::errc() && end == input.data() + input.size() && value >= low &&
+            value <= high)
+          return {};
+        return "must be an integer in [" + std::to_string(low) + ", " + std::to_string(high) + "], got '" + input + "'";
+      },
+      "INT in [" + std::to_string(low) + " - " + std::to_string(high) + "]");
+}
+
+// CLI::Range lets NaN through (every comparison with it is false).
+CLI::Validator range_check(double low, double high) {
+  const auto text = [](double x) {
+    std::ostringstream out;
+    out << x;
+    return out.str();
+  };
+  return CLI::Validator(
+      [low, high, text](std::string& input) -> std::string {
+        double value = 0.0;
+        if (CLI::detail::lexical_cast(input, value) && value >= low && value <= high) return {};
+        return "must be a number in [" + text(low) + ", " + text(high) + "], got '" + input + "'";
+      },
+      "FLOAT in [" + text(low) + " - " + text(high) + "]");
 }
 
 }  // namespace
@@ -48,9 +98,9 @@ int main(int argc, char** argv) {
       app.add_subcommand("demo", "Train a small tanh MLP on a synthetic regression and print the loss falling");
   demo_cmd->add_option("--steps", demo.steps, "Optimiser steps")->check(positive)->capture_default_str();
   demo_cmd->add_option("--seed", demo.seed, "Seed of the data and the initial weights")
-      ->check(non_negative)
+      ->check(seed_check())
       ->capture_default_str();
-  demo_cmd->add_option("--hidden", demo.hidden, "Hidden width")->check(positive)->capture_default_str();
+  demo_cmd->add_option("--hidden", demo.hidden, "Hidden width")->check(range_check(1, 65536))->capture_default_str();
   demo_cmd->add_option("--lr", demo.lr, "Adam learning rate")->check(positive)->capture_default_str();
   demo_cmd->add_option("--log-every", demo.log_every, "Print the loss every N steps")
       ->check(positive)
@@ -62,9 +112,9 @@ int main(int argc, char** argv) {
   train_expert_cmd->add_option("--task", train_expert.task, "Task name, e.g. gravity/0.5")->required();
   train_expert_cmd->add_option("--out", train_expert.out, "Run folder (checkpoint, expert.json)")->required();
   train_expert_cmd->add_option("--steps", train_expert.steps, "Total env steps")
-      ->check(positive)
+      ->check(integer_check(1, 1'000'000'000'000))
       ->capture_default_str();
-  train_expert_cmd->add_option("--seed", train_expert.seed, "Seed")->check(non_negative)->capture_default_str();
+  train_expert_cmd->add_option("--seed", train_expert.seed, "Seed")->check(seed_check())->capture_default_str();
   train_expert_cmd->add_option("--checkpoint-every", train_expert.checkpoint_every, "Iterations between checkpoints")
       ->check(positive)
       ->capture_default_str();
@@ -79,13 +129,13 @@ int main(int argc, char** argv) {
   train_expert_cmd
       ->add_option("--abandon-flipped", train_expert.abandon_flipped,
                    "Past this many steps, stop (exit 3) once the last 5 rollouts ran on the back; 0: never")
-      ->check(non_negative)
+      ->check(integer_check(0, 1'000'000'000'000))
       ->capture_default_str();
   train_expert_cmd
       ->add_option("--end-at-pitch", train_expert.end_at_pitch,
                    "End a training episode (terminated, not bootstrapped) once the torso's |pitch| exceeds this many "
                    "radians (1.5708: turned over); 0: never")
-      ->check(CLI::Range(0.0, 3.14159265358979))
+      ->check(range_check(0.0, 3.14159265358979))
       ->capture_default_str();
 
   maps::experiments::CollectOptions collect;
@@ -104,18 +154,18 @@ int main(int argc, char** argv) {
   collect_cmd->add_option("--experts", collect.experts_dir,
                           "Folder of <set>/<task>.json experts (default: envs/experts)");
   collect_cmd->add_option("--first-seed", collect.first_seed, "First reset seed of the demonstrations")
-      ->check(non_negative)
+      ->check(seed_check())
       ->capture_default_str();
   collect_cmd
       ->add_option("--min-return-fraction", collect.min_return_fraction,
                    "Discard an episode returning less than this fraction of the task's median (not for mt10)")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(range_check(0.0, 1.0))
       ->capture_default_str();
   collect_cmd->add_option("--train-fraction", collect.train_fraction, "Share of each task's demos in mask/train")
-      ->check(CLI::Range(0.0, 1.0))
+      ->check(range_check(0.0, 1.0))
       ->capture_default_str();
   collect_cmd->add_option("--split-seed", collect.split_seed, "Seed of the train/valid split")
-      ->check(non_negative)
+      ->check(seed_check())
       ->capture_default_str();
   collect_cmd->add_option("--threads", collect.threads, "Tasks rolled out at once (0: one per core)")
       ->check(non_negative)
@@ -128,7 +178,7 @@ int main(int argc, char** argv) {
   auto* render_seed = render_cmd
                           ->add_option("--seed", render.seed,
                                        "Seed of the initial state (with --run: default the first evaluation seed)")
-                          ->check(non_negative)
+                          ->check(seed_check())
                           ->capture_default_str();
   render_cmd->add_option("--out", render.out, "PNG file to write")->required();
   render_cmd->add_option("--steps", render.steps, "Steps of the task's expert before the picture")
@@ -162,7 +212,7 @@ int main(int argc, char** argv) {
       ->check(positive)
       ->capture_default_str();
   expert_eval_cmd->add_option("--first-seed", expert_eval.first_seed, "Reset seed of the first episode")
-      ->check(non_negative)
+      ->check(seed_check())
       ->capture_default_str();
   expert_eval_cmd->add_option("--threads", expert_eval.threads, "Tasks evaluated at once (0: one per core)")
       ->check(non_negative)

@@ -8,6 +8,7 @@
 #include "envs/mujoco_env.h"
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
+#include "experiments/output_path.h"
 #include "experiments/render_view.h"
 
 namespace maps::experiments {
@@ -43,6 +44,7 @@ int run_render(const RenderOptions& options) {
       "this build has no renderer: install libosmesa6-dev and libpng-dev (scripts/setup.sh does), then reconfigure "
       "with cmake (MAPS_BUILD_RENDER=ON)");
 #else
+  check_output_file("--out", options.out);
   if (!options.run.empty()) return run_render_policy(options);
   auto env = envs::make_env(options.task);
   auto* mujoco_env = dynamic_cast<envs::MujocoEnv*>(env.get());

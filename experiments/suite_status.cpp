@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "envs/source_folders.h"
+#include "experiments/output_path.h"
 #include "experiments/run_folder.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
@@ -220,6 +221,7 @@ int run_report(const ReportOptions& options) {
   if (!fs::exists(fs::path(options.dir) / "suite.json"))
     throw std::runtime_error(options.dir + " is not a suite folder: it has no suite.json (maps suite run writes it)");
   const std::string out = options.out.empty() ? (fs::path(options.dir) / "report").string() : options.out;
+  check_output_folder("--out", out);
   const std::string python = "/usr/bin/python3";  // Debian's, with matplotlib (scripts/setup.sh)
   if (!fs::exists(python))
     throw std::runtime_error("maps report needs " + python + " with matplotlib (bash scripts/setup.sh installs it)");

@@ -15,6 +15,7 @@
 #include "envs/expert_evaluation.h"
 #include "envs/seed_ranges.h"
 #include "envs/task_sets.h"
+#include "experiments/output_path.h"
 #include "maps/rl/ppo.h"
 #include "maps/rl/upright.h"
 
@@ -33,6 +34,7 @@ int run_train_expert(const TrainExpertOptions& options) {
     throw std::invalid_argument("--abandon-flipped watches for rollouts run turned over, which --end-at-pitch " +
                                 std::to_string(options.end_at_pitch) +
                                 " (<= pi/2) never lets happen; use one or the other");
+  check_output_folder("--out", options.out);
   auto env = envs::make_env(options.task);
   auto eval_env = envs::make_env(options.task);
   rl::PPOConfig config;

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <stdexcept>
 
+#include "experiments/output_path.h"
 #include "experiments/run_folder.h"
 #include "maps/training/trainer.h"
 
@@ -15,7 +16,7 @@ namespace maps::experiments {
 int run_train(const TrainRunOptions& options) {
   const core::RunConfig config = core::parse_run_config(read_json_file(options.config_path));
   const nlohmann::json resolved = core::to_json(config);
-  std::filesystem::create_directories(options.out);
+  check_output_folder("--out", options.out);
   const std::string config_path = (std::filesystem::path(options.out) / "config.json").string();
   // Compared after resolving both, so a folder written before a key existed (its default then implied) resumes.
   if (std::filesystem::exists(config_path) &&

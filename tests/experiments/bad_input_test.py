@@ -5,6 +5,7 @@ expected; never a crash, an uncaught exception, a Python traceback or silence. R
 bad_input_test.py path/to/maps."""
 import json
 import pathlib
+import re
 import subprocess
 import sys
 import tempfile
@@ -19,8 +20,8 @@ CRASH_SIGNS = ["terminate called", "Segmentation fault", "Aborted", "core dumped
 
 
 class BadInputTest(unittest.TestCase):
-    def expect_refused(self, args, *needles):
-        proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True, timeout=300)
+    def expect_refused(self, args, *needles, timeout=300):
+        proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True, timeout=timeout)
         where = f"maps {' '.join(map(str, args))}"
         self.assertNotEqual(proc.returncode, 0, f"{where} exited 0:\n{proc.stdout}")
         self.assertGreater(proc.returncode, 0, f"{where} died of signal {-proc.returncode}")
@@ -29,6 +30,7 @@ class BadInputTest(unittest.TestCase):
             self.assertNotIn(sign, proc.stderr, where)
         for needle in needles:
             self.assertIn(needle, proc.stderr, where)
+        self.last_stdout = proc.stdout
         return proc.stderr
 
     def write(self, name, text):
@@ -53,6 +55,61 @@ class BadInputTest(unittest.TestCase):
         self.expect_refused(["render", "--task", "mt10/no-such-task", "--out", "x.png"], "mt10/no-such-task")
         self.expect_refused(["suite", "run", ROOT / "experiments/suites/tiny.json", "--out", "o", "--shard", "3/2"],
                             "3/2")
+
+    def test_every_numeric_option_refuses_bad_values(self):
+        """Every INT, UINT and FLOAT option of every subcommand (read from its --help, so a new option is swept
+        too), given values of the wrong kind, out of range, infinite, NaN or past its type: refused naming the
+        option, before any work starts (the base arguments are valid, so an accepted value would run)."""
+        config = self.config("sweep.json")
+        run_dir = pathlib.Path(WORK) / "sweep_run"
+        run_dir.mkdir(exist_ok=True)
+        tiny = ROOT / "experiments/suites/tiny.json"
+        commands = {
+            ("demo",): [], ("train-expert",): ["--task", "gravity/1.0", "--out", "sweep_te"],
+            ("collect",): ["--set", "mt10", "--out", "sweep.h5"], ("render",): ["--task", "gravity/1.0", "--out", "s.png"],
+            ("expert-eval",): ["--task", "gravity/1.0"], ("train",): ["--config", config, "--out", "sweep_train"],
+            ("eval",): ["--run", run_dir], ("bench", "step"): [], ("suite", "run"): [tiny, "--out", "sweep_suite"],
+            ("suite", "plan"): [tiny]}
+        option_line = re.compile(r"^\s+(--[\w-]+) (INT|UINT|FLOAT)(?::(\S+))?")
+        swept = 0
+        for command, base in commands.items():
+            usage = subprocess.run([MAPS, *command, "--help"], capture_output=True, text=True).stdout
+            for line in usage.splitlines():
+                match = option_line.match(line)
+                if not match:
+                    continue
+                option, kind, check = match.groups()
+                bad = ["abc", "nan", "inf", "-inf", "1e400", ""]
+                if kind in ("INT", "UINT"):
+                    bad += ["2.5", "99999999999999999999999"]
+                if check and check.startswith("POSITIVE"):
+                    bad += ["0", "-1"]
+                elif check and (check.startswith("NONNEGATIVE") or check.startswith("UINT64")):
+                    bad += ["-1"]
+                elif check and check.startswith("FLOAT in"):
+                    bad += ["-0.5", "1e6"]
+                for value in bad:
+                    with self.subTest(command=" ".join(command), option=option, value=value):
+                        self.expect_refused([*command, *base, option, value], option, timeout=30)
+                swept += 1
+        self.assertGreaterEqual(swept, 30, "fewer numeric options than the tool has: is the --help format changed?")
+
+    def test_unwritable_outputs_are_refused_before_any_work(self):
+        """An output under a file (a folder that cannot exist) or naming a folder as a file is refused at once,
+        not after the collection or evaluation it would have held."""
+        blocker = self.write("a_file", "not a folder\n")
+        config = self.config("out.json")
+        cases = [
+            (["collect", "--set", "mt10", "--demos", "2", "--out", f"{blocker}/demos.h5"], "--out"),
+            (["collect", "--set", "mt10", "--demos", "2", "--out", WORK], "is a folder"),
+            (["expert-eval", "--task", "gravity/1.0", "--episodes", "3", "--json", f"{blocker}/t.json"], "--json"),
+            (["render", "--task", "gravity/1.0", "--out", f"{blocker}/frame.png"], "--out"),
+            (["train", "--config", config, "--out", f"{blocker}/run"], "--out"),
+            (["train-expert", "--task", "gravity/1.0", "--out", f"{blocker}/expert"], "--out")]
+        for args, needle in cases:
+            with self.subTest(command=args[0]):
+                self.expect_refused(args, needle, "a_file" if needle != "is a folder" else WORK, timeout=30)
+                self.assertNotIn("[1/", self.last_stdout, "work started before the output was checked")
 
     def test_run_configs(self):
         self.expect_refused(["train", "--config", "absent.json", "--out", "r1"], "absent.json")

@@ -1,0 +1,46 @@
+#include "experiments/output_path.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <system_error>
+
+namespace maps::experiments {
+namespace fs = std::filesystem;
+
+namespace {
+
+void check_writable_folder(const std::string& option, const std::string& named, const fs::path& dir) {
+  const std::string where = option + " '" + named + "': ";
+  std::error_code error;
+  if (fs::exists(dir, error) && !fs::is_directory(dir, error))
+    throw std::runtime_error(where + "'" + dir.string() + "' is not a folder");
+  fs::create_directories(dir, error);
+  if (error)
+    throw std::runtime_error(where + "cannot make the folder '" + dir.string() + "' (" + error.message() + ")");
+  const fs::path probe = dir / (".maps-write-probe-" + std::to_string(::getpid()));
+  {
+    std::ofstream out(probe);
+    if (!out) throw std::runtime_error(where + "cannot write in the folder '" + dir.string() + "'");
+  }
+  fs::remove(probe, error);
+}
+
+}  // namespace
+
+void check_output_file(const std::string& option, const std::string& path) {
+  if (path.empty()) throw std::runtime_error(option + ": expected a file name, got an empty one");
+  const fs::path file(path);
+  std::error_code error;
+  if (fs::is_directory(file, error)) throw std::runtime_error(option + " '" + path + "': is a folder, expected a file");
+  check_writable_folder(option, path, file.parent_path().empty() ? fs::path(".") : file.parent_path());
+}
+
+void check_output_folder(const std::string& option, const std::string& dir) {
+  if (dir.empty()) throw std::runtime_error(option + ": expected a folder name, got an empty one");
+  check_writable_folder(option, dir, fs::path(dir));
+}
+
+}  // namespace maps::experiments
