@@ -29,6 +29,10 @@ while [[ $# -gt 0 ]]; do
 done
 [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz/run.sh: --jobs needs a positive integer, got '$jobs'" >&2; exit 2; }
 [[ ${#targets[@]} -gt 0 ]] || targets=(fuzz_run_config fuzz_suite_config fuzz_expert fuzz_checkpoint fuzz_demo_file)
+for target in "${targets[@]}"; do
+  [[ -n "$(ls -A "fuzz/corpus/$target" 2> /dev/null)" ]] ||
+    { echo "fuzz/run.sh: fuzz/corpus/$target/ (the target's committed seed inputs) is missing or empty" >&2; exit 1; }
+done
 
 if ! grep -qs "^MAPS_BUILD_FUZZERS:BOOL=ON" "$build_dir/CMakeCache.txt"; then
   command -v clang++ > /dev/null ||
