@@ -43,7 +43,10 @@ Episode roll_out(Env& env, const TaskExpert& expert, std::uint64_t seed, const D
     episode.demo.success = episode.demo.success || result.success;
     if (env.in_failure_state()) ++failure_steps;
     done = result.done();
-    if (done) episode.ended_in_failure = env.in_failure_state();
+    if (done) {
+      episode.ended_in_failure = env.in_failure_state();
+      episode.demo.end = result.terminated ? EpisodeEnd::kTerminated : EpisodeEnd::kTruncated;
+    }
     obs = result.observation;
   }
   const int steps = static_cast<int>(rewards.size());
@@ -61,6 +64,7 @@ Episode roll_out(Env& env, const TaskExpert& expert, std::uint64_t seed, const D
     demo.actions.row(t) = actions[t].transpose();
     demo.rewards[t] = rewards[t];
   }
+  demo.final_obs = obs;
   demo.episode_return = demo.rewards.sum();
   episode.failure_fraction = static_cast<double>(failure_steps) / steps;
   return episode;

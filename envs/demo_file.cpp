@@ -25,8 +25,22 @@ namespace fs = std::filesystem;
 
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-constexpr std::int64_t kFormatVersion = 1;
+// 1: obs a dataset, no next_obs (2026-11 and before). 2: robomimic's layout: obs and next_obs groups of named
+// arrays (one key, "flat"), data attribute env_args, per-demo episode_end.
+constexpr std::int64_t kFormatVersion = 2;
+constexpr const char* kObsKey = "flat";
 constexpr hid_t kInvalidId = -1;
+
+// robomimic's data attribute env_args (robomimic/utils/file_utils.py reads it with json.loads; its code reads the
+// kind from "type", though its docs say "env_type"): 2 is its EnvType.GYM_TYPE, the nearest of its kinds; env_kwargs
+// say which of this project's task sets made the file.
+std::string robomimic_env_args(const DemoFile& f) {
+  const nlohmann::json args = {
+      {"env_name", "maps/" + f.task_set},
+      {"type", 2},
+      {"env_kwargs", {{"task_set", f.task_set}, {"task_names", f.task_names}, {"env_version", f.env_version}}}};
+  return args.dump();
+}
 
 // ----- small HDF5 helpers -----
 
@@ -264,6 +278,7 @@ class Writer {
       string_attr(data.get(), "data", "extra_json", f.extra_json);
       int64_attr(data.get(), "data", "total", f.total_samples());
       int64_attr(data.get(), "data", "num_demos", static_cast<std::int64_t>(f.demos.size()));
+      string_attr(data.get(), "data", "env_args", robomimic_env_args(f));
       for (std::size_t i = 0; i < f.demos.size(); ++i) {
         const Demonstration& d = f.demos[i];
         const std::string name = demo_name(static_cast<int>(i));
@@ -271,8 +286,15 @@ class Writer {
         Handle group = create_group(data.get(), "data", name);
         const hsize_t t = static_cast<hsize_t>(d.obs.rows());
         const RowMatrixXd obs = d.obs, actions = d.actions;
-        dataset(group.get(), path, "obs", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {t, static_cast<hsize_t>(obs.cols())},
-                obs.data());
+        RowMatrixXd next_obs_rows(obs.rows(), obs.cols());
+        next_obs_rows.topRows(obs.rows() - 1) = obs.bottomRows(obs.rows() - 1);
+        next_obs_rows.bottomRows(1) = d.final_obs.transpose();
+        const RowMatrixXd& next_obs = next_obs_rows;
+        for (const auto& [group_name, rows] : {std::pair{"obs", &obs}, std::pair{"next_obs", &next_obs}}) {
+          Handle keys = create_group(group.get(), path, group_name);
+          dataset(keys.get(), path + "/" + group_name, kObsKey, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                  {t, static_cast<hsize_t>(rows->cols())}, rows->data());
+        }
         dataset(group.get(), path, "actions", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
                 {t, static_cast<hsize_t>(actions.cols())}, actions.data());
         dataset(group.get(), path, "rewards", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {t}, d.rewards.data());
@@ -283,6 +305,7 @@ class Writer {
         double_attr(group.get(), path, "return", d.episode_return);
         uint8_attr(group.get(), path, "success", d.success ? 1 : 0);
         uint64_attr(group.get(), path, "seed", d.seed);
+        string_attr(group.get(), path, "episode_end", episode_end_name(d.end));
       }
     }
     {
@@ -513,12 +536,21 @@ class Reader {
     return 0;
   }
 
-  Demonstration read_demo(hid_t data, int index, Eigen::Index* obs_dim, Eigen::Index* act_dim) const {
+  Demonstration read_demo(hid_t data, int index, std::int64_t version, Eigen::Index* obs_dim,
+                          Eigen::Index* act_dim) const {
     const std::string name = demo_name(index);
     const std::string path = "data/" + name;
     Handle group = open_group(data, "data", name);
     Demonstration d;
-    Dataset obs = open_dataset(group.get(), path, "obs", 2, {H5T_FLOAT, H5T_INTEGER}, "numeric");
+    // Format 1 kept obs as one dataset; format 2 as robomimic's group of named arrays, with next_obs beside it.
+    Handle obs_group, next_obs_group;
+    if (version >= 2) {
+      obs_group = open_group(group.get(), path, "obs");
+      next_obs_group = open_group(group.get(), path, "next_obs");
+    }
+    Dataset obs = version >= 2
+                      ? open_dataset(obs_group.get(), path + "/obs", kObsKey, 2, {H5T_FLOAT, H5T_INTEGER}, "numeric")
+                      : open_dataset(group.get(), path, "obs", 2, {H5T_FLOAT, H5T_INTEGER}, "numeric");
     Dataset actions = open_dataset(group.get(), path, "actions", 2, {H5T_FLOAT, H5T_INTEGER}, "numeric");
     Dataset rewards = open_dataset(group.get(), path, "rewards", 1, {H5T_FLOAT, H5T_INTEGER}, "numeric");
     Dataset dones = open_dataset(group.get(), path, "dones", 1, {H5T_INTEGER}, "integer (0/1)");
@@ -551,8 +583,32 @@ class Reader {
     if (success != 0 && success != 1) fail(path, "attribute success should be 0 or 1, got " + std::to_string(success));
     d.success = success == 1;
     d.seed = uint64_attr(group.get(), path, "seed");
+    if (version >= 2) {
+      const std::string end = string_attr(group.get(), path, "episode_end");
+      if (end == "terminated")
+        d.end = EpisodeEnd::kTerminated;
+      else if (end == "truncated")
+        d.end = EpisodeEnd::kTruncated;
+      else
+        fail(path, "attribute episode_end should be 'terminated' or 'truncated', got '" + end + "'");
+    }
 
     d.obs = read_matrix(obs);
+    if (version >= 2) {
+      Dataset next_obs =
+          open_dataset(next_obs_group.get(), path + "/next_obs", kObsKey, 2, {H5T_FLOAT, H5T_INTEGER}, "numeric");
+      if (next_obs.dims != obs.dims)
+        fail(next_obs.path, "has shape " + shape_string(next_obs.dims) + " but " + obs.path + " has " +
+                                shape_string(obs.dims) + "; next_obs needs one row per step");
+      const Eigen::MatrixXd next = read_matrix(next_obs);
+      // next_obs repeats obs one step on; only its last row is new. A file where they disagree is not trusted.
+      for (Eigen::Index r = 0; r + 1 < next.rows(); ++r)
+        if (next.row(r) != d.obs.row(r + 1))
+          fail(next_obs.path, "row " + std::to_string(r) + " differs from " + obs.path + " row " +
+                                  std::to_string(r + 1) + " (next_obs must be obs one step on)");
+      d.final_obs = next.bottomRows(1).transpose();
+      if (!d.final_obs.allFinite()) fail(next_obs.path, "its last row holds a NaN or an infinite value");
+    }
     d.actions = read_matrix(actions);
     d.rewards.resize(static_cast<Eigen::Index>(t));
     read(rewards, H5T_NATIVE_DOUBLE, d.rewards.data());
@@ -583,9 +639,15 @@ class Reader {
     DemoFile f;
     Handle data = open_group(file.get(), "", "data");
     const std::int64_t version = int64_attr(data.get(), "data", "format_version");
-    if (version != kFormatVersion)
-      fail("data", "unsupported format_version " + std::to_string(version) + " (this reader knows " +
+    if (version < 1 || version > kFormatVersion)
+      fail("data", "unsupported format_version " + std::to_string(version) + " (this reader knows 1 to " +
                        std::to_string(kFormatVersion) + ")");
+    f.format_version = version;
+    if (version >= 2) {
+      const std::string env_args = string_attr(data.get(), "data", "env_args");
+      if (!nlohmann::json::accept(env_args))
+        fail("data", "attribute env_args is not JSON (robomimic reads it as JSON)");
+    }
     f.task_set = string_attr(data.get(), "data", "task_set");
     f.task_names = string_array_attr(data.get(), "data", "task_names", false);
     f.env_version = string_attr(data.get(), "data", "env_version");
@@ -619,7 +681,7 @@ class Reader {
                               " (attribute num_demos is " + std::to_string(num_demos) + ")");
 
     Eigen::Index obs_dim = -1, act_dim = -1;
-    for (int i = 0; i < num_demos; ++i) f.demos.push_back(read_demo(data.get(), i, &obs_dim, &act_dim));
+    for (int i = 0; i < num_demos; ++i) f.demos.push_back(read_demo(data.get(), i, version, &obs_dim, &act_dim));
     if (f.total_samples() != total)
       fail("data", "attribute total is " + std::to_string(total) + " but the demos hold " +
                        std::to_string(f.total_samples()) + " steps");
@@ -656,6 +718,18 @@ std::int64_t DemoFile::total_samples() const {
 }
 
 std::string demo_name(int i) { return "demo_" + std::to_string(i); }
+
+const char* episode_end_name(EpisodeEnd end) {
+  switch (end) {
+    case EpisodeEnd::kTerminated:
+      return "terminated";
+    case EpisodeEnd::kTruncated:
+      return "truncated";
+    case EpisodeEnd::kUnknown:
+      break;
+  }
+  return "unknown";
+}
 
 void validate_demo_file(const DemoFile& f) {
   std::set<std::string> names;
@@ -700,6 +774,10 @@ void validate_demo_file(const DemoFile& f) {
         invalid(path + "/dones: value " + std::to_string(d.dones[s]) + " at step " + std::to_string(s) +
                 " (must be 0 or 1)");
     if (!std::isfinite(d.episode_return)) invalid(path + ": return is not finite");
+    if (d.final_obs.size() != 0 && d.final_obs.size() != d.obs.cols())
+      invalid(path + ": final_obs has " + std::to_string(d.final_obs.size()) + " entries but obs has " +
+              std::to_string(d.obs.cols()) + " columns");
+    if (!d.final_obs.allFinite()) invalid(path + ": final_obs holds a NaN or an infinite value");
     if (d.task_index < 0 || d.task_index >= static_cast<std::int64_t>(f.task_names.size()))
       invalid(path + ": task_index " + std::to_string(d.task_index) + " is out of range (" +
               std::to_string(f.task_names.size()) + " task names)");
@@ -719,6 +797,18 @@ void write_demo_file(const std::string& path, const DemoFile& file) {
     validate_demo_file(file);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument("write_demo_file '" + path + "': invalid input: " + e.what());
+  }
+  // Format 2 stores next_obs and how each episode ended, which format 1 files never recorded.
+  for (std::size_t i = 0; i < file.demos.size(); ++i) {
+    const Demonstration& d = file.demos[i];
+    if (d.final_obs.size() == 0 || d.end == EpisodeEnd::kUnknown)
+      throw std::invalid_argument(
+          "write_demo_file '" + path + "': data/" + demo_name(static_cast<int>(i)) + " has no " +
+          (d.final_obs.size() == 0 ? "final observation" : "episode end") + ", which format " +
+          std::to_string(kFormatVersion) +
+          " stores (a demo read from a format 1 file has neither): collect the demos "
+          "again" +
+          (file.creation_command.empty() ? std::string() : " with `" + file.creation_command + "`"));
   }
   const QuietHdf5Errors quiet;
   const std::string temporary = temporary_path(path);

@@ -6,23 +6,34 @@
 #include <utility>
 #include <vector>
 
-// Demonstration files: HDF5 laid out like robomimic's, so h5py users can read them.
+// Demonstration files: HDF5 in robomimic's layout (its SequenceDataset and scripts read them), with this
+// project's metadata beside it. Format 2:
 //
-//   /data                      group; attributes format_version (int64, 1), task_set, task_names
-//                              (1-d variable-length UTF-8 string array), env_version,
-//                              creation_command, extra_json (a JSON object as a string), total
-//                              (sum of num_samples), num_demos
-//   /data/demo_<i>             group, i = 0 .. num_demos-1; attributes task, task_index (int64),
-//                              num_samples (int64), return (float64), success (uint8 0/1), seed (uint64)
-//   /data/demo_<i>/obs         float64 [T, obs_dim]   row t: the observation step t's action saw
+//   /data                      group; attributes format_version (int64, 2), total (sum of num_samples), env_args
+//                              (JSON, robomimic's: env_name "maps/<set>", type 2, env_kwargs), task_set,
+//                              task_names (1-d variable-length UTF-8 strings), env_version, creation_command,
+//                              extra_json (a JSON object as a string), num_demos
+//   /data/demo_<i>             group, i = 0 .. num_demos-1; attributes num_samples (int64), task, task_index
+//                              (int64), return (float64), success (uint8 0/1), seed (uint64), episode_end
+//                              ("terminated": a terminal state of the task; "truncated": the time limit)
+//   /data/demo_<i>/obs/flat       float64 [T, obs_dim]  row t: the observation step t's action saw
+//   /data/demo_<i>/next_obs/flat  float64 [T, obs_dim]  row t: the observation after step t (obs one row on,
+//                                                      then the final observation)
 //   /data/demo_<i>/actions     float64 [T, act_dim]
 //   /data/demo_<i>/rewards     float64 [T]
 //   /data/demo_<i>/dones       uint8   [T]            1 where the episode ended after step t
-//   /mask/train, /mask/valid   1-d fixed-length (NUL-padded) strings naming demos ("demo_3")
+//   /mask/train, /mask/valid   1-d fixed-length (NUL-padded) byte strings naming demos ("demo_3")
 //
+// Format 1 (before 2026-11-25) had obs as one dataset /data/demo_<i>/obs, no next_obs, env_args or episode_end:
+// it still reads (final_obs empty, end unknown), but cannot be written again as format 2.
 // Writing is atomic (a temporary file in the same folder, then rename); reading validates every
 // group, dataset, attribute and shape and throws a message naming the file and the object path.
 namespace maps::envs {
+
+// How an episode ended: in a terminal state of the task (MT10's success, a HalfCheetah episode abandoned as
+// failed), or at the time limit (truncated). Format 1 files did not record it.
+enum class EpisodeEnd { kUnknown, kTerminated, kTruncated };
+const char* episode_end_name(EpisodeEnd end);  // "unknown", "terminated", "truncated"
 
 // One episode of one task; row t of every array is step t.
 struct Demonstration {
@@ -35,6 +46,9 @@ struct Demonstration {
   std::vector<std::uint8_t> dones;  // [T], each 0 or 1
   double episode_return = 0.0;      // stored as attribute "return"
   bool success = false;
+  // The observation after the last step (the last row of next_obs); empty when read from a format 1 file.
+  Eigen::VectorXd final_obs;
+  EpisodeEnd end = EpisodeEnd::kUnknown;
 
   std::int64_t num_samples() const { return obs.rows(); }
 };
@@ -48,6 +62,7 @@ struct DemoFile {
   std::vector<Demonstration> demos;  // demos[i] is stored as data/demo_<i>
   std::vector<int> train;            // indices into demos (mask/train)
   std::vector<int> valid;            // indices into demos (mask/valid)
+  std::int64_t format_version = 2;   // the version it was read from; write_demo_file always writes the newest
 
   std::int64_t total_samples() const;
 };

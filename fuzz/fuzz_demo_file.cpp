@@ -67,6 +67,8 @@ const std::string& base_file() {
       d.dones.assign(static_cast<std::size_t>(rows), 0);
       d.dones.back() = 1;
       d.episode_return = d.rewards.sum();
+      d.final_obs = Eigen::VectorXd::Random(3);
+      d.end = i % 2 == 0 ? maps::envs::EpisodeEnd::kTruncated : maps::envs::EpisodeEnd::kTerminated;
       f.demos.push_back(d);
     }
     f.train = {0, 1};
@@ -79,10 +81,11 @@ const std::string& base_file() {
   return path;
 }
 
-const std::vector<std::string> kGroups = {"/data", "/mask", "/data/demo_0", "/data/demo_1", "/data/demo_2"};
-const std::vector<std::string> kDatasets = {"/data/demo_0/obs",   "/data/demo_0/actions", "/data/demo_1/rewards",
-                                            "/data/demo_1/dones", "/data/demo_2/obs",     "/mask/train",
-                                            "/mask/valid"};
+const std::vector<std::string> kGroups = {
+    "/data", "/mask", "/data/demo_0", "/data/demo_1", "/data/demo_2", "/data/demo_0/obs", "/data/demo_1/next_obs"};
+const std::vector<std::string> kDatasets = {
+    "/data/demo_0/obs/flat", "/data/demo_0/actions",       "/data/demo_1/rewards", "/data/demo_1/dones",
+    "/data/demo_2/obs/flat", "/data/demo_2/next_obs/flat", "/mask/train",          "/mask/valid"};
 const std::vector<std::string> kIntAttributes = {"format_version", "total", "num_demos", "num_samples",
                                                  "task_index",     "seed",  "success"};
 
@@ -155,7 +158,7 @@ std::vector<std::string> fuzzed_names(Recipe& r) {
 }
 
 void apply(hid_t file, Recipe& r) {
-  switch (r.byte() % 9) {
+  switch (r.byte() % 10) {
     case 0:
       H5Ldelete(file, r.pick(r.byte() % 2 ? kGroups : kDatasets).c_str(), H5P_DEFAULT);
       break;
@@ -191,7 +194,8 @@ void apply(hid_t file, Recipe& r) {
     case 5: {  // NaN or an infinity in the data
       const std::vector<double> bad = {std::nan(""), std::numeric_limits<double>::infinity(),
                                        -std::numeric_limits<double>::infinity(), 1e308};
-      const std::vector<std::string> data_sets = {"/data/demo_0/obs", "/data/demo_1/actions", "/data/demo_2/rewards"};
+      const std::vector<std::string> data_sets = {"/data/demo_0/obs/flat", "/data/demo_1/actions",
+                                                  "/data/demo_2/rewards", "/data/demo_1/next_obs/flat"};
       const std::string& path = r.pick(data_sets);
       const hid_t set = H5Dopen2(file, path.c_str(), H5P_DEFAULT);
       if (set >= 0) {
@@ -214,6 +218,17 @@ void apply(hid_t file, Recipe& r) {
     case 7: {  // a demo group moved to another name
       const std::vector<std::string> to = {"/data/demo_5", "/data/demo_3", "/data/x", "/mask/demo_0"};
       H5Lmove(file, r.pick(kGroups).c_str(), file, r.pick(to).c_str(), H5P_DEFAULT, H5P_DEFAULT);
+      break;
+    }
+    case 8: {  // a format 2 string attribute rewritten: how an episode ended, robomimic's env_args
+      const std::vector<std::string> values = {"terminated", "truncated", "", "{", "{}", "[1]", "null", "crashed"};
+      const std::vector<std::string> demos = {"/data/demo_0", "/data/demo_2"};
+      const bool env_args = r.byte() % 2 == 0;
+      const hid_t object = H5Oopen(file, env_args ? "/data" : r.pick(demos).c_str(), H5P_DEFAULT);
+      if (object >= 0) {
+        write_strings(object, env_args ? "env_args" : "episode_end", {r.pick(values)}, true);
+        H5Oclose(object);
+      }
       break;
     }
     default: {  // task names changed

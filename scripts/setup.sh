@@ -26,6 +26,7 @@ PACKAGES=(
   python3             # /usr/bin/python3 runs the result tables and plots (experiments/suites/)
   python3-matplotlib  # plots
   python3-scipy       # the report's t tests (experiments/suites/suite_stats.py)
+  python3-h5py        # tests that read demo files as robomimic, D4RL and Minari users do (tests/experiments/)
 )
 
 export DEBIAN_FRONTEND=noninteractive

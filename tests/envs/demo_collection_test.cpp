@@ -172,12 +172,17 @@ TEST_F(CheetahDemos, ReplayingTheRecordedActionsReproducesTheDemonstration) {
     EXPECT_GT(d.episode_return, 3000.0);
     EXPECT_LE(d.actions.cwiseAbs().maxCoeff(), 1.0);
     Eigen::VectorXd obs = env_->reset(d.seed);
+    StepResult r;
     for (int t = 0; t < 1000; ++t) {
       ASSERT_EQ(obs, d.obs.row(t).transpose()) << "step " << t;
-      const StepResult r = env_->step(d.actions.row(t).transpose());
+      r = env_->step(d.actions.row(t).transpose());
       ASSERT_EQ(r.reward, d.rewards[t]) << "step " << t;
       obs = r.observation;
     }
+    // The last step's observation and how the episode ended (next_obs's last row and episode_end in the file).
+    EXPECT_EQ(d.final_obs, obs);
+    EXPECT_TRUE(r.truncated);
+    EXPECT_EQ(d.end, EpisodeEnd::kTruncated);
   }
 }
 

@@ -66,6 +66,8 @@ Demonstration make_demo(int steps, int obs_dim, int act_dim, const std::string& 
   d.dones.back() = 1;
   d.episode_return = d.rewards.sum();
   d.success = seed % 2 == 0;
+  d.final_obs = Eigen::VectorXd::Constant(obs_dim, 0.25 * static_cast<double>(seed));
+  d.end = seed % 2 == 0 ? EpisodeEnd::kTerminated : EpisodeEnd::kTruncated;
   return d;
 }
 
@@ -130,6 +132,47 @@ void replace_mask(hid_t f, const std::string& name, const std::vector<std::strin
   H5Tclose(type);
 }
 
+void set_int64_attr(hid_t f, const char* object, const char* name, std::int64_t value) {
+  if (H5Aexists_by_name(f, object, name, H5P_DEFAULT) > 0) {
+    ASSERT_GE(H5Adelete_by_name(f, object, name, H5P_DEFAULT), 0);
+  }
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate_by_name(f, object, name, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(attr, 0);
+  ASSERT_GE(H5Awrite(attr, H5T_NATIVE_INT64, &value), 0);
+  H5Aclose(attr);
+  H5Sclose(space);
+}
+
+void set_string_attr(hid_t f, const char* object, const char* name, const std::string& value) {
+  if (H5Aexists_by_name(f, object, name, H5P_DEFAULT) > 0) {
+    ASSERT_GE(H5Adelete_by_name(f, object, name, H5P_DEFAULT), 0);
+  }
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, value.size() + 1);
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate_by_name(f, object, name, type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(attr, 0);
+  ASSERT_GE(H5Awrite(attr, type, value.c_str()), 0);
+  H5Aclose(attr);
+  H5Sclose(space);
+  H5Tclose(type);
+}
+
+// Rewrites a format 2 file as format 1 had it: obs a dataset, no next_obs, env_args or episode_end.
+void downgrade_to_format_1(hid_t f, int n_demos) {
+  for (int i = 0; i < n_demos; ++i) {
+    const std::string demo = "data/" + demo_name(i);
+    ASSERT_GE(H5Lmove(f, (demo + "/obs/flat").c_str(), f, (demo + "/obs_v1").c_str(), H5P_DEFAULT, H5P_DEFAULT), 0);
+    ASSERT_GE(H5Ldelete(f, (demo + "/obs").c_str(), H5P_DEFAULT), 0);
+    ASSERT_GE(H5Lmove(f, (demo + "/obs_v1").c_str(), f, (demo + "/obs").c_str(), H5P_DEFAULT, H5P_DEFAULT), 0);
+    ASSERT_GE(H5Ldelete(f, (demo + "/next_obs").c_str(), H5P_DEFAULT), 0);
+    ASSERT_GE(H5Adelete_by_name(f, demo.c_str(), "episode_end", H5P_DEFAULT), 0);
+  }
+  ASSERT_GE(H5Adelete_by_name(f, "data", "env_args", H5P_DEFAULT), 0);
+  set_int64_attr(f, "data", "format_version", 1);
+}
+
 // ----- round trip and layout -----
 
 TEST_F(DemoFileTest, RoundTripIsExact) {
@@ -161,8 +204,11 @@ TEST_F(DemoFileTest, RoundTripIsExact) {
     EXPECT_EQ(b.dones, a.dones);
     EXPECT_EQ(b.episode_return, a.episode_return);
     EXPECT_EQ(b.success, a.success);
+    EXPECT_TRUE(b.final_obs == a.final_obs);
+    EXPECT_EQ(b.end, a.end);
   }
   EXPECT_EQ(out.total_samples(), in.total_samples());
+  EXPECT_EQ(out.format_version, 2);
 }
 
 TEST_F(DemoFileTest, LargeSeedAndEmptyMetadataRoundTrip) {
@@ -188,13 +234,22 @@ TEST_F(DemoFileTest, LayoutIsRobomimicStyle) {
   const hid_t f = H5Fopen(path("demos.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   ASSERT_GE(f, 0);
   for (const char* attr : {"task_set", "task_names", "env_version", "creation_command", "extra_json", "total",
-                           "num_demos", "format_version"})
+                           "num_demos", "format_version", "env_args"})
     EXPECT_GT(H5Aexists_by_name(f, "data", attr, H5P_DEFAULT), 0) << attr;
-  for (const char* attr : {"task", "task_index", "num_samples", "return", "success", "seed"})
+  for (const char* attr : {"task", "task_index", "num_samples", "return", "success", "seed", "episode_end"})
     EXPECT_GT(H5Aexists_by_name(f, "data/demo_2", attr, H5P_DEFAULT), 0) << attr;
 
-  // data/demo_2/obs is float64 [T, obs_dim], row-major: element (t, j) at t * obs_dim + j.
-  const hid_t ds = H5Dopen2(f, "data/demo_2/obs", H5P_DEFAULT);
+  // next_obs/flat is obs/flat one row on, then the final observation.
+  std::vector<double> next(32);
+  const hid_t next_ds = H5Dopen2(f, "data/demo_2/next_obs/flat", H5P_DEFAULT);
+  ASSERT_GE(next_ds, 0);
+  H5Dread(next_ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, next.data());
+  H5Dclose(next_ds);
+  EXPECT_EQ(next[0 * 4 + 2], in.demos[2].obs(1, 2));
+  EXPECT_EQ(next[7 * 4 + 3], in.demos[2].final_obs(3));
+
+  // data/demo_2/obs/flat is float64 [T, obs_dim], row-major: element (t, j) at t * obs_dim + j.
+  const hid_t ds = H5Dopen2(f, "data/demo_2/obs/flat", H5P_DEFAULT);
   ASSERT_GE(ds, 0);
   const hid_t space = H5Dget_space(ds);
   hsize_t dims[2] = {0, 0};
@@ -225,6 +280,72 @@ TEST_F(DemoFileTest, LayoutIsRobomimicStyle) {
   H5Tclose(mtype);
   H5Dclose(mask);
   H5Fclose(f);
+}
+
+// ----- format versions -----
+
+TEST_F(DemoFileTest, FormatOneFilesStillReadButCannotBeWrittenAsFormatTwo) {
+  const DemoFile in = make_file();
+  write_demo_file(path("demos.h5"), in);
+  edit(path("demos.h5"), [&](hid_t f) { downgrade_to_format_1(f, 5); });
+  const DemoFile old = read_demo_file(path("demos.h5"));
+  EXPECT_EQ(old.format_version, 1);
+  ASSERT_EQ(old.demos.size(), in.demos.size());
+  for (std::size_t i = 0; i < in.demos.size(); ++i) {
+    EXPECT_TRUE(old.demos[i].obs == in.demos[i].obs);
+    EXPECT_TRUE(old.demos[i].actions == in.demos[i].actions);
+    EXPECT_EQ(old.demos[i].final_obs.size(), 0);
+    EXPECT_EQ(old.demos[i].end, EpisodeEnd::kUnknown);
+  }
+  const std::string error = error_of([&] { write_demo_file(path("again.h5"), old); });
+  EXPECT_THAT(error, HasSubstr("data/demo_0 has no final observation"));
+  EXPECT_THAT(error, HasSubstr("format 1"));
+  EXPECT_THAT(error, HasSubstr("with `" + in.creation_command + "`"));
+  EXPECT_FALSE(fs::exists(path("again.h5")));
+}
+
+TEST_F(DemoFileTest, AFormatVersionThisReaderDoesNotKnowIsNamed) {
+  for (const std::int64_t version : {std::int64_t{0}, std::int64_t{3}}) {
+    write_demo_file(path("demos.h5"), make_file());
+    edit(path("demos.h5"), [&](hid_t f) { set_int64_attr(f, "data", "format_version", version); });
+    EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }),
+                HasSubstr("unsupported format_version " + std::to_string(version) + " (this reader knows 1 to 2)"));
+  }
+}
+
+TEST_F(DemoFileTest, NextObsThatIsNotObsOneStepOnIsNamed) {
+  const DemoFile in = make_file();
+  write_demo_file(path("demos.h5"), in);
+  // demo_1 has 7 steps: next_obs row 2 should be obs row 3.
+  std::vector<double> next(7 * 4);
+  for (int t = 0; t < 7; ++t)
+    for (int j = 0; j < 4; ++j) next[static_cast<std::size_t>(t * 4 + j)] = t + 1 < 7 ? in.demos[1].obs(t + 1, j) : 0.0;
+  next[2 * 4 + 1] += 1e-9;
+  edit(path("demos.h5"), [&](hid_t f) { replace_dataset(f, "data/demo_1/next_obs/flat", {7, 4}, next.data()); });
+  EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }),
+              HasSubstr("data/demo_1/next_obs/flat: row 2 differs from data/demo_1/obs/flat row 3"));
+
+  write_demo_file(path("demos.h5"), in);
+  edit(path("demos.h5"), [&](hid_t f) { replace_dataset(f, "data/demo_1/next_obs/flat", {6, 4}, next.data()); });
+  EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }),
+              HasSubstr("data/demo_1/next_obs/flat: has shape [6, 4] but data/demo_1/obs/flat has [7, 4]"));
+
+  write_demo_file(path("demos.h5"), in);
+  edit(path("demos.h5"), [](hid_t f) { ASSERT_GE(H5Ldelete(f, "data/demo_4/next_obs", H5P_DEFAULT), 0); });
+  EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }), HasSubstr("data/demo_4/next_obs: missing group"));
+}
+
+TEST_F(DemoFileTest, AnEpisodeEndOtherThanTerminatedOrTruncatedIsNamed) {
+  write_demo_file(path("demos.h5"), make_file());
+  edit(path("demos.h5"), [](hid_t f) { set_string_attr(f, "data/demo_2", "episode_end", "crashed"); });
+  EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }),
+              HasSubstr("data/demo_2: attribute episode_end should be 'terminated' or 'truncated', got 'crashed'"));
+}
+
+TEST_F(DemoFileTest, EnvArgsThatAreNotJsonAreNamed) {
+  write_demo_file(path("demos.h5"), make_file());
+  edit(path("demos.h5"), [](hid_t f) { set_string_attr(f, "data", "env_args", "{not json"); });
+  EXPECT_THAT(error_of([&] { read_demo_file(path("demos.h5")); }), HasSubstr("data: attribute env_args is not JSON"));
 }
 
 // ----- split -----
@@ -351,7 +472,7 @@ TEST_F(DemoFileTest, WrongShapeNamesTheDemo) {
   edit(path("demos.h5"), [&](hid_t f) { replace_dataset(f, "data/demo_1/actions", {6, 3}, actions.data()); });
   const std::string msg = error_of([&] { read_demo_file(path("demos.h5")); });
   EXPECT_THAT(msg, HasSubstr("data/demo_1/actions: has 6 rows"));
-  EXPECT_THAT(msg, HasSubstr("data/demo_1/obs has 7"));
+  EXPECT_THAT(msg, HasSubstr("data/demo_1/obs/flat has 7"));
 }
 
 TEST_F(DemoFileTest, WrongRankIsNamed) {
@@ -365,9 +486,9 @@ TEST_F(DemoFileTest, WrongRankIsNamed) {
 TEST_F(DemoFileTest, ObservationWidthDifferingAcrossDemosIsNamed) {
   write_demo_file(path("demos.h5"), make_file());
   const std::vector<double> obs(8 * 5, 0.5);  // demo_2 has 8 steps; 5 columns instead of 4
-  edit(path("demos.h5"), [&](hid_t f) { replace_dataset(f, "data/demo_2/obs", {8, 5}, obs.data()); });
+  edit(path("demos.h5"), [&](hid_t f) { replace_dataset(f, "data/demo_2/obs/flat", {8, 5}, obs.data()); });
   const std::string msg = error_of([&] { read_demo_file(path("demos.h5")); });
-  EXPECT_THAT(msg, HasSubstr("data/demo_2/obs: has 5 columns but data/demo_0's has 4"));
+  EXPECT_THAT(msg, HasSubstr("data/demo_2/obs/flat: has 5 columns but data/demo_0's has 4"));
 }
 
 TEST_F(DemoFileTest, MaskNamingAMissingDemoIsNamed) {
