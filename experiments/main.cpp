@@ -13,6 +13,7 @@
 #include "experiments/bench_eval.h"
 #include "experiments/bench_step.h"
 #include "experiments/collect.h"
+#include "experiments/data_convert.h"
 #include "experiments/demo.h"
 #include "experiments/eval_run.h"
 #include "experiments/expert_eval.h"
@@ -352,6 +353,31 @@ int main(int argc, char** argv) {
   report_cmd->add_option("dir", report.dir, "Suite folder")->required()->check(CLI::ExistingDirectory);
   report_cmd->add_option("--out", report.out, "Report folder (default: DIR/report)");
 
+  maps::experiments::DataConvertOptions data_export, data_import;
+  CLI::App* data_cmd =
+      app.add_subcommand("data", "Demo files to and from D4RL, Minari and robomimic (docs/interop.md)");
+  data_cmd->require_subcommand(1);
+  CLI::App* data_export_cmd = data_cmd->add_subcommand("export", "Write a demo file in another tool's format");
+  data_export_cmd->add_option("--format", data_export.format, "d4rl, minari or robomimic")
+      ->required()
+      ->check(CLI::IsMember({"d4rl", "minari", "robomimic"}));
+  data_export_cmd->add_option("input", data_export.input, "Demo file (format 2)")->required()->check(CLI::ExistingFile);
+  data_export_cmd->add_option("--out", data_export.out, "The file to write (Minari: the dataset folder)")->required();
+  data_export_cmd->add_option("--dataset-id", data_export.dataset_id,
+                              "Minari's dataset id (default maps/<set>/expert-v0)");
+  CLI::App* data_import_cmd = data_cmd->add_subcommand("import", "Make a demo file from another tool's dataset");
+  data_import_cmd->add_option("--format", data_import.format, "d4rl, minari or robomimic")
+      ->required()
+      ->check(CLI::IsMember({"d4rl", "minari", "robomimic"}));
+  data_import_cmd->add_option("input", data_import.input, "The dataset (a file; Minari: its dataset folder)")
+      ->required()
+      ->check(CLI::ExistingPath);
+  data_import_cmd->add_option("--out", data_import.out, "Demo file to write")->required();
+  data_import_cmd->add_option("--task-set", data_import.task_set,
+                              "Set name for a dataset made elsewhere (default: its file or dataset name)");
+  data_import_cmd->add_option("--obs-keys", data_import.obs_keys,
+                              "robomimic: observation keys, comma-separated, in column order (default: all, sorted)");
+
   CLI11_PARSE(app, argc, argv);
   render.seed_given = render_seed->count() > 0;
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
@@ -373,6 +399,8 @@ int main(int argc, char** argv) {
     if (*suite_merge_cmd) return maps::experiments::run_suite_merge(suite_merge);
     if (*suite_calibrate_cmd) return maps::experiments::run_suite_calibrate(suite_calibrate);
     if (*report_cmd) return maps::experiments::run_report(report);
+    if (*data_export_cmd) return maps::experiments::run_data_export(data_export);
+    if (*data_import_cmd) return maps::experiments::run_data_import(data_import);
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;
