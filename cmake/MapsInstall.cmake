@@ -1,0 +1,38 @@
+# `cmake --install build --prefix P`: the layer libraries (static), their headers under P/include/maps/ and a CMake
+# package, so that another project can do
+#   find_package(maps CONFIG REQUIRED)
+#   target_link_libraries(app PRIVATE maps::autograd)   # or maps::nn, maps::envs, maps::core
+# (tests/install/ builds such a project against an install in a temporary folder.)
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(_maps_installed maps_autograd maps_nn maps_envs maps_core)
+# Eigen's heap blocks must be aligned alike in the library and in its users: built with -march=native (AVX-512:
+# 64-byte alignment, Eigen's own aligned malloc) and used from code built without it (16 bytes: plain malloc and
+# free), a matrix made on one side and freed on the other corrupts the heap. One bound for both sides, on the two
+# lowest layers that every other one links.
+foreach(target maps_autograd maps_envs)
+  target_compile_definitions(${target} PUBLIC EIGEN_MAX_ALIGN_BYTES=64)
+endforeach()
+foreach(target IN LISTS _maps_installed)
+  string(REGEX REPLACE "^maps_" "" name "${target}")
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
+  add_library(maps::${name} ALIAS ${target})
+endforeach()
+# Linked PRIVATE by every layer (warning flags only); a static library's private links travel with its export.
+set_target_properties(maps_warnings PROPERTIES EXPORT_NAME warnings)
+install(TARGETS ${_maps_installed} maps_warnings EXPORT mapsTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps)
+foreach(layer autograd nn envs maps)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/${layer}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps/${layer}
+          FILES_MATCHING PATTERN "*.h")
+endforeach()
+install(EXPORT mapsTargets NAMESPACE maps:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/maps)
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/mapsConfig.cmake.in
+                              ${CMAKE_CURRENT_BINARY_DIR}/mapsConfig.cmake
+                              INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/maps)
+write_basic_package_version_file(${CMAKE_CURRENT_BINARY_DIR}/mapsConfigVersion.cmake
+                                 COMPATIBILITY SameMinorVersion)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/mapsConfig.cmake ${CMAKE_CURRENT_BINARY_DIR}/mapsConfigVersion.cmake
+        DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/maps)
