@@ -30,10 +30,7 @@ class FormatError(Exception):
 
 def read_maps(path):
     """A demo file as a dict: file attributes, episodes (each a dict of arrays and attributes) and the masks."""
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise FormatError(f"{path}: cannot open as HDF5 ({e})")
+    f = open_hdf5(path)
     with f:
         if "data" not in f:
             raise FormatError(f"{path}: no group 'data' (not a demo file of this project)")
@@ -140,10 +137,7 @@ def import_d4rl(path, task_set=None):
     Without metadata/maps (a file made elsewhere): one task unless infos/task_index says more, seeds are episode
     numbers, success 0, the split the last 30% of each task's episodes; without next_observations an episode's
     final observation is unknown, and its last observation stands in for it (said in extra_json)."""
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise FormatError(f"{path}: cannot open as HDF5 ({e})")
+    f = open_hdf5(path)
     with f:
         for key in ("observations", "actions", "rewards", "terminals"):
             if key not in f:
@@ -289,10 +283,7 @@ def import_minari(folder, task_set=None):
     if metadata.get("data_format", "hdf5") != "hdf5":
         raise FormatError(f"{folder}: data_format '{metadata['data_format']}'; only Minari's hdf5 backend is read")
     path = data_dir / "main_data.hdf5"
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise FormatError(f"{path}: cannot open as HDF5 ({e})")
+    f = open_hdf5(path)
     with f:
         names = [name for name in f.keys() if name.startswith("episode_")]
         try:
@@ -360,10 +351,7 @@ def import_robomimic(path, task_set=None, obs_keys=None):
     one task, its low-dim observation keys (obs_keys, default every key of data/demo_0/obs, sorted) side by side in
     that order, rewards and dones as found (zeros when absent, as robomimic's loader fills them), mask/train and
     mask/valid when present (else the last 30% for validation), seeds the demo numbers."""
-    try:
-        f = h5py.File(path, "r")
-    except OSError as e:
-        raise FormatError(f"{path}: cannot open as HDF5 ({e})")
+    f = open_hdf5(path)
     with f:
         if "data" not in f:
             raise FormatError(f"{path}: no group 'data' (robomimic keeps its demos under data/)")
@@ -428,6 +416,13 @@ def import_robomimic(path, task_set=None, obs_keys=None):
 
 
 # ----- helpers ---------------------------------------------------------------------------------------------------
+
+
+def open_hdf5(path):
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        raise FormatError(f"{path}: cannot open as HDF5 ({e})")
 
 
 def text(value):
