@@ -29,18 +29,26 @@ core::DemoDataset load_run_dataset(const core::RunConfig& config) {
   return core::DemoDataset(envs::read_demo_file(config.data_file), config.data);
 }
 
-TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint) {
+TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint, const std::string& data_file) {
   namespace fs = std::filesystem;
   const fs::path dir(run);
   TrainedRun loaded;
   loaded.config = core::parse_run_config(read_json_file((dir / "config.json").string()));
+  if (!data_file.empty()) loaded.config.data_file = data_file;
   const std::string best_path = (dir / checkpoint).string();
   if (!fs::exists(best_path))
     throw std::runtime_error(run + " has no " + checkpoint + ": train it first (maps train --out " + run + ")");
   loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config));
   const core::DemoDataset& data = *loaded.data;
   loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
-  loaded.best = nlohmann::json::parse(nn::load(*loaded.policy, best_path));
+  try {
+    loaded.best = nlohmann::json::parse(nn::load(*loaded.policy, best_path));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(run + " was not trained on demo file " + loaded.config.data_file + " (" + data.task_set() +
+                             ": " + std::to_string(data.num_tasks()) + " tasks, observations " +
+                             std::to_string(data.observation_size()) + ", actions " +
+                             std::to_string(data.action_size()) + "): " + e.what());
+  }
   // The standardizer the policy was trained with; the demo file must still give the same one.
   const std::vector<double> mean = loaded.best.at("standardizer").at("mean"),
                             stddev = loaded.best.at("standardizer").at("std");

@@ -21,13 +21,16 @@ core::DemoDataset load_run_dataset(const core::RunConfig& config);
 // A trained run ready to act: its config, its demonstrations, and its policy at `checkpoint` (a file of the run
 // folder: best.ckpt, or step_<N>.ckpt) in evaluation mode,
 // prepared for evaluation (MAML fine-tuned per task). Throws naming the folder when best.ckpt is missing, and when
-// the demo file no longer gives the standardizer the policy was trained with.
+// the demo file no longer gives the standardizer the policy was trained with. `data_file` (when not empty) replaces
+// the config's data.file: a relative one names a file from the folder training ran in, which a caller elsewhere
+// cannot see.
 struct TrainedRun {
   core::RunConfig config;
   std::unique_ptr<core::DemoDataset> data;
   std::shared_ptr<core::Policy> policy;
   nlohmann::json best;  // the checkpoint's config: step, validation loss, standardizer
 };
-TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint = "best.ckpt");
+TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint = "best.ckpt",
+                            const std::string& data_file = "");
 
 }  // namespace maps::experiments

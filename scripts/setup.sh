@@ -27,6 +27,10 @@ PACKAGES=(
   python3-matplotlib  # plots
   python3-scipy       # the report's t tests (experiments/suites/suite_stats.py)
   python3-h5py        # tests that read demo files as robomimic, D4RL and Minari users do (tests/experiments/)
+  python3-dev         # the `maps` Python module (python/, docs/python.md): Python's headers,
+  python3-numpy       #   numpy arrays in and out,
+  pybind11-dev        #   pybind11's headers and CMake package,
+  python3-pybind11    #   and its Python side
 )
 
 export DEBIAN_FRONTEND=noninteractive
