@@ -49,6 +49,10 @@ int run_collect(const CollectOptions& options) {
   if (options.demos < 2) throw std::invalid_argument("--demos: a train/valid split needs at least 2 per task");
   if (!(options.train_fraction > 0.0 && options.train_fraction < 1.0))
     throw std::invalid_argument("--train-fraction: must be in (0, 1)");
+  if (std::filesystem::is_regular_file(options.out) && !options.force)
+    throw std::invalid_argument("--out " + options.out +
+                                " already exists: pass --force to replace it (runs trained on it would no longer "
+                                "match it)");
   check_output_file("--out", options.out);
   envs::DemoCollectionConfig config;
   config.demos = options.demos;

@@ -19,6 +19,7 @@ struct CollectOptions {
   std::uint64_t split_seed = 0;
   int threads = 0;           // 0: one per core
   std::string command_line;  // recorded in the file
+  bool force = false;        // replace an existing --out file
 };
 
 int run_collect(const CollectOptions& options);

@@ -3,10 +3,12 @@
 #include "experiments/eval_run.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 
 #include "experiments/run_folder.h"
@@ -17,6 +19,18 @@
 namespace maps::experiments {
 
 namespace {
+
+// One line per finished task, so a long evaluation is not silent: "[3/10] mt10/reach: score 0.90 (12 s)".
+core::EvalProgressFn progress_lines(const std::vector<std::string>& tasks) {
+  const auto start = std::chrono::steady_clock::now();
+  auto finished = std::make_shared<std::size_t>(0);
+  return [start, finished, count = tasks.size()](std::size_t, const core::TaskEvaluation& evaluation) {
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::printf("  [%zu/%zu] %s: score %.3f, %d episodes (%.0f s)\n", ++*finished, count, evaluation.task.c_str(),
+                evaluation.score, evaluation.episodes, seconds);
+    std::fflush(stdout);
+  };
+}
 
 nlohmann::json score_lists(const core::EvaluationResult& result) {
   std::vector<double> scores, success, success_at_end;
@@ -119,7 +133,8 @@ int run_eval(const EvalRunOptions& options) {
   std::printf("maps eval: %s, %d episodes per task\n", options.run.c_str(), eval.episodes);
   std::fflush(stdout);
   const core::EvaluationResult result =
-      core::evaluate(*policy, standardizer, data.task_names(), expert_returns, eval, maps_policy ? &usage : nullptr);
+      core::evaluate(*policy, standardizer, data.task_names(), expert_returns, eval, maps_policy ? &usage : nullptr,
+                     progress_lines(data.task_names()));
 
   nlohmann::json tasks = nlohmann::json::array();
   std::printf("| task | score (95%% CI) | return | success |\n|---|---|---|---|\n");

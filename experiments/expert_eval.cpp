@@ -41,27 +41,29 @@ int run_expert_eval(const ExpertEvalOptions& options) {
   const std::vector<std::string> tasks =
       options.task.empty() ? envs::task_names(options.task_set) : std::vector<std::string>{options.task};
   for (const auto& task : tasks) envs::task_index(task);  // an unknown task fails here, before any work
-  if (!options.json_out.empty()) check_output_file("--json", options.json_out);
+  if (!options.out.empty()) check_output_file("--out", options.out);
   const int threads = worker_count(options.threads, tasks.size());
-  std::printf("maps expert-eval: %zu tasks, %d episodes each from seed %llu (mean actions), %d threads\n", tasks.size(),
-              options.episodes, static_cast<unsigned long long>(options.first_seed), threads);
-  std::fflush(stdout);
+  // With --json, stdout holds only the JSON; the words go to stderr.
+  std::FILE* text = options.json ? stderr : stdout;
+  std::fprintf(text, "maps expert-eval: %zu tasks, %d episodes each from seed %llu (mean actions), %d threads\n",
+               tasks.size(), options.episodes, static_cast<unsigned long long>(options.first_seed), threads);
+  std::fflush(text);
 
   const auto start = std::chrono::steady_clock::now();
   std::vector<envs::ExpertEpisodes> scores(tasks.size());
   run_tasks_in_parallel(tasks.size(), threads,
                         [&](std::size_t i) { scores[i] = evaluate(tasks[i], options.episodes, options.first_seed); });
 
-  std::printf("| task | return (mean +- std) | success | mean first-success step | failed (turned over) |\n");
-  std::printf("|---|---|---|---|---|\n");
+  std::fprintf(text, "| task | return (mean +- std) | success | mean first-success step | failed (turned over) |\n");
+  std::fprintf(text, "|---|---|---|---|---|\n");
   nlohmann::json table = nlohmann::json::array();
   for (std::size_t i = 0; i < tasks.size(); ++i) {
     const envs::ExpertEpisodes& s = scores[i];
     const double first = mean_first_success(s);
-    std::printf("| %s | %.1f +- %.1f | %d / %d | %s | %d / %d |\n", tasks[i].c_str(), s.mean_return(), s.return_std(),
-                s.success_count(), options.episodes,
-                first >= 0 ? std::to_string(static_cast<int>(std::lround(first))).c_str() : "-", s.failed_count(),
-                options.episodes);
+    std::fprintf(text, "| %s | %.1f +- %.1f | %d / %d | %s | %d / %d |\n", tasks[i].c_str(), s.mean_return(),
+                 s.return_std(), s.success_count(), options.episodes,
+                 first >= 0 ? std::to_string(static_cast<int>(std::lround(first))).c_str() : "-", s.failed_count(),
+                 options.episodes);
     table.push_back({{"task", tasks[i]},
                      {"episodes", options.episodes},
                      {"first_seed", options.first_seed},
@@ -72,11 +74,12 @@ int run_expert_eval(const ExpertEvalOptions& options) {
                      {"mean_first_success_step", first},
                      {"failed_episodes", s.failed_count()}});
   }
-  std::printf("took %.1f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  if (!options.json_out.empty()) {
-    std::ofstream out(options.json_out);
+  std::fprintf(text, "took %.1f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  if (options.json) std::printf("%s\n", table.dump().c_str());
+  if (!options.out.empty()) {
+    std::ofstream out(options.out);
     out << table.dump(2) << "\n";
-    if (!out) throw std::runtime_error("cannot write '" + options.json_out + "'");
+    if (!out) throw std::runtime_error("cannot write '" + options.out + "'");
   }
   return 0;
 }

@@ -15,8 +15,9 @@ struct ExpertEvalOptions {
   std::string task;
   int episodes = 20;
   std::uint64_t first_seed = envs::kEvalSeedBegin;
-  int threads = 0;       // 0: one per core
-  std::string json_out;  // optional: the table as JSON
+  int threads = 0;    // 0: one per core
+  std::string out;    // optional: the table as a JSON file
+  bool json = false;  // print the table as one JSON array on stdout (the text goes to stderr)
 };
 
 int run_expert_eval(const ExpertEvalOptions& options);

@@ -2,6 +2,7 @@
 // function declared in its own header under experiments/.
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +10,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "experiments/bench_eval.h"
 #include "experiments/bench_step.h"
@@ -17,12 +19,14 @@
 #include "experiments/demo.h"
 #include "experiments/eval_run.h"
 #include "experiments/expert_eval.h"
+#include "experiments/provenance.h"
 #include "experiments/render.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_run.h"
 #include "experiments/suite_status.h"
 #include "experiments/train_expert.h"
 #include "experiments/train_run.h"
+#include "experiments/usage_error.h"
 
 namespace {
 
@@ -149,6 +153,7 @@ int main(int argc, char** argv) {
       ->check(positive)
       ->capture_default_str();
   collect_cmd->add_option("--out", collect.out, "HDF5 file to write")->required();
+  collect_cmd->add_flag("--force", collect.force, "Replace --out if it exists");
   collect_cmd->add_option("--actions", collect.actions, "Record the expert's mean action or a sampled one")
       ->check(CLI::IsMember({"mean", "sample"}))
       ->capture_default_str();
@@ -218,16 +223,25 @@ int main(int argc, char** argv) {
   expert_eval_cmd->add_option("--threads", expert_eval.threads, "Tasks evaluated at once (0: one per core)")
       ->check(non_negative)
       ->capture_default_str();
-  expert_eval_cmd->add_option("--json", expert_eval.json_out, "Also write the table to this JSON file");
+  expert_eval_cmd->add_option("--out", expert_eval.out, "Also write the table to this JSON file");
+  expert_eval_cmd->add_flag("--json", expert_eval.json, "Print the table as one JSON array (the text goes to stderr)");
 
   maps::experiments::TrainRunOptions train_run;
   CLI::App* train_cmd = app.add_subcommand("train", "Train one method on a demo file as a JSON config says");
-  train_cmd->add_option("--config", train_run.config_path, "Run config (JSON; see maps/training/run_config.h)")
+  train_cmd->add_option("--config", train_run.config_path, "Run config (JSON; every key in docs/configs.md)")
       ->required()
       ->check(CLI::ExistingFile);
-  train_cmd->add_option("--out", train_run.out, "Run folder (resumes a run of the same config)")->required();
-  train_cmd->add_option("--threads", train_run.threads, "Op threads for the training steps (docs/performance.md)")
-      ->check(positive)
+  train_cmd->add_option("--out", train_run.out,
+                        "Run folder (resumes a run of the same config; a finished one is extended when only "
+                        "train.steps grew)");
+  train_cmd->add_option("--set", train_run.overrides,
+                        "Override a config key: --set train.steps=40000 --set maps.modules=5 (repeatable)");
+  train_cmd->add_flag("--print-config", train_run.print_config,
+                      "Print the resolved config (every key, defaults included) and exit without training");
+  train_cmd
+      ->add_option("--threads", train_run.threads,
+                   "Op threads for the training steps (0: one per core; docs/performance.md)")
+      ->check(non_negative)
       ->capture_default_str();
 
   maps::experiments::EvalRunOptions eval_run;
@@ -254,7 +268,9 @@ int main(int argc, char** argv) {
   CLI::App* bench_step_cmd = bench_cmd->add_subcommand(
       "step", "Time one whole MAPS training step at the paper's shapes against Eigen's GEMM (and PyTorch)");
   bench_step_cmd->add_option("--set", bench_step.set, "Shapes: gravity, modified or mt10")->capture_default_str();
-  bench_step_cmd->add_option("--threads", bench_step.threads, "Threads")->check(positive)->capture_default_str();
+  bench_step_cmd->add_option("--threads", bench_step.threads, "Threads (0: one per core)")
+      ->check(non_negative)
+      ->capture_default_str();
   bench_step_cmd->add_option("--seconds", bench_step.seconds, "Time spent in timed steps")
       ->check(positive)
       ->capture_default_str();
@@ -269,8 +285,8 @@ int main(int argc, char** argv) {
   bench_eval_cmd->add_option("--episodes", bench_eval.episodes, "Episodes per task")
       ->check(positive)
       ->capture_default_str();
-  bench_eval_cmd->add_option("--threads", bench_eval.threads, "Evaluator threads")
-      ->check(positive)
+  bench_eval_cmd->add_option("--threads", bench_eval.threads, "Evaluator threads (0: one per core)")
+      ->check(non_negative)
       ->capture_default_str();
   bench_eval_cmd->add_option("--max-envs", bench_eval.max_envs, "Envs alive per task")
       ->check(positive)
@@ -303,8 +319,8 @@ int main(int argc, char** argv) {
   suite_run_cmd->add_option("--jobs", suite_run.jobs, "Cells at once (0: cores / threads)")
       ->check(non_negative)
       ->capture_default_str();
-  suite_run_cmd->add_option("--threads", suite_run.threads, "Op threads per cell")
-      ->check(positive)
+  suite_run_cmd->add_option("--threads", suite_run.threads, "Op threads per cell (0: one per core)")
+      ->check(non_negative)
       ->capture_default_str();
   suite_run_cmd->add_option("--shard", suite_run.shard, "Run only the cells with index % N == i (i/N)")
       ->capture_default_str();
@@ -378,9 +394,19 @@ int main(int argc, char** argv) {
   data_import_cmd->add_option("--obs-keys", data_import.obs_keys,
                               "robomimic: observation keys, comma-separated, in column order (default: all, sorted)");
 
-  CLI11_PARSE(app, argc, argv);
+  // Exit codes (docs/cli.md): 0 done, 1 the work failed (bad input files, a failed run), 2 the command line is wrong
+  // (CLI11's own codes, 105-109 by kind, are folded into 2), 3 `suite run` left cells to another process.
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help is a ParseError that exits 0
+  }
   render.seed_given = render_seed->count() > 0;
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
+  maps::experiments::set_command_line(argc, argv);
+  // --threads 0 means one per core in every command; these take the count as given.
+  for (int* threads : {&train_run.threads, &bench_step.threads, &bench_eval.threads, &suite_run.threads})
+    if (*threads == 0) *threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 
   try {
     if (*demo_cmd) return maps::experiments::run_demo(demo);
@@ -401,6 +427,9 @@ int main(int argc, char** argv) {
     if (*report_cmd) return maps::experiments::run_report(report);
     if (*data_export_cmd) return maps::experiments::run_data_export(data_export);
     if (*data_import_cmd) return maps::experiments::run_data_import(data_import);
+  } catch (const maps::experiments::UsageError& e) {
+    std::cerr << "maps: error: " << e.what() << "\n";
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 1;

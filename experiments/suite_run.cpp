@@ -81,10 +81,11 @@ Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, do
   const auto start = std::chrono::steady_clock::now();
   write_json_file((dir / "request.json").string(), cell.request);
   const std::string thread_arg = std::to_string(threads);
+  // maps train keeps its own train.log in the folder; train.out gets whatever the process printed (a crash too).
   const int train_code =
       run_self({"train", "--config", (dir / "request.json").string(), "--out", dir.string(), "--threads", thread_arg},
-               dir / "train.log");
-  if (train_code != 0) return failed_stage(dir, "train", train_code, dir / "train.log");
+               dir / "train.out");
+  if (train_code != 0) return failed_stage(dir, "train", train_code, dir / "train.out");
   std::vector<std::string> eval_args{"eval", "--run", dir.string(), "--threads", thread_arg};
   if (cell.request["train"].value("keep_every", 0LL) > 0) eval_args.push_back("--checkpoints");
   const int eval_code = run_self(eval_args, dir / "eval.log");

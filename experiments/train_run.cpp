@@ -2,52 +2,111 @@
 
 #include "experiments/train_run.h"
 
-#include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <stdexcept>
 
+#include "experiments/config_overrides.h"
 #include "experiments/output_path.h"
+#include "experiments/provenance.h"
 #include "experiments/run_folder.h"
+#include "experiments/tee_stream.h"
+#include "experiments/usage_error.h"
 #include "maps/training/trainer.h"
 
 namespace maps::experiments {
+namespace {
+
+// The keys whose values differ between two resolved configs, as dotted paths ("train.steps", "maps.modules").
+std::string differing_keys(const nlohmann::json& a, const nlohmann::json& b) {
+  std::string keys;
+  for (const nlohmann::json& change : nlohmann::json::diff(a, b)) {
+    std::string path = change.at("path").get<std::string>().substr(1);
+    for (char& c : path)
+      if (c == '/') c = '.';
+    keys += (keys.empty() ? "" : ", ") + path;
+  }
+  return keys;
+}
+
+// What DIR already holds decides what this invocation does: start, resume, or extend (only train.steps differs).
+// Anything else is refused, naming the keys that differ.
+void check_existing_run(const std::string& out, const nlohmann::json& resolved, std::ostream& log) {
+  const std::string config_path = (std::filesystem::path(out) / "config.json").string();
+  if (!std::filesystem::exists(config_path)) return;
+  // Compared after resolving both, so a folder written before a key existed (its default then implied) resumes.
+  const nlohmann::json existing = core::to_json(core::parse_run_config(read_json_file(config_path)));
+  if (existing == resolved) return;
+  nlohmann::json existing_but_steps = existing, resolved_but_steps = resolved;
+  existing_but_steps["train"].erase("steps");
+  resolved_but_steps["train"].erase("steps");
+  if (existing_but_steps != resolved_but_steps)
+    throw std::runtime_error(out + " holds a run of another config (" + config_path + " differs in " +
+                             differing_keys(existing, resolved) +
+                             "); use a new folder, or delete it to start over (only train.steps may change, to "
+                             "extend a run)");
+  const std::int64_t done = core::trained_steps(out), wanted = resolved["train"]["steps"].get<std::int64_t>();
+  if (done > wanted)
+    throw std::invalid_argument(out + " has trained " + std::to_string(done) + " steps, more than train.steps " +
+                                std::to_string(wanted) + ": a run can be extended, not shortened");
+  log << "maps train: " << out << " was configured for " << existing["train"]["steps"] << " steps; continuing to "
+      << resolved["train"]["steps"] << std::endl;
+}
+
+}  // namespace
 
 int run_train(const TrainRunOptions& options) {
-  const core::RunConfig config = core::parse_run_config(read_json_file(options.config_path));
+  nlohmann::json json = read_json_file(options.config_path);
+  apply_overrides(json, options.overrides);
+  const core::RunConfig config = core::parse_run_config(json);
   const nlohmann::json resolved = core::to_json(config);
+  if (options.print_config) {
+    std::cout << resolved.dump(2) << std::endl;
+    return 0;
+  }
+  if (options.out.empty()) throw UsageError("maps train: --out DIR is required (unless --print-config)");
   check_output_folder("--out", options.out);
-  const std::string config_path = (std::filesystem::path(options.out) / "config.json").string();
-  // Compared after resolving both, so a folder written before a key existed (its default then implied) resumes.
-  if (std::filesystem::exists(config_path) &&
-      core::to_json(core::parse_run_config(read_json_file(config_path))) != resolved)
-    throw std::runtime_error(options.out + " holds a run of another config (" + config_path +
-                             "); use a new folder, or delete it to start over");
-  write_json_file(config_path, resolved);
+  const std::filesystem::path dir(options.out);
+  std::ofstream log_file(dir / "train.log", std::ios::app);
+  if (!log_file) throw std::runtime_error("cannot append to " + (dir / "train.log").string());
+  TeeStream log(std::cout, log_file);
+  log << "---- " << provenance_record()["started_utc"].get<std::string>() << "  " << command_line() << std::endl;
+  try {
+    check_existing_run(options.out, resolved, log);
+    const core::DemoDataset data = load_run_dataset(config);
+    append_provenance(options.out, provenance_record({{"subcommand", "train"},
+                                                      {"config_file", options.config_path},
+                                                      {"overrides", options.overrides},
+                                                      {"steps", config.train.steps},
+                                                      {"threads", options.threads},
+                                                      {"demo_file", config.data_file},
+                                                      {"demo_file_sha256", sha256_of_file(config.data_file)}}));
+    write_json_file((dir / "config.json").string(), resolved);
 
-  const core::DemoDataset data = load_run_dataset(config);
-  const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};
-  const auto policy = core::make_policy(config, shape);
-  std::printf("maps train: %s on %s (%d tasks, %d demos per task, subsample %d), seed %llu, %lld steps -> %s\n",
-              config.method.c_str(), config.data_file.c_str(), data.num_tasks(), config.data.demos_per_task,
-              config.data.subsample, static_cast<unsigned long long>(config.seed),
-              static_cast<long long>(config.train.steps), options.out.c_str());
-  std::fflush(stdout);
-  ag::set_num_threads(options.threads);
-  const core::TrainSummary summary = core::train_policy(*policy, data, config.train, options.out, &std::cout);
+    const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};
+    const auto policy = core::make_policy(config, shape);
+    log << "maps train: " << config.method << " on " << config.data_file << " (" << data.num_tasks() << " tasks, "
+        << config.data.demos_per_task << " demos per task, subsample " << config.data.subsample << "), seed "
+        << config.seed << ", " << config.train.steps << " steps -> " << options.out << std::endl;
+    ag::set_num_threads(options.threads);
+    const core::TrainSummary summary = core::train_policy(*policy, data, config.train, options.out, &log);
 
-  nlohmann::json seeds = nlohmann::json::object();
-  for (int k = 0; k < data.num_tasks(); ++k) seeds[data.task_names()[k]] = data.training_demo_seeds()[k];
-  write_json_file((std::filesystem::path(options.out) / "train.json").string(),
-                  {{"steps", summary.steps_done},
-                   {"best_step", summary.best_step},
-                   {"best_validation_bc", summary.best_validation_loss},
-                   {"seconds_this_process", summary.seconds},
-                   {"resumed", summary.resumed},
-                   {"parameters", policy->parameter_count()},
-                   {"training_demo_seeds", seeds}});
-  std::printf("done: best validation BC %.5g at step %lld; %s/best.ckpt\n", summary.best_validation_loss,
-              static_cast<long long>(summary.best_step), options.out.c_str());
+    nlohmann::json seeds = nlohmann::json::object();
+    for (int k = 0; k < data.num_tasks(); ++k) seeds[data.task_names()[k]] = data.training_demo_seeds()[k];
+    write_json_file((dir / "train.json").string(), {{"steps", summary.steps_done},
+                                                    {"best_step", summary.best_step},
+                                                    {"best_validation_bc", summary.best_validation_loss},
+                                                    {"seconds_this_process", summary.seconds},
+                                                    {"resumed", summary.resumed},
+                                                    {"parameters", policy->parameter_count()},
+                                                    {"training_demo_seeds", seeds}});
+    log << "done: best validation BC " << summary.best_validation_loss << " at step " << summary.best_step << "; "
+        << options.out << "/best.ckpt" << std::endl;
+  } catch (const std::exception& e) {
+    log_file << "maps: error: " << e.what() << std::endl;
+    throw;
+  }
   return 0;
 }
 

@@ -1,14 +1,18 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace maps::experiments {
 
 // `maps train --config C.json --out DIR`: trains one method on one demo file (resuming when DIR holds a run of the
-// same config) and writes the run folder (experiments/run_folder.h).
+// same config, extending it when only train.steps grew) and writes the run folder (experiments/run_folder.h), with
+// train.log (what it printed) and provenance.json (who trained it from what: experiments/provenance.h).
 struct TrainRunOptions {
   std::string config_path;
   std::string out;
+  std::vector<std::string> overrides;  // --set key=value (experiments/config_overrides.h)
+  bool print_config = false;           // print the resolved config and stop
   // Op threads (ag::set_num_threads): 2 makes a MAPS step ~1.8x faster on 2 cores (docs/performance.md); the
   // default 1 suits grids that train two runs side by side. More threads change float rounding in the last digits.
   int threads = 1;

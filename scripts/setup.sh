@@ -20,6 +20,8 @@ PACKAGES=(
   libmujoco-dev
   libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r
   libhdf5-dev
+  libboost-dev  # Boost.Math: Student's t quantiles of the evaluation's confidence intervals
+  libssl-dev    # SHA-256 of the demo file a run trained on (experiments/provenance.cpp)
   hdf5-tools  # h5diff: the kill tests compare demo files by content (tests/experiments/kill_test.py)
   libosmesa6-dev  # offscreen rendering (maps render); optional for the build
   libpng-dev

@@ -9,20 +9,20 @@ from scipy.stats import t as scipy_t
 
 from suite_results import groups, task_names, task_score
 
-# Two-sided 95% t quantiles by degrees of freedom (1-30); 1.96 past the table.
-T95 = dict(enumerate([12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-                      2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-                      2.052, 2.048, 2.045, 2.042], start=1))
-
 # Fig. 3's "much better": the method's mean score above this factor times Single BC's.
 MUCH_BETTER = 1.1
+
+
+def t95(degrees_of_freedom):
+    """The two-sided 95% quantile of Student's t (as maps::core::t_quantile_95 computes it in C++)."""
+    return float(scipy_t.ppf(0.975, degrees_of_freedom))
 
 
 def ci95(values):
     """Half-width of the 95% confidence interval of the mean (t distribution); nan for fewer than 2 values."""
     if len(values) < 2:
         return float("nan")
-    return T95.get(len(values) - 1, 1.96) * statistics.stdev(values) / math.sqrt(len(values))
+    return t95(len(values) - 1) * statistics.stdev(values) / math.sqrt(len(values))
 
 
 def mean(values):

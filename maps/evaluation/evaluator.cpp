@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <boost/math/distributions/students_t.hpp>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -18,6 +19,15 @@
 #include "envs/task_sets.h"
 
 namespace maps::core {
+
+double t_quantile_95(int degrees_of_freedom) {
+  if (degrees_of_freedom < 1)
+    throw std::invalid_argument("t_quantile_95: degrees of freedom must be >= 1, got " +
+                                std::to_string(degrees_of_freedom));
+  return boost::math::quantile(boost::math::students_t(degrees_of_freedom), 0.975);
+}
+
+double TaskEvaluation::score_ci95() const { return episodes < 2 ? 0.0 : t_quantile_95(episodes - 1) * score_std_error; }
 namespace {
 
 using Clock = std::chrono::steady_clock;

@@ -59,8 +59,9 @@ struct TaskEvaluation {
   double selector_entropy = 0.0;
   double selector_top_score = 0.0;
 
-  // Half-width of the normal-approximation 95% confidence interval of `score`.
-  double score_ci95() const { return 1.96 * score_std_error; }
+  // Half-width of the 95% confidence interval of `score`: Student's t quantile for episodes - 1 degrees of freedom
+  // times the standard error (0 for one episode), as the suite's report computes its intervals.
+  double score_ci95() const;
 };
 
 struct EvaluationResult {
@@ -73,6 +74,9 @@ struct EvaluationResult {
   double env_seconds = 0.0;
   double policy_seconds = 0.0;
 };
+
+// The two-sided 95% quantile of Student's t distribution (12.706 for 1 degree of freedom, 1.984 for 99).
+double t_quantile_95(int degrees_of_freedom);
 
 // Selector scores [n, M] for standardised observations [n, S] of the given tasks (MAPS's module usage).
 using ModuleUsageFn = std::function<ag::Tensor(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks)>;

@@ -123,6 +123,16 @@ Json policy_record(const DemoDataset& data, std::int64_t step, std::optional<dou
 
 }  // namespace
 
+std::int64_t trained_steps(const std::string& run_dir) {
+  const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
+  if (!fs::exists(last_path)) return 0;
+  try {
+    return Json::parse(nn::load_tensors(last_path).config).at("step").get<std::int64_t>();
+  } catch (const Json::exception& e) {
+    throw std::runtime_error("training checkpoint " + last_path + ": unreadable state (" + e.what() + ")");
+  }
+}
+
 TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
                           const std::string& run_dir, std::ostream* log) {
   if (config.steps < 1 || config.states_per_task < 1 || config.validate_every < 1 || config.checkpoint_every < 1)
@@ -144,6 +154,10 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   TrainSummary summary;
   if (fs::exists(last_path)) {
     progress = load_last(last_path, policy, adam, rng);
+    if (progress.step > config.steps)
+      throw std::invalid_argument(last_path + " has trained " + std::to_string(progress.step) +
+                                  " steps, more than train.steps " + std::to_string(config.steps) +
+                                  ": a run can be extended, not shortened (best.ckpt and curve.csv stay as they are)");
     summary.resumed = true;
     truncate_curve(curve_path, progress.step);
     if (log) *log << "resumed from " << last_path << " at step " << progress.step << std::endl;

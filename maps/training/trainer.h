@@ -41,6 +41,9 @@ struct TrainSummary {
   bool resumed = false;
 };
 
+// The steps run_dir/last.ckpt has trained (0 when there is none yet).
+std::int64_t trained_steps(const std::string& run_dir);
+
 // Trains (or resumes from run_dir/last.ckpt), then loads best.ckpt into `policy`. `log` gets the progress lines
 // (nullptr: silent). A non-finite loss throws std::runtime_error naming the step and the term, with last.ckpt
 // left at the last good checkpoint.

@@ -49,7 +49,7 @@ class BadInputTest(unittest.TestCase):
         self.expect_refused(["collect", "--set", "nope", "--out", "x.h5"], "--set")
         self.expect_refused(["collect", "--set", "mt10", "--demos", "-3", "--out", "x.h5"], "--demos")
         self.expect_refused(["collect", "--set", "mt10", "--demos", "many", "--out", "x.h5"], "--demos")
-        self.expect_refused(["train", "--config", self.config("ok.json"), "--out", "r", "--threads", "0"], "--threads")
+        self.expect_refused(["train", "--config", self.config("ok.json"), "--out", "r", "--threads", "-1"], "--threads")
         self.expect_refused(["bench", "step", "--set", "nope"], "nope")
         self.expect_refused(["expert-eval", "--task", "gravity/9.9"], "gravity/9.9")
         self.expect_refused(["render", "--task", "mt10/no-such-task", "--out", "x.png"], "mt10/no-such-task")
@@ -102,7 +102,7 @@ class BadInputTest(unittest.TestCase):
         cases = [
             (["collect", "--set", "mt10", "--demos", "2", "--out", f"{blocker}/demos.h5"], "--out"),
             (["collect", "--set", "mt10", "--demos", "2", "--out", WORK], "is a folder"),
-            (["expert-eval", "--task", "gravity/1.0", "--episodes", "3", "--json", f"{blocker}/t.json"], "--json"),
+            (["expert-eval", "--task", "gravity/1.0", "--episodes", "3", "--out", f"{blocker}/t.json"], "--out"),
             (["render", "--task", "gravity/1.0", "--out", f"{blocker}/frame.png"], "--out"),
             (["train", "--config", config, "--out", f"{blocker}/run"], "--out"),
             (["train-expert", "--task", "gravity/1.0", "--out", f"{blocker}/expert"], "--out")]

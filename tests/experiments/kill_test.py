@@ -148,7 +148,8 @@ class KillTest(unittest.TestCase):
         self.assertTrue(b["resumed"])
         # Killed writers leave their temporaries behind; no later run may take one for a checkpoint.
         leftovers = [p.name for p in killed_dir.iterdir() if p.name not in
-                     {"last.ckpt", "best.ckpt", "curve.csv", "train.json", "config.json"}]
+                     {"last.ckpt", "best.ckpt", "curve.csv", "train.json", "config.json", "train.log",
+                      "provenance.json"}]
         for name in leftovers:
             self.assertIn("tmp", name)
 

@@ -365,8 +365,16 @@ TEST(Evaluator, ReturnScoreIsFlooredPerEpisodeAndNotCapped) {
   EXPECT_NEAR(t.score, mean, 1e-12);
   EXPECT_GT(t.score, std::max(0.0, t.return_mean / 0.25));  // flooring episodes is not flooring the mean
   EXPECT_NEAR(t.score_std_error, std::sqrt(ss / 19.0 / 20.0), 1e-12);
-  EXPECT_NEAR(t.score_ci95(), 1.96 * t.score_std_error, 1e-15);
+  EXPECT_NEAR(t.score_ci95(), 2.0930240544 * t.score_std_error, 1e-9);  // Student's t, 19 degrees of freedom
   EXPECT_DOUBLE_EQ(result.mean_score, t.score);
+}
+
+TEST(Evaluator, TQuantilesAreStudentsNotTheNormals) {
+  EXPECT_NEAR(t_quantile_95(1), 12.7062047362, 1e-9);
+  EXPECT_NEAR(t_quantile_95(4), 2.7764451052, 1e-9);
+  EXPECT_NEAR(t_quantile_95(99), 1.9842169516, 1e-9);
+  EXPECT_NEAR(t_quantile_95(1000000), 1.959966, 1e-6);
+  EXPECT_THROW(t_quantile_95(0), std::invalid_argument);
 }
 
 TEST(Evaluator, HalfCheetahScoreIsReturnOverExpertReturn) {

@@ -1,0 +1,172 @@
+#!/usr/bin/python3
+"""The tool as a new user meets it (issue 16, item 5): `maps train --print-config` and `--set`, a finished run
+extended step for step, what a run folder records (provenance.json, train.log), `collect --force`, `--json` and
+`--threads 0` meaning the same in every command, the exit codes of docs/cli.md, `maps eval` progress, and
+docs/configs.md naming every config key. Run by ctest as: cli_test.py path/to/maps."""
+import hashlib
+import json
+import pathlib
+import re
+import subprocess
+import sys
+import tempfile
+import unittest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+MAPS = None  # set from argv
+WORK = None  # scratch folder
+
+
+def run(*args, check=True):
+    proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True, timeout=600)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"maps {' '.join(map(str, args))} exited {proc.returncode}:\n{proc.stderr}")
+    return proc
+
+
+def dotted_keys(value, prefix=""):
+    if isinstance(value, dict) and prefix != "maps.selector_losses":
+        for key, inner in value.items():
+            yield from dotted_keys(inner, f"{prefix}.{key}" if prefix else key)
+    else:
+        yield prefix
+
+
+def curve_without_timing(path):
+    return [line.rsplit(",", 1)[0] for line in pathlib.Path(path).read_text().splitlines()]
+
+
+class Tool(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        run("collect", "--set", "mt10", "--demos", "3", "--out", "mt10.h5", "--threads", "1")
+        cls.config = pathlib.Path(WORK) / "config.json"
+        cls.config.write_text(json.dumps({"method": "mt_bc", "data": {"file": "mt10.h5"},
+                                          "train": {"steps": 100, "validate_every": 50, "checkpoint_every": 50,
+                                                    "validation_states_per_task": 50},
+                                          "eval": {"episodes": 2, "threads": 1}}))
+
+    def print_config(self, *extra):
+        return json.loads(run("train", "--config", self.config, "--print-config", *extra).stdout)
+
+    def test_print_config_resolves_every_default_and_set_overrides(self):
+        config = self.print_config()
+        self.assertEqual(config["train"]["steps"], 100)
+        self.assertEqual(config["train"]["learning_rate"], 3e-4)
+        self.assertEqual(config["maps"]["selector_losses"]["explore"], 0.5)
+        config = self.print_config("--set", "train.steps=7", "--set", "method=maps", "--set", "maps.module_hidden=[64]",
+                                   "--set", "maps.selector_losses={\"share\": 0}", "--set", "seed=3")
+        self.assertEqual((config["train"]["steps"], config["method"], config["maps"]["module_hidden"], config["seed"]),
+                         (7, "maps", [64], 3))
+        self.assertEqual(config["maps"]["selector_losses"], {"share": 0})
+        self.assertFalse((pathlib.Path(WORK) / "runs").exists())
+
+    def test_bad_overrides_are_usage_or_config_errors_naming_the_key(self):
+        for assignment, needle in (("train.steps", "key=value"), ("train..steps=3", "empty part"),
+                                   ("train.stepz=3", "stepz"), ("train.steps=2.5", "train.steps"),
+                                   ("data.file.x=1", "'data.file' is \"mt10.h5\"")):
+            with self.subTest(assignment=assignment):
+                proc = run("train", "--config", self.config, "--print-config", "--set", assignment, check=False)
+                self.assertEqual(proc.returncode, 1, proc.stderr)
+                self.assertIn(needle, proc.stderr)
+
+    def test_configs_md_names_every_key(self):
+        doc = (ROOT / "docs" / "configs.md").read_text()
+        keys = list(dotted_keys(self.print_config()))
+        self.assertGreater(len(keys), 30)
+        for key in keys:
+            self.assertIn(f"| `{key}` |", doc, f"docs/configs.md does not list {key}")
+        for example in (ROOT / "experiments" / "configs").glob("*.json"):
+            with self.subTest(example=example.name):
+                run("train", "--config", example, "--print-config")
+
+    def test_a_finished_run_extends_step_for_step(self):
+        out, fresh = pathlib.Path(WORK) / "extended", pathlib.Path(WORK) / "fresh"
+        run("train", "--config", self.config, "--out", out)
+        proc = run("train", "--config", self.config, "--out", out, "--set", "train.steps=200")
+        self.assertIn("configured for 100 steps; continuing to 200", proc.stdout)
+        self.assertIn("resumed from", proc.stdout)
+        run("train", "--config", self.config, "--out", fresh, "--set", "train.steps=200")
+        self.assertEqual(curve_without_timing(out / "curve.csv"), curve_without_timing(fresh / "curve.csv"))
+        self.assertEqual((out / "best.ckpt").read_bytes(), (fresh / "best.ckpt").read_bytes())
+        self.assertEqual(json.loads((out / "config.json").read_text())["train"]["steps"], 200)
+        shorter = run("train", "--config", self.config, "--out", out, "--set", "train.steps=150", check=False)
+        self.assertEqual(shorter.returncode, 1)
+        self.assertIn("extended, not shortened", shorter.stderr)
+        self.assertEqual(json.loads((out / "config.json").read_text())["train"]["steps"], 200)
+        other = run("train", "--config", self.config, "--out", out, "--set", "seed=4", "--set", "train.steps=300",
+                    check=False)
+        self.assertEqual(other.returncode, 1)
+        self.assertIn("differs in seed", other.stderr)
+
+    def test_run_folder_records_what_made_it(self):
+        out = pathlib.Path(WORK) / "recorded"
+        run("train", "--config", self.config, "--out", out, "--threads", "0")
+        run("train", "--config", self.config, "--out", out, "--set", "train.steps=150")
+        records = json.loads((out / "provenance.json").read_text())
+        self.assertEqual(len(records), 2)
+        digest = hashlib.sha256((pathlib.Path(WORK) / "mt10.h5").read_bytes()).hexdigest()
+        for record in records:
+            self.assertEqual(record["demo_file_sha256"], digest)
+            self.assertRegex(record["git_commit"], r"^([0-9a-f]{40}(-dirty)?|unknown.*)$")
+            self.assertRegex(record["started_utc"], r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ$")
+            self.assertIn("train --config", record["command_line"])
+            self.assertTrue(record["tool_version"])
+        self.assertGreaterEqual(records[0]["threads"], 1)  # --threads 0: one per core
+        self.assertEqual(records[1]["overrides"], ["train.steps=150"])
+        log = (out / "train.log").read_text()
+        self.assertEqual(log.count("---- "), 2)
+        self.assertIn("step 100/100", log)
+        self.assertIn("resumed from", log)
+        failed = run("train", "--config", self.config, "--out", out, "--set", "seed=9", check=False)
+        self.assertEqual(failed.returncode, 1)
+        self.assertEqual((out / "train.log").read_text().splitlines()[-1], failed.stderr.strip())
+
+    def test_eval_shows_progress(self):
+        out = pathlib.Path(WORK) / "evaluated"
+        run("train", "--config", self.config, "--out", out)
+        proc = run("eval", "--run", out, "--threads", "0")
+        self.assertEqual(len(re.findall(r"^  \[\d+/10\] mt10/\S+: score", proc.stdout, re.M)), 10)
+        evaluation = json.loads((out / "eval.json").read_text())
+        self.assertGreaterEqual(evaluation["tasks"][0]["score_ci95"], 0.0)
+
+    def test_collect_refuses_to_overwrite_without_force(self):
+        path = pathlib.Path(WORK) / "mt10.h5"
+        before = path.read_bytes()
+        proc = run("collect", "--set", "mt10", "--demos", "2", "--out", path, check=False)
+        self.assertEqual(proc.returncode, 1)
+        self.assertIn("--force", proc.stderr)
+        self.assertEqual(path.read_bytes(), before)
+        copy = pathlib.Path(WORK) / "copy.h5"
+        copy.write_bytes(before)
+        run("collect", "--set", "mt10", "--demos", "2", "--out", copy, "--force")
+        self.assertNotEqual(copy.read_bytes(), before)
+
+    def test_json_prints_one_json_document_on_stdout(self):
+        for args in (["expert-eval", "--task", "mt10/reach", "--episodes", "2", "--json"],
+                     ["bench", "eval", "--set", "mt10", "--episodes", "1", "--threads", "0", "--json"],
+                     ["bench", "step", "--set", "mt10", "--seconds", "0.2", "--threads", "0", "--json"]):
+            with self.subTest(command=" ".join(args[:2])):
+                json.loads(run(*args).stdout)
+        table = pathlib.Path(WORK) / "experts.json"
+        run("expert-eval", "--task", "mt10/reach", "--episodes", "2", "--out", table)
+        self.assertEqual(json.loads(table.read_text())[0]["task"], "mt10/reach")
+
+    def test_exit_codes(self):
+        self.assertEqual(run("train", "--help").returncode, 0)
+        for args in (["train"], ["train", "--config"], ["no-such-command"], ["collect", "--set", "nope", "--out", "x"],
+                     ["eval", "--run", "missing-folder"], ["train", "--config", self.config]):
+            with self.subTest(args=args):
+                self.assertEqual(run(*args, check=False).returncode, 2)
+        self.assertEqual(run(check=False).returncode, 2)
+        self.assertEqual(run("eval", "--run", WORK, check=False).returncode, 1)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit("usage: cli_test.py path/to/maps")
+    MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
+    with tempfile.TemporaryDirectory(prefix="maps-cli-") as work:
+        WORK = work
+        result = unittest.main(exit=False, verbosity=2).result
+    sys.exit(0 if result.wasSuccessful() else 1)
