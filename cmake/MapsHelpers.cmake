@@ -8,7 +8,7 @@
 # A folder with no .cpp yet gives an INTERFACE library with the same name, include directory
 # and dependencies; it becomes a STATIC library by itself once the first .cpp appears.
 # The repository root is the public include directory ("autograd/tensor.h", "nn/linear.h"); installed, the
-# headers are under <prefix>/include/maps/ (cmake/MapsInstall.cmake).
+# headers are under <prefix>/include/maps/ and included as "maps/autograd/tensor.h" (cmake/MapsInstall.cmake).
 function(maps_add_layer target)
   cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "PUBLIC_DEPS;EXCLUDE_DIRS")
   file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
@@ -18,14 +18,14 @@ function(maps_add_layer target)
   if(sources)
     add_library(${target} STATIC ${sources})
     target_include_directories(${target} PUBLIC "$<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>"
-                                                "$<INSTALL_INTERFACE:include/maps>")
+                                                "$<INSTALL_INTERFACE:include>")
     target_link_libraries(${target} PUBLIC ${arg_PUBLIC_DEPS} PRIVATE maps_warnings)
     list(LENGTH sources count)
     message(STATUS "${target}: static library from ${count} source file(s)")
   else()
     add_library(${target} INTERFACE)
     target_include_directories(${target} INTERFACE "$<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>"
-                                                   "$<INSTALL_INTERFACE:include/maps>")
+                                                   "$<INSTALL_INTERFACE:include>")
     target_link_libraries(${target} INTERFACE ${arg_PUBLIC_DEPS})
     message(STATUS "${target}: no .cpp yet, interface library (headers and dependencies only)")
   endif()

@@ -24,10 +24,20 @@ set_target_properties(maps_warnings PROPERTIES EXPORT_NAME warnings)
 install(TARGETS ${_maps_installed} maps_warnings EXPORT mapsTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps)
-foreach(layer autograd nn envs maps)
+# Headers under one prefix: include/maps/{autograd,nn,envs}/ and the core layer's folders (policies/, training/, ...)
+# beside them, included as "maps/autograd/tensor.h", "maps/policies/maps_policy.h".
+foreach(layer autograd nn envs)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${layer}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps/${layer}
-          FILES_MATCHING PATTERN "*.h")
+          FILES_MATCHING PATTERN "*.h" PATTERN "render" EXCLUDE)
 endforeach()
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/maps/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps FILES_MATCHING PATTERN "*.h")
+install(CODE "execute_process(COMMAND \"${CMAKE_COMMAND}\"
+                \"-DHEADER_DIR=\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_INCLUDEDIR}/maps\"
+                -P \"${PROJECT_SOURCE_DIR}/cmake/prefix_installed_includes.cmake\" COMMAND_ERROR_IS_FATAL ANY)")
+# The data the envs read at run time (MJCF scenes, committed experts): found there when the source tree is gone
+# (envs/source_folders.cpp; MAPS_INSTALL_DATADIR below).
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/envs/assets ${PROJECT_SOURCE_DIR}/envs/experts
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/maps/envs)
 install(EXPORT mapsTargets NAMESPACE maps:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/maps)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/mapsConfig.cmake.in
                               ${CMAKE_CURRENT_BINARY_DIR}/mapsConfig.cmake

@@ -21,6 +21,12 @@ std::filesystem::path find_source_folder(const std::string& relative, const char
   const fs::path from_source = fs::path(__FILE__).parent_path().parent_path() / relative;
   tried.push_back(from_source);
   if (from_source.is_absolute() && fs::is_directory(from_source)) return from_source;
+#ifdef MAPS_INSTALL_DATADIR
+  // Where `cmake --install` puts envs/assets and envs/experts (the prefix configured at build time).
+  const fs::path installed = fs::path(MAPS_INSTALL_DATADIR) / relative;
+  tried.push_back(installed);
+  if (fs::is_directory(installed)) return installed;
+#endif
   // Walking up from the working directory, for a copied tree or a relocated build.
   std::error_code ec;
   for (fs::path dir = fs::current_path(ec); !ec && !dir.empty(); dir = dir.parent_path()) {

@@ -8,8 +8,9 @@
 namespace maps::envs {
 
 // <relative> folder of the project's source tree (e.g. "envs/experts", "experiments/suites"): $<env_var> if set (it
-// must then be a directory), else that folder of the source tree this library was built from, else the first
-// <relative> found walking up from the working directory. Throws, listing what was tried, when none exists.
+// must then be a directory), else that folder of the source tree this library was built from, else the installed
+// copy (<CMAKE_INSTALL_PREFIX>/share/maps/<relative>, for envs/assets and envs/experts), else the first <relative>
+// found walking up from the working directory. Throws, listing what was tried, when none exists.
 std::filesystem::path find_source_folder(const std::string& relative, const char* env_var);
 
 // envs/<name> of the project: $<env_var> if set (it must then be a directory), else envs/<name> of the source
