@@ -179,14 +179,17 @@ int main(int argc, char** argv) {
 
   maps::experiments::RenderOptions render;
   CLI::App* render_cmd =
-      app.add_subcommand("render", "Draw one frame of a task's scene offscreen (MuJoCo's renderer on OSMesa) to PNG");
+      app.add_subcommand("render",
+                         "Draw a task's scene offscreen (MuJoCo's renderer on OSMesa) to PNG, or a trained policy's "
+                         "episode to a PNG strip or an animated GIF");
   render_cmd->add_option("--task", render.task, "Task name, e.g. mt10/door-open or gravity/1.0")->required();
   auto* render_seed = render_cmd
                           ->add_option("--seed", render.seed,
                                        "Seed of the initial state (with --run: default the first evaluation seed)")
                           ->check(seed_check())
                           ->capture_default_str();
-  render_cmd->add_option("--out", render.out, "PNG file to write")->required();
+  render_cmd->add_option("--out", render.out, "PNG file to write (with --run, a .gif name: the episode animated)")
+      ->required();
   render_cmd->add_option("--steps", render.steps, "Steps of the task's expert before the picture")
       ->check(non_negative)
       ->capture_default_str();
@@ -203,6 +206,11 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   render_cmd->add_option("--module", render.module, "With --run of MAPS: every selector score on this module")
       ->check(non_negative);
+  render_cmd
+      ->add_option("--every", render.every,
+                   "With --run and --out x.gif: a frame every N steps (0: about 150 frames in all)")
+      ->check(non_negative)
+      ->capture_default_str();
   render_cmd->add_option("--frames", render.frames, "With --run: frames in the strip, spread over the episode")
       ->check(positive)
       ->capture_default_str();

@@ -8,7 +8,7 @@ namespace maps::experiments {
 // `maps render`: one frame of a task's scene, drawn offscreen with MuJoCo's renderer (OSMesa) into a PNG, after
 // `steps` steps of the task's expert from the initial state of `seed`. With `run`: a strip of `frames` frames spread
 // over one episode of that trained run's policy on the task (MAPS with `module` >= 0: its selector forced onto
-// that one module, the paper's Fig. 6 right).
+// that one module, the paper's Fig. 6 right); with an --out ending in .gif, the whole episode animated.
 struct RenderOptions {
   std::string task;
   std::uint64_t seed = 0;
@@ -20,6 +20,7 @@ struct RenderOptions {
   std::string run;          // a run folder (maps train): render its policy instead of the expert
   int module = -1;          // with run, a MAPS run: every score on this module
   int frames = 5;           // with run: frames in the strip
+  int every = 0;            // with run and a .gif --out: a frame every this many steps (0: about 150 frames)
   bool seed_given = false;  // with run and no --seed: the first evaluation seed (held out from the demonstrations)
 };
 

@@ -1,4 +1,5 @@
-// `maps render --run RUN`: frames of one episode of a trained policy, optionally with MAPS forced onto one module.
+// `maps render --run RUN`: frames of one episode of a trained policy (a strip in a PNG, or every few steps as an
+// animated GIF when --out ends in .gif), optionally with MAPS forced onto one module.
 
 #include <algorithm>
 #include <cstdio>
@@ -11,15 +12,40 @@
 #include "experiments/render.h"
 #include "experiments/render_view.h"
 #include "experiments/run_folder.h"
+#ifdef MAPS_HAVE_GIF
+#include "envs/render/gif_file.h"
+#endif
 #include "maps/policies/maps_policy.h"
 
 namespace maps::experiments {
 
 #ifdef MAPS_HAVE_RENDER
+namespace {
+
+bool ends_with_gif(const std::string& path) {
+  return path.size() >= 4 &&
+         (path.compare(path.size() - 4, 4, ".gif") == 0 || path.compare(path.size() - 4, 4, ".GIF") == 0);
+}
+
+// The steps an animation shows: every `every`-th step from 0, and the last.
+std::vector<int> animation_steps(int length, int every) {
+  std::vector<int> at;
+  for (int step = 0; step < length; step += every) at.push_back(step);
+  at.push_back(length);
+  return at;
+}
+
+}  // namespace
+
 int run_render_policy(const RenderOptions& options) {
-  if (options.frames < 1 || options.frames > 12)
+  const bool gif = ends_with_gif(options.out);
+#ifndef MAPS_HAVE_GIF
+  if (gif) throw std::invalid_argument("--out " + options.out + ": this build has no GIF writer (install libgif-dev)");
+#endif
+  if (!gif && (options.frames < 1 || options.frames > 12))
     throw std::invalid_argument("--frames: expected 1 to 12 frames in the strip, got " +
                                 std::to_string(options.frames));
+  if (options.every < 0) throw std::invalid_argument("--every: expected >= 1 (0: about 150 frames in all)");
   TrainedRun run = load_trained_run(options.run);
   const core::DemoDataset& data = *run.data;
   const auto& names = data.task_names();
@@ -79,12 +105,36 @@ int run_render_policy(const RenderOptions& options) {
   };
   const auto [length, episode_return, success] = episode({}, nullptr, nullptr);
   std::vector<int> at;
-  for (int i = 0; i < options.frames; ++i)
-    at.push_back(options.frames == 1 ? length : static_cast<int>(std::lround(1.0 * i * length / (options.frames - 1))));
+  const int every = options.every > 0 ? options.every : std::max(1, (length + 149) / 150);
+  if (gif) {
+    at = animation_steps(length, every);
+  } else {
+    for (int i = 0; i < options.frames; ++i)
+      at.push_back(options.frames == 1 ? length
+                                       : static_cast<int>(std::lround(1.0 * i * length / (options.frames - 1))));
+  }
   auto probe = envs::make_env(options.task);
-  envs::OffscreenRenderer renderer(dynamic_cast<envs::MujocoEnv&>(*probe).model(), options.width, options.height);
+  auto& probe_env = dynamic_cast<envs::MujocoEnv&>(*probe);
+  envs::OffscreenRenderer renderer(probe_env.model(), options.width, options.height);
   std::vector<envs::Image> frames;
   episode(at, &renderer, &frames);
+  const char* policy_label = run.config.method.c_str();
+  const std::string forced =
+      options.module >= 0 ? "every score on module " + std::to_string(options.module) : "the policy as trained";
+#ifdef MAPS_HAVE_GIF
+  if (gif) {
+    // Real time: each frame stands for `every` env steps of dt seconds (at least 2 cs, what viewers honour).
+    const int delay = std::max(2, static_cast<int>(std::lround(100.0 * every * probe_env.dt())));
+    envs::write_gif(options.out, frames, delay);
+    std::printf(
+        "wrote %s: %s of %s (%s), seed %llu, %s; %d steps, return %.1f, %s; %zu frames (every %d steps, "
+        "%d cs each)\n",
+        options.out.c_str(), options.task.c_str(), options.run.c_str(), policy_label,
+        static_cast<unsigned long long>(seed), forced.c_str(), length, episode_return,
+        success ? "succeeded" : "no success", frames.size(), every, delay);
+    return 0;
+  }
+#endif
   envs::Image strip;
   strip.width = options.width * static_cast<int>(frames.size());
   strip.height = options.height;
@@ -97,11 +147,9 @@ int run_render_policy(const RenderOptions& options) {
   std::string steps_list;
   for (int s : at) steps_list += (steps_list.empty() ? "" : ", ") + std::to_string(s);
   std::printf("wrote %s: %s of %s (%s), seed %llu, %s; %d steps, return %.1f, %s; frames at steps %s\n",
-              options.out.c_str(), options.task.c_str(), options.run.c_str(), run.config.method.c_str(),
-              static_cast<unsigned long long>(seed),
-              options.module >= 0 ? ("every score on module " + std::to_string(options.module)).c_str()
-                                  : "the policy as trained",
-              length, episode_return, success ? "succeeded" : "no success", steps_list.c_str());
+              options.out.c_str(), options.task.c_str(), options.run.c_str(), policy_label,
+              static_cast<unsigned long long>(seed), forced.c_str(), length, episode_return,
+              success ? "succeeded" : "no success", steps_list.c_str());
   return 0;
 }
 #endif

@@ -25,6 +25,7 @@ PACKAGES=(
   hdf5-tools  # h5diff: the kill tests compare demo files by content (tests/experiments/kill_test.py)
   libosmesa6-dev  # offscreen rendering (maps render); optional for the build
   libpng-dev
+  libgif-dev    # animated GIFs of a trained policy's episode (maps render --run RUN --out x.gif)
   python3             # /usr/bin/python3 runs the result tables and plots (experiments/suites/)
   python3-matplotlib  # plots
   python3-scipy       # the report's t tests (experiments/suites/suite_stats.py)

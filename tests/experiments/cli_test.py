@@ -130,6 +130,27 @@ class Tool(unittest.TestCase):
         evaluation = json.loads((out / "eval.json").read_text())
         self.assertGreaterEqual(evaluation["tasks"][0]["score_ci95"], 0.0)
 
+    def test_render_animates_a_trained_policy(self):
+        if "--every" not in run("render", "--help").stdout or "GIF" not in run("render", "--help").stdout:
+            self.skipTest("built without the renderer")
+        out = pathlib.Path(WORK) / "animated"
+        run("train", "--config", self.config, "--out", out)
+        gif = pathlib.Path(WORK) / "reach.gif"
+        proc = run("render", "--run", out, "--task", "mt10/reach", "--out", gif, "--width", "160", "--height", "120",
+                   "--every", "10", check=False)
+        if proc.returncode != 0 and "no GIF writer" in proc.stderr:
+            self.skipTest("built without giflib")
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        frames = int(re.search(r"; (\d+) frames \(every 10 steps", proc.stdout).group(1))
+        self.assertEqual(frames, 150 // 10 + 1)
+        self.assertEqual(gif.read_bytes()[:6], b"GIF89a")
+        try:
+            from PIL import Image
+        except ImportError:
+            return
+        with Image.open(gif) as image:
+            self.assertEqual((image.n_frames, image.size), (frames, (160, 120)))
+
     def test_collect_refuses_to_overwrite_without_force(self):
         path = pathlib.Path(WORK) / "mt10.h5"
         before = path.read_bytes()
