@@ -52,6 +52,8 @@ int run_data_export(const DataConvertOptions& options) {
 }
 
 int run_data_import(const DataConvertOptions& options) {
+  if (fs::is_regular_file(options.out) && !options.force)
+    throw std::invalid_argument("--out " + options.out + " already exists: pass --force to replace it");
   check_output_file("--out", options.out);
   std::vector<std::string> args{"import", "--format", options.format};
   if (!options.task_set.empty()) args.insert(args.end(), {"--task-set", options.task_set});

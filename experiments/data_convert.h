@@ -10,6 +10,7 @@ struct DataConvertOptions {
   std::string format;      // d4rl, minari or robomimic
   std::string input;       // export: a demo file; import: the other format's file (Minari: its dataset folder)
   std::string out;         // export: the other format's file or folder; import: a demo file
+  bool force = false;      // import: replace an existing --out demo file
   std::string task_set;    // import: the set name given to a dataset made elsewhere
   std::string obs_keys;    // import from robomimic: observation keys, comma-separated, in column order
   std::string dataset_id;  // export to Minari

@@ -397,6 +397,7 @@ int main(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingPath);
   data_import_cmd->add_option("--out", data_import.out, "Demo file to write")->required();
+  data_import_cmd->add_flag("--force", data_import.force, "Replace --out if it exists");
   data_import_cmd->add_option("--task-set", data_import.task_set,
                               "Set name for a dataset made elsewhere (default: its file or dataset name)");
   data_import_cmd->add_option("--obs-keys", data_import.obs_keys,

@@ -49,8 +49,11 @@ class Interop(unittest.TestCase):
         out = pathlib.Path(WORK) / f"{source.stem}.{fmt}"
         back = pathlib.Path(WORK) / f"{source.stem}_{fmt}_back.h5"
         maps("data", "export", "--format", fmt, source, "--out", out)
-        maps("data", "import", "--format", fmt, out, "--out", back)
+        maps("data", "import", "--format", fmt, out, "--out", back, "--force")
         self.assertTrue(same_file(source, back), f"{fmt}: the round trip changed the file")
+        refused = maps("data", "import", "--format", fmt, out, "--out", back, check=False)
+        self.assertEqual(refused.returncode, 1)
+        self.assertIn("--force", refused.stderr)
         return out
 
     def test_round_trips_are_exact(self):
