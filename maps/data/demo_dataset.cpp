@@ -34,41 +34,68 @@ void append_rows(const envs::Demonstration& demo, std::int64_t offset, std::int6
 }  // namespace
 
 DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
-    : task_set_(file.task_set), task_names_(file.task_names), config_(config) {
+    : task_set_(file.task_set), config_(config) {
   if (config.subsample < 1)
     throw std::invalid_argument("data: subsample must be >= 1, got " + std::to_string(config.subsample));
   if (config.demos_per_task < 0)
     throw std::invalid_argument("data: demos_per_task must be >= 0, got " + std::to_string(config.demos_per_task));
   if (file.demos.empty()) throw std::invalid_argument("data: the demo file holds no demonstrations");
   action_size_ = file.demos.front().actions.cols();
-  const int K = num_tasks();
-  std::vector<std::vector<int>> train(K), valid(K);
+  const int file_tasks = static_cast<int>(file.task_names.size());
+  auto index_of = [&](const std::string& name, const std::string& key) {
+    const auto found = std::find(file.task_names.begin(), file.task_names.end(), name);
+    if (found == file.task_names.end()) {
+      std::string known;
+      for (const auto& task : file.task_names) known += (known.empty() ? "" : ", ") + task;
+      throw std::invalid_argument("data." + key + ": '" + name + "' is not a task of the demo file's set " +
+                                  file.task_set + " (" + known + ")");
+    }
+    return static_cast<int>(found - file.task_names.begin());
+  };
+  std::vector<bool> keep(static_cast<std::size_t>(file_tasks), config.tasks.empty());
+  for (const auto& name : config.tasks) keep[index_of(name, "tasks")] = true;
+  for (const auto& name : config.holdout) keep[index_of(name, "holdout")] = false;
+  std::vector<int> demos_of(static_cast<std::size_t>(file_tasks), config.demos_per_task);
+  for (const auto& [name, count] : config.task_demos) {
+    if (count < 0)
+      throw std::invalid_argument("data.task_demos." + name + ": must be >= 0, got " + std::to_string(count));
+    demos_of[index_of(name, "task_demos")] = count;
+  }
+  if (std::find(keep.begin(), keep.end(), true) == keep.end())
+    throw std::invalid_argument("data: data.tasks and data.holdout leave no task to train on");
+
+  std::vector<std::vector<int>> train(file_tasks), valid(file_tasks);
   for (int i : file.train) train[file.demos[i].task_index].push_back(i);
   for (int i : file.valid) valid[file.demos[i].task_index].push_back(i);
 
+  // Every task of the file is drawn, kept or not, in the file's order: a task's draw depends only on the seed and
+  // the counts, not on which other tasks a run keeps.
   std::mt19937_64 rng(splitmix64(config.seed ^ 0x6d6170732d646174ULL));  // a stream of its own: "maps-dat"
-  tasks_.resize(K);
-  training_seeds_.resize(K);
   Eigen::MatrixXd all_train_obs(0, file.demos.front().obs.cols());
-  for (int k = 0; k < K; ++k) {
+  for (int k = 0; k < file_tasks; ++k) {
+    const bool kept = keep[k];
     std::vector<int>& pool = train[k];
-    const auto wanted = config.demos_per_task == 0 ? pool.size() : static_cast<std::size_t>(config.demos_per_task);
-    if (pool.size() < wanted || pool.empty())
-      throw std::invalid_argument("data: task " + task_names_[k] + " has " + std::to_string(pool.size()) +
+    auto wanted = demos_of[k] == 0 ? pool.size() : static_cast<std::size_t>(demos_of[k]);
+    if (kept && (pool.size() < wanted || pool.empty()))
+      throw std::invalid_argument("data: task " + file.task_names[k] + " has " + std::to_string(pool.size()) +
                                   " training demos (mask/train), " + std::to_string(wanted) + " requested");
-    if (valid[k].empty()) throw std::invalid_argument("data: task " + task_names_[k] + " has no validation demos");
+    if (kept && valid[k].empty())
+      throw std::invalid_argument("data: task " + file.task_names[k] + " has no validation demos");
+    wanted = std::min(wanted, pool.size());
     for (std::size_t i = pool.size(); i > 1; --i) std::swap(pool[i - 1], pool[draw_below(rng, i)]);
     pool.resize(wanted);
     std::sort(pool.begin(), pool.end());
-    TaskData& data = tasks_[k];
+    TaskData data;
+    std::vector<std::uint64_t> seeds;
     for (int i : pool) {
       const std::int64_t offset = static_cast<std::int64_t>(draw_below(rng, config.subsample));
       append_rows(file.demos[i], offset, config.subsample, data.train_obs, data.train_prev_obs, data.train_actions);
-      training_seeds_[k].push_back(file.demos[i].seed);
+      seeds.push_back(file.demos[i].seed);
     }
+    if (!kept) continue;
     if (data.train_obs.rows() == 0)
       throw std::invalid_argument("data: subsample " + std::to_string(config.subsample) + " leaves task " +
-                                  task_names_[k] + " no training states");
+                                  file.task_names[k] + " no training states");
     for (int i : valid[k]) append_rows(file.demos[i], 0, 1, data.valid_obs, data.valid_prev_obs, data.valid_actions);
     double total = 0.0;
     int count = 0;
@@ -78,6 +105,9 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
     const Eigen::Index rows = all_train_obs.rows();
     all_train_obs.conservativeResize(rows + data.train_obs.rows(), Eigen::NoChange);
     all_train_obs.bottomRows(data.train_obs.rows()) = data.train_obs;
+    task_names_.push_back(file.task_names[k]);
+    tasks_.push_back(std::move(data));
+    training_seeds_.push_back(std::move(seeds));
   }
   standardizer_ = Standardizer::fit(all_train_obs);
 }

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "autograd/autograd.h"
@@ -22,12 +23,20 @@ struct DataConfig {
   int subsample = 1;
   // Draws the demos and offsets. Every method given the same seed sees the same data (paired comparisons).
   std::uint64_t seed = 0;
+  // Only these tasks of the file (empty: all); the dataset's task ids follow the set's order among the kept tasks.
+  std::vector<std::string> tasks;
+  // These tasks of the file are left out (a leave-one-out run that transfer then teaches them to).
+  std::vector<std::string> holdout;
+  // Training demonstrations of particular tasks, in place of demos_per_task for them (a new task's few demos).
+  std::vector<std::pair<std::string, int>> task_demos;
 };
 
 class DemoDataset {
  public:
   // Throws std::invalid_argument naming what is wrong: a task with fewer training demos than asked for, a
-  // subsample factor < 1, a demo shorter than the factor leaves nothing of.
+  // subsample factor < 1, a demo shorter than the factor leaves nothing of, a task name not in the file, no task
+  // left. The demos of every task of the file are drawn in the file's order whatever is kept, so a task's draw is
+  // the same in a run of all tasks, a leave-one-out run and a run of that task alone (same seed and counts).
   DemoDataset(const envs::DemoFile& file, const DataConfig& config);
 
   int num_tasks() const { return static_cast<int>(task_names_.size()); }

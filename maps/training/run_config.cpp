@@ -108,11 +108,24 @@ RunConfig parse_run_config(const Json& json) {
   read(json, "", "seed", c.seed);
   if (!json.contains("data")) throw std::invalid_argument("config: \"data\": {\"file\": ...} is required");
   const Json& data = json["data"];
-  check_keys(data, "data", {"file", "demos_per_task", "subsample"});
+  check_keys(data, "data", {"file", "demos_per_task", "subsample", "tasks", "holdout", "task_demos"});
   read(data, "data", "file", c.data_file);
   if (c.data_file.empty()) throw std::invalid_argument("config data.file: required");
   read(data, "data", "demos_per_task", c.data.demos_per_task);
   read(data, "data", "subsample", c.data.subsample);
+  read(data, "data", "tasks", c.data.tasks);
+  read(data, "data", "holdout", c.data.holdout);
+  if (data.contains("task_demos")) {
+    const Json& counts = data["task_demos"];
+    if (!counts.is_object())
+      throw std::invalid_argument("config data.task_demos: expected an object of task name: demonstrations");
+    for (const auto& [name, count] : counts.items()) {
+      if (!count.is_number_integer() || count.get<std::int64_t>() < 0 || count.get<std::int64_t>() > 1000000)
+        throw std::invalid_argument("config data.task_demos." + name + ": expected an integer >= 0, got " +
+                                    count.dump());
+      c.data.task_demos.emplace_back(name, count.get<int>());
+    }
+  }
   c.data.seed = c.seed;
   if (json.contains("train")) {
     const Json& t = json["train"];
@@ -223,38 +236,45 @@ RunConfig parse_run_config(const Json& json) {
 Json to_json(const RunConfig& c) {
   Json losses = Json::object();
   for (const auto& [name, weight] : c.maps.selector_losses) losses[name] = weight;
-  return Json{
-      {"method", c.method},
-      {"seed", c.seed},
-      {"data", {{"file", c.data_file}, {"demos_per_task", c.data.demos_per_task}, {"subsample", c.data.subsample}}},
-      {"train",
-       {{"steps", c.train.steps},
-        {"learning_rate", c.train.learning_rate},
-        {"states_per_task", c.train.states_per_task},
-        {"validate_every", c.train.validate_every},
-        {"checkpoint_every", c.train.checkpoint_every},
-        {"validation_states_per_task", c.train.validation_states_per_task},
-        {"keep_every", c.train.keep_every},
-        {"bc_loss", c.train.bc_loss}}},
-      {"maps",
-       {{"modules", c.maps.modules},
-        {"module_hidden", c.maps.module_hidden},
-        {"selector_hidden", c.maps.selector_hidden},
-        {"activation", c.maps.activation},
-        {"bc_weight", c.maps.bc_weight},
-        {"selector_weight", c.maps.selector_weight},
-        {"selector", c.maps.selector},
-        {"observations", c.maps.observations},
-        {"selector_losses", losses}}},
-      {"maml",
-       {{"inner_lr", c.maml.inner_lr},
-        {"inner_steps", c.maml.inner_steps},
-        {"first_order", c.maml.first_order},
-        {"query_per_task", c.maml.query_per_task},
-        {"finetune_steps", c.maml.finetune_steps},
-        {"validate", c.maml.validate}}},
-      {"baselines", {{"hidden", c.baseline_hidden}}},
-      {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}}};
+  Json task_demos = Json::object();
+  for (const auto& [name, count] : c.data.task_demos) task_demos[name] = count;
+  return Json{{"method", c.method},
+              {"seed", c.seed},
+              {"data",
+               {{"file", c.data_file},
+                {"demos_per_task", c.data.demos_per_task},
+                {"subsample", c.data.subsample},
+                {"tasks", c.data.tasks},
+                {"holdout", c.data.holdout},
+                {"task_demos", task_demos}}},
+              {"train",
+               {{"steps", c.train.steps},
+                {"learning_rate", c.train.learning_rate},
+                {"states_per_task", c.train.states_per_task},
+                {"validate_every", c.train.validate_every},
+                {"checkpoint_every", c.train.checkpoint_every},
+                {"validation_states_per_task", c.train.validation_states_per_task},
+                {"keep_every", c.train.keep_every},
+                {"bc_loss", c.train.bc_loss}}},
+              {"maps",
+               {{"modules", c.maps.modules},
+                {"module_hidden", c.maps.module_hidden},
+                {"selector_hidden", c.maps.selector_hidden},
+                {"activation", c.maps.activation},
+                {"bc_weight", c.maps.bc_weight},
+                {"selector_weight", c.maps.selector_weight},
+                {"selector", c.maps.selector},
+                {"observations", c.maps.observations},
+                {"selector_losses", losses}}},
+              {"maml",
+               {{"inner_lr", c.maml.inner_lr},
+                {"inner_steps", c.maml.inner_steps},
+                {"first_order", c.maml.first_order},
+                {"query_per_task", c.maml.query_per_task},
+                {"finetune_steps", c.maml.finetune_steps},
+                {"validate", c.maml.validate}}},
+              {"baselines", {{"hidden", c.baseline_hidden}}},
+              {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}}};
 }
 
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {

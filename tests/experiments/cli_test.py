@@ -25,7 +25,7 @@ def run(*args, check=True):
 
 
 def dotted_keys(value, prefix=""):
-    if isinstance(value, dict) and prefix != "maps.selector_losses":
+    if isinstance(value, dict) and prefix not in ("maps.selector_losses", "data.task_demos"):
         for key, inner in value.items():
             yield from dotted_keys(inner, f"{prefix}.{key}" if prefix else key)
     else:

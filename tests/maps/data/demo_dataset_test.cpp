@@ -74,5 +74,45 @@ TEST(DemoDataset, BadRequestsAreNamed) {
               ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("subsample")));
 }
 
+TEST(DemoDataset, KeptTasksDrawTheSameDemosWhateverElseIsKept) {
+  const envs::DemoFile file = synthetic_demo_file(9);  // 6 train, 3 valid per task
+  DataConfig all;
+  all.demos_per_task = 3;
+  all.subsample = 5;
+  all.seed = 11;
+  all.task_demos = {{"synthetic/b", 2}};
+  const DemoDataset full(file, all);
+  DataConfig only_b = all, without_b = all;
+  only_b.tasks = {"synthetic/b"};
+  without_b.holdout = {"synthetic/b"};
+  const DemoDataset b(file, only_b), a(file, without_b);
+  ASSERT_EQ(b.task_names(), std::vector<std::string>{"synthetic/b"});
+  ASSERT_EQ(a.task_names(), std::vector<std::string>{"synthetic/a"});
+  EXPECT_EQ(b.training_demo_seeds()[0], full.training_demo_seeds()[1]);  // the same demos and offsets
+  EXPECT_EQ(b.training_samples(0), full.training_samples(1));
+  EXPECT_EQ(b.training_demo_seeds()[0].size(), 2u);  // task_demos
+  EXPECT_EQ(a.training_demo_seeds()[0], full.training_demo_seeds()[0]);
+  EXPECT_EQ(a.training_demo_seeds()[0].size(), 3u);
+  EXPECT_DOUBLE_EQ(b.demo_mean_return(0), 80.0);
+  std::mt19937_64 rng(0);
+  const Batch batch = b.sample(4, rng, ag::Dtype::Float64);
+  EXPECT_EQ(batch.tasks, std::vector<std::int64_t>(4, 0));  // task ids among the kept tasks
+}
+
+TEST(DemoDataset, UnknownOrNoTasksAreNamed) {
+  const envs::DemoFile file = synthetic_demo_file();
+  DataConfig config;
+  config.holdout = {"synthetic/c"};
+  EXPECT_THAT([&] { DemoDataset(file, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("data.holdout: 'synthetic/c' is not a task")));
+  config.holdout = {"synthetic/a", "synthetic/b"};
+  EXPECT_THAT([&] { DemoDataset(file, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("leave no task")));
+  config.holdout = {};
+  config.task_demos = {{"synthetic/a", 9}};
+  EXPECT_THAT([&] { DemoDataset(file, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("synthetic/a has 4 training demos (mask/train), 9 requested")));
+}
+
 }  // namespace
 }  // namespace maps::core
