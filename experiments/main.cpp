@@ -26,6 +26,7 @@
 #include "experiments/suite_status.h"
 #include "experiments/train_expert.h"
 #include "experiments/train_run.h"
+#include "experiments/transfer_run.h"
 #include "experiments/usage_error.h"
 
 namespace {
@@ -252,6 +253,31 @@ int main(int argc, char** argv) {
       ->check(non_negative)
       ->capture_default_str();
 
+  maps::experiments::TransferOptions transfer;
+  CLI::App* transfer_cmd = app.add_subcommand(
+      "transfer", "Teach a MAPS run trained without task T to do T from a few demonstrations, reusing its modules");
+  transfer_cmd->add_option("--run", transfer.run, "A MAPS run folder trained without --task (data.holdout)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  transfer_cmd->add_option("--task", transfer.task, "The new task, e.g. gravity/0.5")->required();
+  transfer_cmd->add_option("--demos", transfer.demos, "Training demonstrations of the new task")
+      ->required()
+      ->check(positive);
+  transfer_cmd->add_option("--out", transfer.out, "Run folder to write (resumes)")->required();
+  transfer_cmd->add_option("--freeze", transfer.freeze, "What stays as trained: modules, modules,head, head or none")
+      ->capture_default_str();
+  transfer_cmd
+      ->add_option("--module-lr-scale", transfer.module_lr_scale,
+                   "With the modules trained (--freeze none or head): their learning rate's factor")
+      ->check(non_negative)
+      ->capture_default_str();
+  transfer_cmd->add_option("--seed", transfer.seed, "Seed (default: the source run's)")->check(seed_check());
+  transfer_cmd->add_option("--steps", transfer.steps, "Training steps (default: the source run's)")
+      ->check(integer_check(1, 1'000'000'000'000));
+  transfer_cmd->add_option("--threads", transfer.threads, "Op threads (0: one per core)")
+      ->check(non_negative)
+      ->capture_default_str();
+
   maps::experiments::EvalRunOptions eval_run;
   CLI::App* eval_cmd = app.add_subcommand("eval", "Evaluate a trained run on held-out initial states");
   eval_cmd->add_option("--run", eval_run.run, "Run folder written by maps train")
@@ -414,7 +440,8 @@ int main(int argc, char** argv) {
   for (int i = 0; i < argc; ++i) collect.command_line += (i ? " " : "") + std::string(argv[i]);
   maps::experiments::set_command_line(argc, argv);
   // --threads 0 means one per core in every command; these take the count as given.
-  for (int* threads : {&train_run.threads, &bench_step.threads, &bench_eval.threads, &suite_run.threads})
+  for (int* threads :
+       {&train_run.threads, &bench_step.threads, &bench_eval.threads, &suite_run.threads, &transfer.threads})
     if (*threads == 0) *threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 
   try {
@@ -424,6 +451,7 @@ int main(int argc, char** argv) {
     if (*render_cmd) return maps::experiments::run_render(render);
     if (*expert_eval_cmd) return maps::experiments::run_expert_eval(expert_eval);
     if (*train_cmd) return maps::experiments::run_train(train_run);
+    if (*transfer_cmd) return maps::experiments::run_transfer(transfer);
     if (*eval_cmd) return maps::experiments::run_eval(eval_run);
     if (*bench_step_cmd) return maps::experiments::run_bench_step(bench_step);
     if (*bench_eval_cmd) return maps::experiments::run_bench_eval(bench_eval);

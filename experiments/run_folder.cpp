@@ -26,7 +26,24 @@ nlohmann::json read_json_file(const std::string& path) {
 }
 
 core::DemoDataset load_run_dataset(const core::RunConfig& config) {
-  return core::DemoDataset(envs::read_demo_file(config.data_file), config.data);
+  core::DemoDataset data(envs::read_demo_file(config.data_file), config.data);
+  if (!config.init_run.empty()) {
+    // A run started from another one standardises as that one did: its reused layers were trained on those inputs.
+    const std::string path = (std::filesystem::path(config.init_run) / config.init_checkpoint).string();
+    if (!std::filesystem::exists(path))
+      throw std::runtime_error("init.run: " + path + " does not exist (the run this one starts from)");
+    core::Standardizer standardizer;
+    try {
+      const nlohmann::json record = nlohmann::json::parse(nn::load_tensors(path).config).at("standardizer");
+      const std::vector<double> mean = record.at("mean"), stddev = record.at("std");
+      standardizer.mean = Eigen::Map<const Eigen::VectorXd>(mean.data(), static_cast<Eigen::Index>(mean.size()));
+      standardizer.std = Eigen::Map<const Eigen::VectorXd>(stddev.data(), static_cast<Eigen::Index>(stddev.size()));
+    } catch (const nlohmann::json::exception& e) {
+      throw std::runtime_error("init.run: " + path + " records no observation statistics (" + e.what() + ")");
+    }
+    data.use_standardizer(standardizer);
+  }
+  return data;
 }
 
 TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint, const std::string& data_file) {

@@ -13,6 +13,7 @@
 #include "experiments/run_folder.h"
 #include "experiments/tee_stream.h"
 #include "experiments/usage_error.h"
+#include "maps/training/init_from_run.h"
 #include "maps/training/trainer.h"
 
 namespace maps::experiments {
@@ -86,6 +87,12 @@ int run_train(const TrainRunOptions& options) {
 
     const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};
     const auto policy = core::make_policy(config, shape);
+    if (!config.init_run.empty() && core::trained_steps(options.out) == 0) {
+      const TrainedRun source = load_trained_run(config.init_run, config.init_checkpoint);
+      core::initialize_from(*policy, data.task_names(), *source.policy, source.data->task_names());
+      log << "maps train: starting from " << config.init_run << "/" << config.init_checkpoint << " (step "
+          << source.best.value("step", -1) << ", tasks " << source.data->task_names().size() << ")" << std::endl;
+    }
     log << "maps train: " << config.method << " on " << config.data_file << " (" << data.num_tasks() << " tasks, "
         << config.data.demos_per_task << " demos per task, subsample " << config.data.subsample << "), seed "
         << config.seed << ", " << config.train.steps << " steps -> " << options.out << std::endl;

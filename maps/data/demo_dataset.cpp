@@ -112,6 +112,13 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
   standardizer_ = Standardizer::fit(all_train_obs);
 }
 
+void DemoDataset::use_standardizer(const Standardizer& standardizer) {
+  if (standardizer.mean.size() != standardizer_.size() || standardizer.std.size() != standardizer_.size())
+    throw std::invalid_argument("data: a standardizer of " + std::to_string(standardizer.mean.size()) +
+                                " dimensions for observations of " + std::to_string(standardizer_.size()));
+  standardizer_ = standardizer;
+}
+
 Batch DemoDataset::make_batch(const std::vector<std::pair<int, std::int64_t>>& picks, ag::Dtype dtype, bool validation,
                               std::int64_t per_task) const {
   const auto n = static_cast<Eigen::Index>(picks.size());

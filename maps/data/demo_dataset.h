@@ -45,8 +45,11 @@ class DemoDataset {
   const std::vector<std::string>& task_names() const { return task_names_; }
   const std::string& task_set() const { return task_set_; }
   const DataConfig& config() const { return config_; }
-  // Fitted to the kept training states of all tasks.
+  // Fitted to the kept training states of all tasks, unless replaced.
   const Standardizer& standardizer() const { return standardizer_; }
+  // Standardise with these statistics instead (transfer: the ones the reused modules were trained with). A size
+  // other than the observations' is an error.
+  void use_standardizer(const Standardizer& standardizer);
   // The reset seeds of the demos drawn for training, per task (what a run used, for its record).
   const std::vector<std::vector<std::uint64_t>>& training_demo_seeds() const { return training_seeds_; }
   std::int64_t training_samples(int task) const { return tasks_.at(task).train_obs.rows(); }

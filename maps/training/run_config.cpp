@@ -1,6 +1,7 @@
 #include "maps/training/run_config.h"
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <stdexcept>
 #include <type_traits>
@@ -100,7 +101,7 @@ const std::set<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc"
 
 RunConfig parse_run_config(const Json& json) {
   RunConfig c;
-  check_keys(json, "", {"method", "seed", "data", "train", "maps", "maml", "baselines", "eval"});
+  check_keys(json, "", {"method", "seed", "data", "train", "maps", "maml", "baselines", "eval", "init"});
   read(json, "", "method", c.method);
   if (!kMethods.count(c.method))
     throw std::invalid_argument("config method: '" + c.method +
@@ -131,7 +132,7 @@ RunConfig parse_run_config(const Json& json) {
     const Json& t = json["train"];
     check_keys(t, "train",
                {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
-                "validation_states_per_task", "keep_every", "bc_loss"});
+                "validation_states_per_task", "keep_every", "bc_loss", "freeze", "lr_scale"});
     read(t, "train", "steps", c.train.steps);
     read(t, "train", "learning_rate", c.train.learning_rate);
     read(t, "train", "states_per_task", c.train.states_per_task);
@@ -140,6 +141,18 @@ RunConfig parse_run_config(const Json& json) {
     read(t, "train", "validation_states_per_task", c.train.validation_states_per_task);
     read(t, "train", "keep_every", c.train.keep_every);
     read(t, "train", "bc_loss", c.train.bc_loss);
+    read(t, "train", "freeze", c.train.freeze);
+    if (t.contains("lr_scale")) {
+      const Json& scales = t["lr_scale"];
+      if (!scales.is_object())
+        throw std::invalid_argument("config train.lr_scale: expected an object of parameter-name prefix: factor");
+      for (const auto& [prefix, factor] : scales.items()) {
+        if (!factor.is_number() || !(factor.get<double>() >= 0.0) || !std::isfinite(factor.get<double>()))
+          throw std::invalid_argument("config train.lr_scale." + prefix + ": expected a finite number >= 0, got " +
+                                      factor.dump());
+        c.train.lr_scale.emplace_back(prefix, factor.get<double>());
+      }
+    }
     if (c.train.bc_loss != "mean" && c.train.bc_loss != "sampled")
       throw std::invalid_argument("config train.bc_loss: expected \"mean\" or \"sampled\", got \"" + c.train.bc_loss +
                                   "\"");
@@ -224,6 +237,17 @@ RunConfig parse_run_config(const Json& json) {
           "config baselines.hidden: MAPS has no baseline MLP (its sizes are maps.module_hidden and "
           "maps.selector_hidden)");
   }
+  if (json.contains("init")) {
+    const Json& init = json["init"];
+    check_keys(init, "init", {"run", "checkpoint"});
+    read(init, "init", "run", c.init_run);
+    read(init, "init", "checkpoint", c.init_checkpoint);
+    if (c.init_checkpoint.empty() || c.init_checkpoint.find('/') != std::string::npos)
+      throw std::invalid_argument(
+          "config init.checkpoint: expected a file name of the run folder (best.ckpt, "
+          "step_<N>.ckpt), got \"" +
+          c.init_checkpoint + "\"");
+  }
   if (json.contains("eval")) {
     const Json& e = json["eval"];
     check_keys(e, "eval", {"episodes", "threads"});
@@ -236,6 +260,8 @@ RunConfig parse_run_config(const Json& json) {
 Json to_json(const RunConfig& c) {
   Json losses = Json::object();
   for (const auto& [name, weight] : c.maps.selector_losses) losses[name] = weight;
+  Json lr_scale = Json::object();
+  for (const auto& [prefix, factor] : c.train.lr_scale) lr_scale[prefix] = factor;
   Json task_demos = Json::object();
   for (const auto& [name, count] : c.data.task_demos) task_demos[name] = count;
   return Json{{"method", c.method},
@@ -255,7 +281,9 @@ Json to_json(const RunConfig& c) {
                 {"checkpoint_every", c.train.checkpoint_every},
                 {"validation_states_per_task", c.train.validation_states_per_task},
                 {"keep_every", c.train.keep_every},
-                {"bc_loss", c.train.bc_loss}}},
+                {"bc_loss", c.train.bc_loss},
+                {"freeze", c.train.freeze},
+                {"lr_scale", lr_scale}}},
               {"maps",
                {{"modules", c.maps.modules},
                 {"module_hidden", c.maps.module_hidden},
@@ -274,7 +302,8 @@ Json to_json(const RunConfig& c) {
                 {"finetune_steps", c.maml.finetune_steps},
                 {"validate", c.maml.validate}}},
               {"baselines", {{"hidden", c.baseline_hidden}}},
-              {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}}};
+              {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}},
+              {"init", {{"run", c.init_run}, {"checkpoint", c.init_checkpoint}}}};
 }
 
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {

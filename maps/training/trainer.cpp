@@ -1,5 +1,6 @@
 #include "maps/training/trainer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -121,6 +122,48 @@ Json policy_record(const DemoDataset& data, std::int64_t step, std::optional<dou
   return record;
 }
 
+bool starts_with(const std::string& name, const std::string& prefix) { return name.rfind(prefix, 0) == 0; }
+
+// The parameters train.freeze leaves to Adam, each with train.lr_scale's factor. Frozen parameters stop requiring
+// gradients, so backward spends nothing on them and they stay bit for bit as loaded. A prefix that names no
+// parameter is an error listing the names (a typo must not silently train everything).
+struct TrainedParameters {
+  std::vector<ag::Tensor> tensors;
+  std::vector<double> lr_scales;
+};
+TrainedParameters trained_parameters(Policy& policy, const TrainConfig& config) {
+  const nn::NamedTensors named = policy.named_parameters();
+  auto check_prefix = [&](const std::string& prefix, const char* key) {
+    for (const auto& p : named)
+      if (starts_with(p.name, prefix)) return;
+    std::string names;
+    for (const auto& p : named) names += (names.empty() ? "" : ", ") + p.name;
+    throw std::invalid_argument("train." + std::string(key) + ": '" + prefix + "' starts no parameter name of this " +
+                                policy.type_name() + " (" + names + ")");
+  };
+  for (const auto& prefix : config.freeze) check_prefix(prefix, "freeze");
+  for (const auto& [prefix, scale] : config.lr_scale) check_prefix(prefix, "lr_scale");
+  TrainedParameters trained;
+  for (const auto& p : named) {
+    if (std::any_of(config.freeze.begin(), config.freeze.end(),
+                    [&](const std::string& prefix) { return starts_with(p.name, prefix); })) {
+      ag::Tensor frozen = p.tensor;
+      frozen.requires_grad_(false);
+      continue;
+    }
+    trained.tensors.push_back(p.tensor);
+    double scale = 1.0;
+    for (const auto& [prefix, factor] : config.lr_scale)
+      if (starts_with(p.name, prefix)) {
+        scale = factor;
+        break;
+      }
+    trained.lr_scales.push_back(scale);
+  }
+  if (trained.tensors.empty()) throw std::invalid_argument("train.freeze: every parameter is frozen, nothing to train");
+  return trained;
+}
+
 }  // namespace
 
 std::int64_t trained_steps(const std::string& run_dir) {
@@ -146,7 +189,9 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
 
   policy.train();
   policy.set_observation_statistics(data.standardizer().mean, data.standardizer().std);
-  optim::Adam adam(policy.parameters(), {.lr = config.learning_rate});
+  const TrainedParameters trained = trained_parameters(policy, config);
+  optim::Adam adam(trained.tensors, {.lr = config.learning_rate});
+  for (std::size_t i = 0; i < trained.lr_scales.size(); ++i) adam.set_lr_scale(i, trained.lr_scales[i]);
   std::mt19937_64 rng(envs::splitmix64(config.seed ^ 0x6261746368657321ULL));  // "batches!"
   // A function of the seed and the step, so a resumed run draws the same noise without saving a generator.
   const std::uint64_t noise_stream = envs::splitmix64(config.seed ^ 0x6e6f697365ULL);  // "noise"

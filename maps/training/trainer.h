@@ -3,6 +3,8 @@
 #include <cstdint>
 #include <iosfwd>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "maps/data/demo_dataset.h"
 #include "maps/policies/policy.h"
@@ -31,6 +33,10 @@ struct TrainConfig {
   // "mean": the squared error of the mean action. "sampled": the paper's code's (Policy::use_sampled_bc_loss).
   // make_policy reads it; the trainer draws the noise seed of each step from `seed`.
   std::string bc_loss = "mean";
+  // Parameters whose dotted name starts with one of these are not trained (transfer: "modules", "head").
+  std::vector<std::string> freeze;
+  // Learning-rate factors by name prefix (transfer: {"modules", 0.1}); the first prefix that matches applies.
+  std::vector<std::pair<std::string, double>> lr_scale;
 };
 
 struct TrainSummary {

@@ -23,8 +23,17 @@ void check_options(const AdamOptions& o) {
 }  // namespace
 
 Adam::Adam(std::vector<ag::Tensor> params, const AdamOptions& options)
-    : Optimizer(std::move(params), "Adam"), options_(options), state_(params_.size()) {
+    : Optimizer(std::move(params), "Adam"), options_(options), state_(params_.size()), lr_scales_(params_.size(), 1.0) {
   check_options(options_);
+}
+
+void Adam::set_lr_scale(std::size_t i, double scale) {
+  if (i >= lr_scales_.size())
+    throw std::out_of_range("Adam: parameter " + std::to_string(i) + " of " + std::to_string(lr_scales_.size()));
+  if (!(scale >= 0.0) || !std::isfinite(scale))
+    throw std::invalid_argument("Adam: invalid learning-rate scale (must be finite and >= 0): " +
+                                std::to_string(scale));
+  lr_scales_[i] = scale;
 }
 
 void Adam::set_lr(double lr) {
@@ -98,7 +107,7 @@ void Adam::step() {
     const double t = static_cast<double>(s.step);
     const double bias_correction1 = 1.0 - std::pow(o.beta1, t);
     const double bias_correction2_sqrt = std::sqrt(1.0 - std::pow(o.beta2, t));
-    const double step_size = o.lr / bias_correction1;
+    const double step_size = o.lr * lr_scales_[i] / bias_correction1;  // lr * 1.0 is lr exactly
 
     ag::dispatch_dtype(param.dtype(), [&](auto tag) {
       using T = typename decltype(tag)::type;

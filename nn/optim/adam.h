@@ -32,6 +32,11 @@ class Adam : public Optimizer {
   void set_lr(double lr) override;
   const AdamOptions& options() const { return options_; }
 
+  // Parameter i's learning rate is lr() times this factor (1 unless set; e.g. modules fine-tuned slower than a new
+  // task's selector row in transfer).
+  void set_lr_scale(std::size_t i, double scale);
+  double lr_scale(std::size_t i) const { return lr_scales_.at(i); }
+
   // Number of steps taken by parameter i (0 before its first update).
   std::int64_t step_count(std::size_t i) const { return state_.at(i).step; }
 
@@ -49,6 +54,7 @@ class Adam : public Optimizer {
   };
   AdamOptions options_;
   std::vector<State> state_;
+  std::vector<double> lr_scales_;
 };
 
 }  // namespace maps::optim

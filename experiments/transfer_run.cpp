@@ -1,0 +1,95 @@
+// `maps transfer`: a new task from few demonstrations, reusing a trained MAPS run's modules.
+
+#include "experiments/transfer_run.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <stdexcept>
+
+#include "envs/demo_file.h"
+#include "experiments/output_path.h"
+#include "experiments/run_folder.h"
+#include "experiments/train_run.h"
+#include "experiments/usage_error.h"
+#include "maps/training/run_config.h"
+
+namespace maps::experiments {
+namespace {
+
+std::vector<std::string> freeze_prefixes(const std::string& freeze) {
+  if (freeze == "modules") return {"modules"};
+  if (freeze == "modules,head" || freeze == "head,modules") return {"modules", "head"};
+  if (freeze == "head") return {"head"};
+  if (freeze == "none") return {};
+  throw UsageError("--freeze: expected modules, modules,head, head or none, got '" + freeze + "'");
+}
+
+// The tasks a run trained on: its data.tasks (or all of the file's) less its data.holdout.
+std::vector<std::string> trained_tasks(const core::RunConfig& config, const std::vector<std::string>& file_tasks) {
+  std::vector<std::string> tasks;
+  for (const auto& task : file_tasks) {
+    const bool listed = config.data.tasks.empty() ||
+                        std::find(config.data.tasks.begin(), config.data.tasks.end(), task) != config.data.tasks.end();
+    const bool held_out =
+        std::find(config.data.holdout.begin(), config.data.holdout.end(), task) != config.data.holdout.end();
+    if (listed && !held_out) tasks.push_back(task);
+  }
+  return tasks;
+}
+
+}  // namespace
+
+int run_transfer(const TransferOptions& options) {
+  namespace fs = std::filesystem;
+  const std::vector<std::string> freeze = freeze_prefixes(options.freeze);
+  const bool modules_frozen = std::find(freeze.begin(), freeze.end(), "modules") != freeze.end();
+  if (options.module_lr_scale != 1.0 && modules_frozen)
+    throw UsageError("--module-lr-scale: the modules are frozen (--freeze " + options.freeze +
+                     "); use --freeze none or --freeze head to fine-tune them");
+  if (options.demos < 1) throw UsageError("--demos: expected at least 1 demonstration of the new task");
+  const fs::path source_dir = fs::absolute(options.run);
+  const nlohmann::json source_json = read_json_file((source_dir / "config.json").string());
+  const core::RunConfig source = core::parse_run_config(source_json);
+  if (source.method != "maps")
+    throw std::invalid_argument("--run " + options.run + " is a " + source.method +
+                                " run; transfer reuses the modules of a MAPS run");
+  if (!fs::exists(source_dir / "best.ckpt"))
+    throw std::invalid_argument("--run " + options.run + " has no best.ckpt: train it first");
+  const envs::DemoFile file = envs::read_demo_file(source.data_file);
+  if (std::find(file.task_names.begin(), file.task_names.end(), options.task) == file.task_names.end()) {
+    std::string known;
+    for (const auto& task : file.task_names) known += (known.empty() ? "" : ", ") + task;
+    throw std::invalid_argument("--task " + options.task + " is not a task of " + source.data_file + " (" + known +
+                                ")");
+  }
+  const std::vector<std::string> seen = trained_tasks(source, file.task_names);
+  if (std::find(seen.begin(), seen.end(), options.task) != seen.end())
+    throw std::invalid_argument("--run " + options.run + " was trained on " + options.task +
+                                ": transfer needs a run that never saw the task (train one with "
+                                "--set 'data.holdout=[\"" +
+                                options.task + "\"]')");
+
+  nlohmann::json config = core::to_json(source);
+  config["data"]["tasks"] = {options.task};
+  config["data"]["holdout"] = nlohmann::json::array();
+  config["data"]["task_demos"] = {{options.task, options.demos}};
+  config["train"]["freeze"] = freeze;
+  config["train"]["lr_scale"] = nlohmann::json::object();
+  if (!modules_frozen && options.module_lr_scale != 1.0)
+    config["train"]["lr_scale"]["modules"] = options.module_lr_scale;
+  if (options.seed) config["seed"] = *options.seed;
+  if (options.steps) config["train"]["steps"] = *options.steps;
+  config["init"] = {{"run", source_dir.string()}, {"checkpoint", "best.ckpt"}};
+  core::parse_run_config(config);  // refuse here what maps train would
+
+  check_output_folder("--out", options.out);
+  const std::string request = (fs::path(options.out) / "request.json").string();
+  write_json_file(request, config);
+  TrainRunOptions train;
+  train.config_path = request;
+  train.out = options.out;
+  train.threads = options.threads;
+  return run_train(train);
+}
+
+}  // namespace maps::experiments

@@ -1,0 +1,94 @@
+#!/usr/bin/python3
+"""`maps transfer` end to end (issue 17): a MAPS run trained without a task learns it from two demonstrations with
+its modules frozen, the result is an ordinary run folder that `maps eval` scores on the new task, and transfers
+that cannot be meant are refused by name. Run by ctest as: transfer_test.py path/to/maps."""
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+import unittest
+
+MAPS = None  # set from argv
+WORK = None  # scratch folder
+
+
+def run(*args, check=True):
+    proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True, timeout=600)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"maps {' '.join(map(str, args))} exited {proc.returncode}:\n{proc.stderr}")
+    return proc
+
+
+class Transfer(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        run("collect", "--set", "mt10", "--demos", "4", "--out", "mt10.h5", "--threads", "1")
+        config = pathlib.Path(WORK) / "config.json"
+        config.write_text(json.dumps({"method": "maps", "data": {"file": "mt10.h5", "demos_per_task": 2},
+                                      "maps": {"modules": 4},
+                                      "train": {"steps": 60, "validate_every": 20, "checkpoint_every": 20,
+                                                "validation_states_per_task": 50},
+                                      "eval": {"episodes": 2, "threads": 1}}))
+        cls.config = config
+        run("train", "--config", config, "--out", "without_reach", "--set", 'data.holdout=["mt10/reach"]')
+        run("train", "--config", config, "--out", "all_tasks")
+
+    def test_a_held_out_task_is_learned_from_its_demos_and_evaluated(self):
+        proc = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "reach",
+                   "--steps", "40")
+        self.assertIn("starting from", proc.stdout)
+        folder = pathlib.Path(WORK) / "reach"
+        request = json.loads((folder / "request.json").read_text())
+        self.assertEqual(request["data"]["tasks"], ["mt10/reach"])
+        self.assertEqual(request["data"]["task_demos"], {"mt10/reach": 2})
+        self.assertEqual(request["train"]["freeze"], ["modules"])
+        self.assertEqual(pathlib.Path(request["init"]["run"]), (pathlib.Path(WORK) / "without_reach").resolve())
+        run("eval", "--run", folder)
+        evaluation = json.loads((folder / "eval.json").read_text())
+        self.assertEqual([t["task"] for t in evaluation["tasks"]], ["mt10/reach"])
+        self.assertEqual(len(evaluation["tasks"][0]["module_usage"]), 4)
+        # Resuming the finished transfer changes nothing and does not start from the source again.
+        again = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "reach",
+                    "--steps", "40")
+        self.assertNotIn("starting from", again.stdout)
+
+    def test_modules_fine_tuned_slower(self):
+        run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "reach_tuned",
+            "--steps", "20", "--freeze", "none", "--module-lr-scale", "0.1")
+        request = json.loads((pathlib.Path(WORK) / "reach_tuned" / "request.json").read_text())
+        self.assertEqual((request["train"]["freeze"], request["train"]["lr_scale"]), ([], {"modules": 0.1}))
+
+    def test_transfers_that_cannot_be_meant_are_refused(self):
+        seen = run("transfer", "--run", "all_tasks", "--task", "mt10/reach", "--demos", "2", "--out", "x",
+                   check=False)
+        self.assertEqual(seen.returncode, 1)
+        self.assertIn("was trained on mt10/reach", seen.stderr)
+        unknown = run("transfer", "--run", "without_reach", "--task", "gravity/0.5", "--demos", "2", "--out", "x",
+                      check=False)
+        self.assertEqual(unknown.returncode, 1)
+        self.assertIn("is not a task of", unknown.stderr)
+        frozen = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "x",
+                     "--module-lr-scale", "0.1", check=False)
+        self.assertEqual(frozen.returncode, 2)
+        self.assertIn("frozen", frozen.stderr)
+        too_many = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "5", "--out", "y",
+                       check=False)
+        self.assertEqual(too_many.returncode, 1)
+        self.assertIn("mt10/reach has 3 training demos (mask/train), 5 requested", too_many.stderr)
+        run("train", "--config", self.config, "--out", "baseline", "--set", "method=mt_bc",
+            "--set", 'data.holdout=["mt10/reach"]')
+        baseline = run("transfer", "--run", "baseline", "--task", "mt10/reach", "--demos", "2", "--out", "z",
+                       check=False)
+        self.assertEqual(baseline.returncode, 1)
+        self.assertIn("mt_bc run", baseline.stderr)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit("usage: transfer_test.py path/to/maps")
+    MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
+    with tempfile.TemporaryDirectory(prefix="maps-transfer-") as work:
+        WORK = work
+        result = unittest.main(exit=False, verbosity=2).result
+    sys.exit(0 if result.wasSuccessful() else 1)
