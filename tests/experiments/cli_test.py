@@ -7,21 +7,11 @@ import hashlib
 import json
 import pathlib
 import re
-import subprocess
-import sys
-import tempfile
 import unittest
 
+from maps_tool import main, run, work
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-MAPS = None  # set from argv
-WORK = None  # scratch folder
-
-
-def run(*args, check=True):
-    proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True, timeout=600)
-    if check and proc.returncode != 0:
-        raise AssertionError(f"maps {' '.join(map(str, args))} exited {proc.returncode}:\n{proc.stderr}")
-    return proc
 
 
 def dotted_keys(value, prefix=""):
@@ -40,7 +30,7 @@ class Tool(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         run("collect", "--set", "mt10", "--demos", "3", "--out", "mt10.h5", "--threads", "1")
-        cls.config = pathlib.Path(WORK) / "config.json"
+        cls.config = work() / "config.json"
         cls.config.write_text(json.dumps({"method": "mt_bc", "data": {"file": "mt10.h5"},
                                           "train": {"steps": 100, "validate_every": 50, "checkpoint_every": 50,
                                                     "validation_states_per_task": 50},
@@ -59,7 +49,7 @@ class Tool(unittest.TestCase):
         self.assertEqual((config["train"]["steps"], config["method"], config["maps"]["module_hidden"], config["seed"]),
                          (7, "maps", [64], 3))
         self.assertEqual(config["maps"]["selector_losses"], {"share": 0})
-        self.assertFalse((pathlib.Path(WORK) / "runs").exists())
+        self.assertFalse((work() / "runs").exists())
 
     def test_bad_overrides_are_usage_or_config_errors_naming_the_key(self):
         for assignment, needle in (("train.steps", "key=value"), ("train..steps=3", "empty part"),
@@ -81,7 +71,7 @@ class Tool(unittest.TestCase):
                 run("train", "--config", example, "--print-config")
 
     def test_a_finished_run_extends_step_for_step(self):
-        out, fresh = pathlib.Path(WORK) / "extended", pathlib.Path(WORK) / "fresh"
+        out, fresh = work() / "extended", work() / "fresh"
         run("train", "--config", self.config, "--out", out)
         proc = run("train", "--config", self.config, "--out", out, "--set", "train.steps=200")
         self.assertIn("configured for 100 steps; continuing to 200", proc.stdout)
@@ -100,12 +90,12 @@ class Tool(unittest.TestCase):
         self.assertIn("differs in seed", other.stderr)
 
     def test_run_folder_records_what_made_it(self):
-        out = pathlib.Path(WORK) / "recorded"
+        out = work() / "recorded"
         run("train", "--config", self.config, "--out", out, "--threads", "0")
         run("train", "--config", self.config, "--out", out, "--set", "train.steps=150")
         records = json.loads((out / "provenance.json").read_text())
         self.assertEqual(len(records), 2)
-        digest = hashlib.sha256((pathlib.Path(WORK) / "mt10.h5").read_bytes()).hexdigest()
+        digest = hashlib.sha256((work() / "mt10.h5").read_bytes()).hexdigest()
         for record in records:
             self.assertEqual(record["demo_file_sha256"], digest)
             self.assertRegex(record["git_commit"], r"^([0-9a-f]{40}(-dirty)?|unknown.*)$")
@@ -123,7 +113,7 @@ class Tool(unittest.TestCase):
         self.assertEqual((out / "train.log").read_text().splitlines()[-1], failed.stderr.strip())
 
     def test_eval_shows_progress(self):
-        out = pathlib.Path(WORK) / "evaluated"
+        out = work() / "evaluated"
         run("train", "--config", self.config, "--out", out)
         proc = run("eval", "--run", out, "--threads", "0")
         self.assertEqual(len(re.findall(r"^  \[\d+/10\] mt10/\S+: score", proc.stdout, re.M)), 10)
@@ -133,9 +123,9 @@ class Tool(unittest.TestCase):
     def test_render_animates_a_trained_policy(self):
         if "--every" not in run("render", "--help").stdout or "GIF" not in run("render", "--help").stdout:
             self.skipTest("built without the renderer")
-        out = pathlib.Path(WORK) / "animated"
+        out = work() / "animated"
         run("train", "--config", self.config, "--out", out)
-        gif = pathlib.Path(WORK) / "reach.gif"
+        gif = work() / "reach.gif"
         proc = run("render", "--run", out, "--task", "mt10/reach", "--out", gif, "--width", "160", "--height", "120",
                    "--every", "10", check=False)
         if proc.returncode != 0 and "no GIF writer" in proc.stderr:
@@ -152,13 +142,13 @@ class Tool(unittest.TestCase):
             self.assertEqual((image.n_frames, image.size), (frames, (160, 120)))
 
     def test_collect_refuses_to_overwrite_without_force(self):
-        path = pathlib.Path(WORK) / "mt10.h5"
+        path = work() / "mt10.h5"
         before = path.read_bytes()
         proc = run("collect", "--set", "mt10", "--demos", "2", "--out", path, check=False)
         self.assertEqual(proc.returncode, 1)
         self.assertIn("--force", proc.stderr)
         self.assertEqual(path.read_bytes(), before)
-        copy = pathlib.Path(WORK) / "copy.h5"
+        copy = work() / "copy.h5"
         copy.write_bytes(before)
         run("collect", "--set", "mt10", "--demos", "2", "--out", copy, "--force")
         self.assertNotEqual(copy.read_bytes(), before)
@@ -169,7 +159,7 @@ class Tool(unittest.TestCase):
                      ["bench", "step", "--set", "mt10", "--seconds", "0.2", "--threads", "0", "--json"]):
             with self.subTest(command=" ".join(args[:2])):
                 json.loads(run(*args).stdout)
-        table = pathlib.Path(WORK) / "experts.json"
+        table = work() / "experts.json"
         run("expert-eval", "--task", "mt10/reach", "--episodes", "2", "--out", table)
         self.assertEqual(json.loads(table.read_text())[0]["task"], "mt10/reach")
 
@@ -180,14 +170,8 @@ class Tool(unittest.TestCase):
             with self.subTest(args=args):
                 self.assertEqual(run(*args, check=False).returncode, 2)
         self.assertEqual(run(check=False).returncode, 2)
-        self.assertEqual(run("eval", "--run", WORK, check=False).returncode, 1)
+        self.assertEqual(run("eval", "--run", work(), check=False).returncode, 1)
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 2:
-        sys.exit("usage: cli_test.py path/to/maps")
-    MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
-    with tempfile.TemporaryDirectory(prefix="maps-cli-") as work:
-        WORK = work
-        result = unittest.main(exit=False, verbosity=2).result
-    sys.exit(0 if result.wasSuccessful() else 1)
+    main(__file__)

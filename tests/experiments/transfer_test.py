@@ -4,27 +4,16 @@ its modules frozen, the result is an ordinary run folder that `maps eval` scores
 that cannot be meant are refused by name. Run by ctest as: transfer_test.py path/to/maps."""
 import json
 import pathlib
-import subprocess
-import sys
-import tempfile
 import unittest
 
-MAPS = None  # set from argv
-WORK = None  # scratch folder
-
-
-def run(*args, check=True):
-    proc = subprocess.run([MAPS, *map(str, args)], cwd=WORK, capture_output=True, text=True, timeout=600)
-    if check and proc.returncode != 0:
-        raise AssertionError(f"maps {' '.join(map(str, args))} exited {proc.returncode}:\n{proc.stderr}")
-    return proc
+from maps_tool import main, run, work
 
 
 class Transfer(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         run("collect", "--set", "mt10", "--demos", "4", "--out", "mt10.h5", "--threads", "1")
-        config = pathlib.Path(WORK) / "config.json"
+        config = work() / "config.json"
         config.write_text(json.dumps({"method": "maps", "data": {"file": "mt10.h5", "demos_per_task": 2},
                                       "maps": {"modules": 4},
                                       "train": {"steps": 60, "validate_every": 20, "checkpoint_every": 20,
@@ -38,12 +27,12 @@ class Transfer(unittest.TestCase):
         proc = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "reach",
                    "--steps", "40")
         self.assertIn("starting from", proc.stdout)
-        folder = pathlib.Path(WORK) / "reach"
+        folder = work() / "reach"
         request = json.loads((folder / "request.json").read_text())
         self.assertEqual(request["data"]["tasks"], ["mt10/reach"])
         self.assertEqual(request["data"]["task_demos"], {"mt10/reach": 2})
         self.assertEqual(request["train"]["freeze"], ["modules"])
-        self.assertEqual(pathlib.Path(request["init"]["run"]), (pathlib.Path(WORK) / "without_reach").resolve())
+        self.assertEqual(pathlib.Path(request["init"]["run"]), (work() / "without_reach").resolve())
         run("eval", "--run", folder)
         evaluation = json.loads((folder / "eval.json").read_text())
         self.assertEqual([t["task"] for t in evaluation["tasks"]], ["mt10/reach"])
@@ -56,7 +45,7 @@ class Transfer(unittest.TestCase):
     def test_modules_fine_tuned_slower(self):
         run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "reach_tuned",
             "--steps", "20", "--freeze", "none", "--module-lr-scale", "0.1")
-        request = json.loads((pathlib.Path(WORK) / "reach_tuned" / "request.json").read_text())
+        request = json.loads((work() / "reach_tuned" / "request.json").read_text())
         self.assertEqual((request["train"]["freeze"], request["train"]["lr_scale"]), ([], {"modules": 0.1}))
 
     def test_transfers_that_cannot_be_meant_are_refused(self):
@@ -85,10 +74,4 @@ class Transfer(unittest.TestCase):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 2:
-        sys.exit("usage: transfer_test.py path/to/maps")
-    MAPS = str(pathlib.Path(sys.argv.pop(1)).resolve())
-    with tempfile.TemporaryDirectory(prefix="maps-transfer-") as work:
-        WORK = work
-        result = unittest.main(exit=False, verbosity=2).result
-    sys.exit(0 if result.wasSuccessful() else 1)
+    main(__file__)
