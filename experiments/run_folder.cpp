@@ -25,11 +25,18 @@ nlohmann::json read_json_file(const std::string& path) {
   }
 }
 
-core::DemoDataset load_run_dataset(const core::RunConfig& config) {
+std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir) {
+  if (config.init_run.empty()) return "";
+  const std::filesystem::path folder(config.init_run);
+  return (folder.is_absolute() ? folder : std::filesystem::path(run_dir) / folder).lexically_normal().string();
+}
+
+core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::string& run_dir) {
   core::DemoDataset data(envs::read_demo_file(config.data_file), config.data);
   if (!config.init_run.empty()) {
     // A run started from another one standardises as that one did: its reused layers were trained on those inputs.
-    const std::string path = (std::filesystem::path(config.init_run) / config.init_checkpoint).string();
+    const std::string path =
+        (std::filesystem::path(init_run_folder(config, run_dir)) / config.init_checkpoint).string();
     if (!std::filesystem::exists(path))
       throw std::runtime_error("init.run: " + path + " does not exist (the run this one starts from)");
     core::Standardizer standardizer;
@@ -55,7 +62,7 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   const std::string best_path = (dir / checkpoint).string();
   if (!fs::exists(best_path))
     throw std::runtime_error(run + " has no " + checkpoint + ": train it first (maps train --out " + run + ")");
-  loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config));
+  loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config, run));
   const core::DemoDataset& data = *loaded.data;
   loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
   try {

@@ -15,8 +15,12 @@ namespace maps::experiments {
 void write_json_file(const std::string& path, const nlohmann::json& json);
 nlohmann::json read_json_file(const std::string& path);
 
-// The run's demonstrations, as its config draws them.
-core::DemoDataset load_run_dataset(const core::RunConfig& config);
+// The run's demonstrations, as its config draws them (standardised as init.run's checkpoint says, if it names one).
+core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::string& run_dir);
+
+// The folder init.run names for the run in `run_dir`: a relative init.run is relative to the run folder (a suite's
+// transfer cell names its source as a sibling, "../<cell>"); empty when the config names none.
+std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir);
 
 // A trained run ready to act: its config, its demonstrations, and its policy at `checkpoint` (a file of the run
 // folder: best.ckpt, or step_<N>.ckpt) in evaluation mode,

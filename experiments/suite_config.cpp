@@ -5,6 +5,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "envs/task_sets.h"
 #include "experiments/run_folder.h"
 #include "maps/training/run_config.h"
 
@@ -14,7 +15,7 @@ namespace {
 using Json = nlohmann::json;
 
 const std::vector<std::string> kSets = {"gravity", "modified", "mt10"};
-const std::vector<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"};
+const std::vector<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer"};
 
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
@@ -117,6 +118,58 @@ std::vector<int> grid_demos(const Json& grid, const SuiteSet& set, const std::st
   return integers_of<int>(demos[set.name], where + ".demos." + set.name, 1);
 }
 
+// A grid's task axis: none, tasks held out of training ("holdout"), or new tasks with few demonstrations each
+// ("new_task": the other tasks at "others_demos"; method "transfer" starts from the holdout cell of that task).
+struct TaskAxis {
+  enum class Kind { kNone, kHoldout, kNew } kind = Kind::kNone;
+  std::vector<std::string> tasks{""};
+  int others_demos = 0;
+  std::vector<std::string> freeze{"modules"};
+  double module_lr_scale = 1.0;
+};
+
+TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, const std::vector<std::string>& methods,
+                   const std::string& at) {
+  TaskAxis axis;
+  const bool holdout = grid.contains("holdout"), fresh = grid.contains("new_task");
+  if (holdout && fresh) throw std::invalid_argument(at + ": \"holdout\" and \"new_task\" exclude each other");
+  const bool transfer = std::count(methods.begin(), methods.end(), "transfer") > 0;
+  if (transfer && !fresh)
+    throw std::invalid_argument(at + ": method transfer needs \"new_task\" (the tasks to teach) and \"others_demos\"");
+  for (const char* key : {"others_demos", "freeze", "module_lr_scale"})
+    if (grid.contains(key) && !fresh) throw std::invalid_argument(at + "." + key + ": only with \"new_task\"");
+  if (!holdout && !fresh) return axis;
+  axis.kind = holdout ? TaskAxis::Kind::kHoldout : TaskAxis::Kind::kNew;
+  const std::string key = holdout ? "holdout" : "new_task";
+  axis.tasks = names_of(grid[key], at + "." + key);
+  for (const auto& task : axis.tasks) {
+    bool found = false;
+    for (const auto& set : set_names) {
+      const auto names = envs::task_names(set);
+      found = found || std::find(names.begin(), names.end(), task) != names.end();
+    }
+    if (!found) throw std::invalid_argument(at + "." + key + ": '" + task + "' is not a task of " + joined(set_names));
+  }
+  if (fresh) {
+    axis.others_demos = positive_int(required(grid, at, "others_demos"), at + ".others_demos");
+    if (grid.contains("freeze")) {
+      const Json& freeze = grid["freeze"];
+      if (!freeze.is_array()) throw std::invalid_argument(at + ".freeze: expected an array of parameter prefixes");
+      axis.freeze = freeze.empty() ? std::vector<std::string>{} : names_of(freeze, at + ".freeze");
+    }
+    if (grid.contains("module_lr_scale")) {
+      const Json& scale = grid["module_lr_scale"];
+      if (!scale.is_number() || !(scale.get<double>() >= 0.0))
+        throw std::invalid_argument(at + ".module_lr_scale: expected a number >= 0, got " + scale.dump());
+      axis.module_lr_scale = scale.get<double>();
+    }
+  }
+  return axis;
+}
+
+// "gravity/0.5" -> "0.5": what names the task in a cell's variant.
+std::string short_task(const std::string& task) { return task.substr(task.rfind('/') + 1); }
+
 }  // namespace
 
 Json SuiteCell::identity() const {
@@ -162,7 +215,9 @@ Suite parse_suite(const Json& json, const std::string& where) {
   for (std::size_t g = 0; g < grids.size(); ++g) {
     const std::string at = where + ".grids[" + std::to_string(g) + "]";
     const Json& grid = grids[g];
-    check_keys(grid, at, {"name", "sets", "methods", "variants", "demos", "seeds"});
+    check_keys(grid, at,
+               {"name", "sets", "methods", "variants", "demos", "seeds", "holdout", "new_task", "others_demos",
+                "freeze", "module_lr_scale"});
     const Json& name_json = required(grid, at, "name");
     if (!name_json.is_string() || !is_plain_name(name_json.get<std::string>()))
       throw std::invalid_argument(at + ".name: expected a name of lower-case letters, digits and _, got " +
@@ -183,45 +238,84 @@ Suite parse_suite(const Json& json, const std::string& where) {
       if (v != "base" && !variants.count(v))
         throw std::invalid_argument(at + ".variants: '" + v + "' is not defined under \"variants\"");
     const auto seeds = integers_of<std::uint64_t>(required(grid, at, "seeds"), at + ".seeds", 0);
+    const TaskAxis axis = task_axis(grid, set_names, methods, at);
 
     for (const std::uint64_t seed : seeds)
       for (const auto& set_name : set_names) {
         const SuiteSet& set = suite.sets.at(set_name);
         const std::vector<int> counts = grid_demos(grid, set, at);
-        for (const auto& method : methods)
-          for (const auto& variant : variant_names)
-            for (const int demos : counts) {
-              SuiteCell cell;
-              cell.grid = grid_name;
-              cell.set = set_name;
-              cell.method = method;
-              cell.variant = variant;
-              cell.demos = demos;
-              cell.seed = seed;
-              cell.name = set_name + "/" + method + (variant == "base" ? "" : "-" + variant) + "_d" +
-                          std::to_string(demos) + "_s" + std::to_string(seed);
-              Json request = merge_json(defaults, set.config);
-              request = merge_json(request, {{"data", {{"file", set.demo_file}, {"subsample", set.subsample}}}});
-              if (variant != "base") request = merge_json(request, variants.at(variant));
-              request =
-                  merge_json(request, {{"method", method}, {"seed", seed}, {"data", {{"demos_per_task", demos}}}});
-              try {
-                cell.request = core::to_json(core::parse_run_config(request));
-              } catch (const std::exception& e) {
-                throw std::invalid_argument(at + ": cell " + cell.name + ": " + e.what());
+        const auto set_tasks = envs::task_names(set_name);
+        for (const auto& task : axis.tasks) {
+          if (!task.empty() && std::find(set_tasks.begin(), set_tasks.end(), task) == set_tasks.end()) continue;
+          for (const auto& method : methods)
+            for (const auto& variant : variant_names)
+              for (const int demos : counts) {
+                SuiteCell cell;
+                cell.grid = grid_name;
+                cell.set = set_name;
+                cell.method = method;
+                // The task axis shows in the variant: "without-0.5" (held out), "new-0.5" (taught from `demos`).
+                const std::string task_part = axis.kind == TaskAxis::Kind::kNone      ? ""
+                                              : axis.kind == TaskAxis::Kind::kHoldout ? "without-" + short_task(task)
+                                                                                      : "new-" + short_task(task);
+                cell.variant =
+                    task_part.empty() ? variant : (variant == "base" ? task_part : variant + "-" + task_part);
+                cell.demos = demos;
+                cell.seed = seed;
+                const std::string folder = method + (cell.variant == "base" ? "" : "-" + cell.variant) + "_d" +
+                                           std::to_string(demos) + "_s" + std::to_string(seed);
+                cell.name = set_name + "/" + folder;
+                Json request;
+                if (method == "transfer") {
+                  // The MAPS cell that never saw the task, at the other tasks' count: its request, for the task alone,
+                  // starting from its best checkpoint (a sibling folder), as `maps transfer` builds it.
+                  const std::string source_folder = "maps-" + (variant == "base" ? "" : variant + "-") + "without-" +
+                                                    short_task(task) + "_d" + std::to_string(axis.others_demos) + "_s" +
+                                                    std::to_string(seed);
+                  const auto source = by_name.find(set_name + "/" + source_folder);
+                  if (source == by_name.end())
+                    throw std::invalid_argument(at + ": cell " + cell.name + " transfers from " + set_name + "/" +
+                                                source_folder +
+                                                ", which no earlier grid makes (a grid with method maps, holdout [\"" +
+                                                task + "\"], demos [" + std::to_string(axis.others_demos) + "])");
+                  request = suite.cells[source->second].request;
+                  request["data"]["tasks"] = {task};
+                  request["data"]["holdout"] = Json::array();
+                  request["data"]["task_demos"] = {{task, demos}};
+                  request["train"]["freeze"] = axis.freeze;
+                  request["train"]["lr_scale"] = Json::object();
+                  if (axis.module_lr_scale != 1.0) request["train"]["lr_scale"]["modules"] = axis.module_lr_scale;
+                  request["init"] = {{"run", "../" + source_folder}, {"checkpoint", "best.ckpt"}};
+                } else {
+                  request = merge_json(defaults, set.config);
+                  request = merge_json(request, {{"data", {{"file", set.demo_file}, {"subsample", set.subsample}}}});
+                  if (variant != "base") request = merge_json(request, variants.at(variant));
+                  request =
+                      merge_json(request, {{"method", method}, {"seed", seed}, {"data", {{"demos_per_task", demos}}}});
+                  if (axis.kind == TaskAxis::Kind::kHoldout) request["data"]["holdout"] = {task};
+                  if (axis.kind == TaskAxis::Kind::kNew) {
+                    request["data"]["demos_per_task"] = axis.others_demos;
+                    request["data"]["task_demos"] = {{task, demos}};
+                  }
+                }
+                try {
+                  cell.request = core::to_json(core::parse_run_config(request));
+                } catch (const std::exception& e) {
+                  throw std::invalid_argument(at + ": cell " + cell.name + ": " + e.what());
+                }
+                cell.subsample = cell.request["data"]["subsample"].get<int>();
+                if (const auto found = by_name.find(cell.name); found != by_name.end()) {
+                  if (suite.cells[found->second].request != cell.request)
+                    throw std::invalid_argument(at + ": cell " + cell.name + " is also in grid '" +
+                                                suite.cells[found->second].grid +
+                                                "' with another run config; give one of them a variant");
+                  continue;
+                }
+                cell.index = static_cast<int>(suite.cells.size());
+                by_name.emplace(cell.name, suite.cells.size());
+                suite.cells.push_back(std::move(cell));
               }
-              cell.subsample = cell.request["data"]["subsample"].get<int>();
-              if (const auto found = by_name.find(cell.name); found != by_name.end()) {
-                if (suite.cells[found->second].request != cell.request)
-                  throw std::invalid_argument(at + ": cell " + cell.name + " is also in grid '" +
-                                              suite.cells[found->second].grid +
-                                              "' with another run config; give one of them a variant");
-                continue;
-              }
-              cell.index = static_cast<int>(suite.cells.size());
-              by_name.emplace(cell.name, suite.cells.size());
-              suite.cells.push_back(std::move(cell));
-            }
+        }
       }
   }
   return suite;

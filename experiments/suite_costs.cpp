@@ -39,22 +39,24 @@ std::string format_duration(double seconds) {
 
 double CostTable::cell_seconds(const SuiteCell& cell) const {
   const Json* entry = nullptr;
+  // A transfer cell trains MAPS (for one task, from a trained run).
+  const std::string method = cell.method == "transfer" ? "maps" : cell.method;
   try {
-    entry = &json.at("sets").at(cell.set).at("methods").at(cell.method);
+    entry = &json.at("sets").at(cell.set).at("methods").at(method);
   } catch (const Json::exception&) {
-    throw std::runtime_error(path + " has no cost for " + cell.method + " on " + cell.set +
+    throw std::runtime_error(path + " has no cost for " + method + " on " + cell.set +
                              " (re-measure: maps suite calibrate)");
   }
   const Json& c = *entry;
   const Json& r = cell.request;
   // A step's rows: the batch, and for MAML its query batch too (maml.cpp: support + query rows per task).
   double rows = r["train"]["states_per_task"].get<double>(), measured_rows = c.at("states_per_task").get<double>();
-  if (cell.method == "maml" && c.contains("query_per_task")) {
+  if (method == "maml" && c.contains("query_per_task")) {
     rows += r["maml"]["query_per_task"].get<double>();
     measured_rows += c.at("query_per_task").get<double>();
   }
   double step = c.at("step_seconds").get<double>() * rows / measured_rows;
-  if (cell.method == "maps") {
+  if (method == "maps") {
     step *= r["maps"]["modules"].get<double>() / c.at("modules").get<double>();
   } else {
     // A baseline's products grow with the square of its width (measured at 3 x 128).
@@ -63,7 +65,17 @@ double CostTable::cell_seconds(const SuiteCell& cell) const {
     width /= static_cast<double>(std::max<std::size_t>(1, r["baselines"]["hidden"].size()));
     step *= std::max(1.0, (width / 128.0) * (width / 128.0));
   }
-  const double tasks = static_cast<double>(envs::task_names(cell.set).size());
+  // Measured with every task of the set in each batch and evaluated; data.tasks and data.holdout keep fewer.
+  const auto set_tasks = envs::task_names(cell.set);
+  double tasks = 0.0;
+  for (const auto& task : set_tasks) {
+    const auto& only = r["data"].value("tasks", Json::array());
+    const auto& held = r["data"].value("holdout", Json::array());
+    const bool kept = (only.empty() || std::find(only.begin(), only.end(), task) != only.end()) &&
+                      std::find(held.begin(), held.end(), task) == held.end();
+    tasks += kept ? 1.0 : 0.0;
+  }
+  step *= tasks / static_cast<double>(set_tasks.size());
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
   const double keep_every = r["train"].value("keep_every", 0.0);
   const double evaluations = 1.0 + (keep_every > 0 ? std::floor(r["train"]["steps"].get<double>() / keep_every) : 0.0);

@@ -146,6 +146,31 @@ int run_self(const std::vector<std::string>& args, const fs::path& log) {
   return run_program("/proc/self/exe", args, &log);
 }
 
+// A transfer cell starts from another cell's best checkpoint (init.run, a sibling folder): it waits while that cell
+// runs (here or in another process), and fails, naming it, when the source failed or is neither finished nor
+// running (its shard not run yet). Returns "" when the source is finished (or there is none).
+std::string wait_for_source(const fs::path& dir, const SuiteCell& cell) {
+  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
+  if (relative.empty()) return "";
+  const fs::path source = (dir / relative).lexically_normal();
+  const auto start = std::chrono::steady_clock::now();
+  bool announced = false;
+  for (;;) {
+    if (fs::exists(source / "result.json")) return "";
+    if (fs::exists(source / "error.json")) return "its source cell " + source.string() + " failed (see its error.json)";
+    // A worker that has just taken the source may not hold its lock yet: allow it a moment.
+    if (!cell_is_locked(source) && seconds_since(start) > 30.0)
+      return "its source cell " + source.string() +
+             " is neither finished nor running: run the suite (or that cell's shard) so that it finishes first";
+    if (!announced) {
+      std::printf("suite: %s waits for its source cell %s\n", cell.name.c_str(), source.string().c_str());
+      std::fflush(stdout);
+      announced = true;
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+  }
+}
+
 CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
   const auto start = std::chrono::steady_clock::now();
   CellOutcome outcome;
@@ -181,6 +206,11 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
     }
   }
   remove_temporaries(dir);
+  if (const std::string waiting = wait_for_source(dir, cell); !waiting.empty()) {
+    outcome.status = CellOutcome::Status::kFailed;
+    outcome.error = waiting;
+    return outcome;
+  }
   double seconds = 0.0;
   Attempt attempt = attempt_cell(dir, cell, threads, seconds);
   if (attempt.unreadable_state) {

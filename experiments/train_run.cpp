@@ -2,6 +2,8 @@
 
 #include "experiments/train_run.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -75,7 +77,7 @@ int run_train(const TrainRunOptions& options) {
   log << "---- " << provenance_record()["started_utc"].get<std::string>() << "  " << command_line() << std::endl;
   try {
     check_existing_run(options.out, resolved, log);
-    const core::DemoDataset data = load_run_dataset(config);
+    const core::DemoDataset data = load_run_dataset(config, options.out);
     append_provenance(options.out, provenance_record({{"subcommand", "train"},
                                                       {"config_file", options.config_path},
                                                       {"overrides", options.overrides},
@@ -88,14 +90,19 @@ int run_train(const TrainRunOptions& options) {
     const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};
     const auto policy = core::make_policy(config, shape);
     if (!config.init_run.empty() && core::trained_steps(options.out) == 0) {
-      const TrainedRun source = load_trained_run(config.init_run, config.init_checkpoint);
+      const std::string source_dir = init_run_folder(config, options.out);
+      const TrainedRun source = load_trained_run(source_dir, config.init_checkpoint);
       core::initialize_from(*policy, data.task_names(), *source.policy, source.data->task_names());
-      log << "maps train: starting from " << config.init_run << "/" << config.init_checkpoint << " (step "
+      log << "maps train: starting from " << source_dir << "/" << config.init_checkpoint << " (step "
           << source.best.value("step", -1) << ", tasks " << source.data->task_names().size() << ")" << std::endl;
     }
+    std::size_t fewest = SIZE_MAX, most = 0;
+    for (const auto& seeds : data.training_demo_seeds())
+      fewest = std::min(fewest, seeds.size()), most = std::max(most, seeds.size());
     log << "maps train: " << config.method << " on " << config.data_file << " (" << data.num_tasks() << " tasks, "
-        << config.data.demos_per_task << " demos per task, subsample " << config.data.subsample << "), seed "
-        << config.seed << ", " << config.train.steps << " steps -> " << options.out << std::endl;
+        << (fewest == most ? std::to_string(most) : std::to_string(fewest) + "-" + std::to_string(most))
+        << " demos per task, subsample " << config.data.subsample << "), seed " << config.seed << ", "
+        << config.train.steps << " steps -> " << options.out << std::endl;
     ag::set_num_threads(options.threads);
     const core::TrainSummary summary = core::train_policy(*policy, data, config.train, options.out, &log);
 

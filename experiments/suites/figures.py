@@ -29,8 +29,10 @@ from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, usag
 
 Figure = namedtuple("Figure", "file caption")
 DPI = 120
-NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML"}
-COLORS = {"maps": "tab:blue", "maml": "tab:orange", "mt_bc": "m", "mt_mh_bc": "tab:red", "single_bc": "tab:green"}
+NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML",
+         "transfer": "MAPS transfer"}
+COLORS = {"maps": "tab:blue", "maml": "tab:orange", "mt_bc": "m", "mt_mh_bc": "tab:red", "single_bc": "tab:green",
+          "transfer": "tab:cyan"}
 SPARE = ["tab:purple", "tab:brown", "tab:gray", "tab:olive", "tab:cyan", "k"]
 # MAPS's variants in Fig. 4 (base MAPS keeps its blue): colours no method has.
 VARIANT_COLORS = ["tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:gray", "tab:pink", "k", "gold"]

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 SUITE_FORMAT = "maps-suite/1"
 CELL_FORMAT = "maps-suite-cell/1"
 SET_ORDER = ["gravity", "modified", "mt10"]
-METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"]
+METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer"]
 SELECTOR_TERMS = ["share", "explore", "sparse", "smooth"]
 
 GroupKey = namedtuple("GroupKey", "set label demos subsample")

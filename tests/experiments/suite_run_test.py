@@ -109,7 +109,8 @@ class SuiteTest(unittest.TestCase):
         self.assertEqual(requests["mt10/maps-no_share_d2_s0"]["maps"]["selector_losses"],
                          {"share": 0, "explore": 0.1, "sparse": 0.5, "smooth": 1})
         self.assertEqual(requests["gravity/maps_d2_s0"]["data"], {"file": "data/tiny/gravity.h5", "demos_per_task": 2,
-                                                                  "subsample": 10})
+                                                                  "subsample": 10, "tasks": [], "holdout": [],
+                                                                  "task_demos": {}})
 
     def test_shards_partition_the_cells(self):
         config = json.loads(TINY.read_text())

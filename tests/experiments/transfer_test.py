@@ -72,6 +72,24 @@ class Transfer(unittest.TestCase):
         self.assertEqual(baseline.returncode, 1)
         self.assertIn("mt_bc run", baseline.stderr)
 
+    def test_a_suite_runs_transfer_cells_after_their_sources(self):
+        fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
+        plan = json.loads(run("suite", "plan", fixture, "--json").stdout)
+        names = [cell["name"] for cell in plan["cells"]]
+        self.assertEqual(names[0], "mt10/maps-without-reach_d2_s0")
+        self.assertIn("mt10/transfer-new-reach_d1_s0", names)
+        proc = run("suite", "run", fixture, "--out", "suite", "--jobs", "2")
+        self.assertIn("5 cells done, 0 failed", proc.stdout)
+        cells = work() / "suite" / "cells" / "mt10"
+        request = json.loads((cells / "transfer-new-reach_d1_s0" / "request.json").read_text())
+        self.assertEqual(request["init"]["run"], "../maps-without-reach_d2_s0")
+        self.assertEqual((request["data"]["tasks"], request["data"]["task_demos"]), (["mt10/reach"], {"mt10/reach": 1}))
+        self.assertIn("starting from", (cells / "transfer-new-reach_d1_s0" / "train.log").read_text())
+        baseline = json.loads((cells / "mt_bc-new-reach_d2_s0" / "request.json").read_text())
+        self.assertEqual((baseline["data"]["demos_per_task"], baseline["data"]["task_demos"]), (2, {"mt10/reach": 2}))
+        result = json.loads((cells / "transfer-new-reach_d2_s0" / "result.json").read_text())
+        self.assertEqual([t["task"] for t in result["eval"]["tasks"]], ["mt10/reach"])
+
 
 if __name__ == "__main__":
     main(__file__)
