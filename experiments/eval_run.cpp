@@ -46,9 +46,8 @@ nlohmann::json score_lists(const core::EvaluationResult& result) {
 }
 
 int evaluate_each_module(const std::string& run, core::MAPSPolicy& policy, const core::DemoDataset& data,
-                         const std::vector<double>& expert_returns, const core::EvalConfig& eval,
-                         const nlohmann::json& best) {
-  const auto& names = data.task_names();
+                         const std::vector<std::string>& names, const std::vector<double>& expert_returns,
+                         const core::EvalConfig& eval, const nlohmann::json& best) {
   std::printf("maps eval --each-module: %s, %d episodes per task, %lld modules\n", run.c_str(), eval.episodes,
               static_cast<long long>(policy.num_modules()));
   std::printf("| policy |");
@@ -114,17 +113,29 @@ int run_eval(const EvalRunOptions& options) {
   core::EvalConfig eval;
   eval.episodes = options.episodes > 0 ? options.episodes : config.eval_episodes;
   eval.threads = options.threads >= 0 ? options.threads : config.eval_threads;
+  // The tasks scored: every task of the run, or eval.tasks of them (with their ids in the run's policy).
+  std::vector<std::string> names;
   std::vector<double> expert_returns;
   const bool by_return = data.task_set() != "mt10";
-  for (int k = 0; k < data.num_tasks(); ++k)
+  for (int k = 0; k < data.num_tasks(); ++k) {
+    const std::string& name = data.task_names()[k];
+    if (!config.eval_tasks.empty() &&
+        std::find(config.eval_tasks.begin(), config.eval_tasks.end(), name) == config.eval_tasks.end())
+      continue;
+    names.push_back(name);
+    if (!config.eval_tasks.empty()) eval.task_ids.push_back(k);
     expert_returns.push_back(by_return ? data.demo_mean_return(k) : std::numeric_limits<double>::quiet_NaN());
+  }
+  for (const auto& name : config.eval_tasks)
+    if (std::find(names.begin(), names.end(), name) == names.end())
+      throw std::invalid_argument("eval.tasks: " + name + " is not a task of " + options.run);
   core::ModuleUsageFn usage;
   auto* maps_policy = dynamic_cast<core::MAPSPolicy*>(policy.get());
   if (options.each_module) {
     if (maps_policy == nullptr)
       throw std::invalid_argument("--each-module: " + options.run + " is a " + config.method +
                                   " run; only MAPS has modules");
-    return evaluate_each_module(options.run, *maps_policy, data, expert_returns, eval, best);
+    return evaluate_each_module(options.run, *maps_policy, data, names, expert_returns, eval, best);
   }
   if (maps_policy)
     usage = [maps_policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
@@ -132,9 +143,8 @@ int run_eval(const EvalRunOptions& options) {
     };
   std::printf("maps eval: %s, %d episodes per task\n", options.run.c_str(), eval.episodes);
   std::fflush(stdout);
-  const core::EvaluationResult result =
-      core::evaluate(*policy, standardizer, data.task_names(), expert_returns, eval, maps_policy ? &usage : nullptr,
-                     progress_lines(data.task_names()));
+  const core::EvaluationResult result = core::evaluate(*policy, standardizer, names, expert_returns, eval,
+                                                       maps_policy ? &usage : nullptr, progress_lines(names));
 
   nlohmann::json tasks = nlohmann::json::array();
   std::printf("| task | score (95%% CI) | return | success |\n|---|---|---|---|\n");
@@ -176,7 +186,7 @@ int run_eval(const EvalRunOptions& options) {
     for (const auto& [step, name] : kept) {
       TrainedRun at = load_trained_run(options.run, name);
       const core::EvaluationResult r =
-          core::evaluate(*at.policy, at.data->standardizer(), at.data->task_names(), expert_returns, eval, nullptr);
+          core::evaluate(*at.policy, at.data->standardizer(), names, expert_returns, eval, nullptr);
       std::vector<double> scores;
       for (const auto& t : r.tasks) scores.push_back(t.score);
       list.push_back({{"step", step}, {"file", name}, {"mean_score", r.mean_score}, {"scores", scores}});

@@ -294,8 +294,12 @@ Suite parse_suite(const Json& json, const std::string& where) {
                       merge_json(request, {{"method", method}, {"seed", seed}, {"data", {{"demos_per_task", demos}}}});
                   if (axis.kind == TaskAxis::Kind::kHoldout) request["data"]["holdout"] = {task};
                   if (axis.kind == TaskAxis::Kind::kNew) {
+                    // The new task's score is what compares: only it is evaluated. Single BC learns each task
+                    // alone, so it is trained on the new task alone.
                     request["data"]["demos_per_task"] = axis.others_demos;
                     request["data"]["task_demos"] = {{task, demos}};
+                    request["eval"]["tasks"] = {task};
+                    if (method == "single_bc") request["data"]["tasks"] = {task};
                   }
                 }
                 try {

@@ -76,11 +76,13 @@ double CostTable::cell_seconds(const SuiteCell& cell) const {
     tasks += kept ? 1.0 : 0.0;
   }
   step *= tasks / static_cast<double>(set_tasks.size());
+  const auto& scored = r["eval"].value("tasks", Json::array());
+  const double evaluated_tasks = scored.empty() ? tasks : static_cast<double>(scored.size());
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
   const double keep_every = r["train"].value("keep_every", 0.0);
   const double evaluations = 1.0 + (keep_every > 0 ? std::floor(r["train"]["steps"].get<double>() / keep_every) : 0.0);
   return c.at("overhead_seconds").get<double>() + r["train"]["steps"].get<double>() * step +
-         evaluations * r["eval"]["episodes"].get<double>() * tasks * c.at("episode_seconds").get<double>();
+         evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks * c.at("episode_seconds").get<double>();
 }
 
 double CostTable::collect_seconds(const std::string& set) const {

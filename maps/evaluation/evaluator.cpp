@@ -309,6 +309,15 @@ void check_arguments(const Policy& policy, const Standardizer& standardizer, con
     throw std::invalid_argument("evaluate: " + std::to_string(expert_returns.size()) + " expert returns for " +
                                 std::to_string(tasks.size()) +
                                 " tasks (give one per task, NaN for a task scored by success rate, or none)");
+  if (!config.task_ids.empty()) {
+    if (config.task_ids.size() != tasks.size())
+      throw std::invalid_argument("evaluate: " + std::to_string(config.task_ids.size()) + " task ids for " +
+                                  std::to_string(tasks.size()) + " tasks");
+    for (std::int64_t id : config.task_ids)
+      if (id < 0 || id >= policy.shape().num_tasks)
+        throw std::invalid_argument("evaluate: task id " + std::to_string(id) + " is not one of the policy's " +
+                                    std::to_string(policy.shape().num_tasks) + " tasks");
+  }
   for (std::size_t i = 0; i < expert_returns.size(); ++i) {
     const double r = expert_returns[i];
     if (!std::isnan(r) && !(std::isfinite(r) && r > 0.0))
@@ -354,8 +363,8 @@ EvaluationResult run_evaluation(const EnvFactory& make_env, bool registry_tasks,
     for (std::size_t i = next++; i < tasks.size() && !failed; i = next++) {
       try {
         const double expert = expert_returns.empty() ? std::nan("") : expert_returns[i];
-        runs[i] = run_task(helpers, make_env, policy, standardizer, tasks[i], static_cast<std::int64_t>(i), expert,
-                           config, usage, failed);
+        const std::int64_t id = config.task_ids.empty() ? static_cast<std::int64_t>(i) : config.task_ids[i];
+        runs[i] = run_task(helpers, make_env, policy, standardizer, tasks[i], id, expert, config, usage, failed);
         if (progress && !failed) {
           const std::lock_guard<std::mutex> lock(progress_mutex);
           progress(i, runs[i].evaluation);

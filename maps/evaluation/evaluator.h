@@ -32,6 +32,9 @@ struct EvalConfig {
   // njmax 500 an MT10 env takes ~10 MB and ~0.6 ms; HalfCheetah (~3 MB, ~1 ms per env) ran as fast with 10 as with
   // 100 (env steps take 95% of the time either way).
   int max_envs_per_task = 10;
+  // The policy's task id of each task in the list evaluate() gets (empty: its position in the list), so that some
+  // of a policy's tasks can be evaluated alone.
+  std::vector<std::int64_t> task_ids;
 };
 
 struct TaskEvaluation {

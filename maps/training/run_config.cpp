@@ -250,9 +250,10 @@ RunConfig parse_run_config(const Json& json) {
   }
   if (json.contains("eval")) {
     const Json& e = json["eval"];
-    check_keys(e, "eval", {"episodes", "threads"});
+    check_keys(e, "eval", {"episodes", "threads", "tasks"});
     read(e, "eval", "episodes", c.eval_episodes);
     read(e, "eval", "threads", c.eval_threads);
+    read(e, "eval", "tasks", c.eval_tasks);
   }
   return c;
 }
@@ -302,7 +303,7 @@ Json to_json(const RunConfig& c) {
                 {"finetune_steps", c.maml.finetune_steps},
                 {"validate", c.maml.validate}}},
               {"baselines", {{"hidden", c.baseline_hidden}}},
-              {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}}},
+              {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}, {"tasks", c.eval_tasks}}},
               {"init", {{"run", c.init_run}, {"checkpoint", c.init_checkpoint}}}};
 }
 

@@ -27,7 +27,7 @@
 //    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10,
 //             "validate": "unadapted"},              // or "adapted": checkpoints judged after fine-tuning
 //    "baselines": {"hidden": [128, 128, 128]},  // the MLP of Single BC, MT-BC, MT-MH-BC and MAML
-//    "eval": {"episodes": 100, "threads": 0},
+//    "eval": {"episodes": 100, "threads": 0, "tasks": []},   // tasks: evaluate only these of the run's
 //    "init": {"run": "", "checkpoint": "best.ckpt"}}        // transfer: start from that run's parameters
 //
 // An unknown key is an error naming it (a typo must not silently run the default).
@@ -44,6 +44,7 @@ struct RunConfig {
   std::vector<std::int64_t> baseline_hidden = detail::default_hidden_sizes();
   int eval_episodes = 100;
   int eval_threads = 0;
+  std::vector<std::string> eval_tasks;  // `maps eval` scores only these of the run's tasks (empty: all)
   // Start from another run's parameters (transfer, docs/transfer.md): the folder and its checkpoint. The run then
   // also standardises observations with that checkpoint's statistics, as its modules were trained to see them.
   std::string init_run;

@@ -87,8 +87,9 @@ class Transfer(unittest.TestCase):
         self.assertIn("starting from", (cells / "transfer-new-reach_d1_s0" / "train.log").read_text())
         baseline = json.loads((cells / "mt_bc-new-reach_d2_s0" / "request.json").read_text())
         self.assertEqual((baseline["data"]["demos_per_task"], baseline["data"]["task_demos"]), (2, {"mt10/reach": 2}))
-        result = json.loads((cells / "transfer-new-reach_d2_s0" / "result.json").read_text())
-        self.assertEqual([t["task"] for t in result["eval"]["tasks"]], ["mt10/reach"])
+        for cell in ("transfer-new-reach_d2_s0", "mt_bc-new-reach_d2_s0"):
+            result = json.loads((cells / cell / "result.json").read_text())
+            self.assertEqual([t["task"] for t in result["eval"]["tasks"]], ["mt10/reach"], cell)
 
 
 if __name__ == "__main__":

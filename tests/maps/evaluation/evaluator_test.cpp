@@ -377,6 +377,25 @@ TEST(Evaluator, TQuantilesAreStudentsNotTheNormals) {
   EXPECT_THROW(t_quantile_95(0), std::invalid_argument);
 }
 
+TEST(Evaluator, ATaskEvaluatedAloneKeepsItsTaskId) {
+  FnPolicy policy = rowwise_linear_policy({3, 2, 2});
+  const Standardizer standardizer = make_standardizer(3);
+  EvalConfig config;
+  config.episodes = 5;
+  config.threads = 1;
+  const EvaluationResult both = evaluate_with_envs(make_toy_env, policy, standardizer, {"toy/a", "toy/b"}, {}, config);
+  config.task_ids = {1};
+  const EvaluationResult alone = evaluate_with_envs(make_toy_env, policy, standardizer, {"toy/b"}, {}, config);
+  ASSERT_EQ(alone.tasks.size(), 1u);
+  EXPECT_EQ(alone.tasks[0].returns, both.tasks[1].returns);
+  config.task_ids = {2};
+  EXPECT_THAT([&] { evaluate_with_envs(make_toy_env, policy, standardizer, {"toy/b"}, {}, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("task id 2")));
+  config.task_ids = {0, 1};
+  EXPECT_THAT([&] { evaluate_with_envs(make_toy_env, policy, standardizer, {"toy/b"}, {}, config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("2 task ids for 1 tasks")));
+}
+
 TEST(Evaluator, HalfCheetahScoreIsReturnOverExpertReturn) {
   // gravity/1.0 run by its expert (about 5000) normalised by 2500: a score near 2, not capped at 1. gravity/1.5
   // held at a constant action pays control cost every step: negative returns, score exactly 0.
