@@ -4,9 +4,12 @@ its modules frozen, the result is an ordinary run folder that `maps eval` scores
 that cannot be meant are refused by name. Run by ctest as: transfer_test.py path/to/maps."""
 import json
 import pathlib
+import subprocess
 import unittest
 
 from maps_tool import main, run, work
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 class Transfer(unittest.TestCase):
@@ -87,6 +90,13 @@ class Transfer(unittest.TestCase):
         self.assertIn("starting from", (cells / "transfer-new-reach_d1_s0" / "train.log").read_text())
         baseline = json.loads((cells / "mt_bc-new-reach_d2_s0" / "request.json").read_text())
         self.assertEqual((baseline["data"]["demos_per_task"], baseline["data"]["task_demos"]), (2, {"mt10/reach": 2}))
+        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+                                work() / "suite"], capture_output=True, text=True)
+        self.assertEqual(table.returncode, 0, table.stderr)
+        report = (work() / "suite" / "report" / "transfer.md").read_text()
+        self.assertIn("## mt10/reach", report)
+        self.assertRegex(report, r"\| MAPS transfer \| [0-9.]+ \+- nan \(1\) \| [0-9.]+ \+- nan \(1\) \|")
+        self.assertTrue((work() / "suite" / "report" / "transfer_scores.png").stat().st_size > 10000)
         for cell in ("transfer-new-reach_d2_s0", "mt_bc-new-reach_d2_s0"):
             result = json.loads((cells / cell / "result.json").read_text())
             self.assertEqual([t["task"] for t in result["eval"]["tasks"]], ["mt10/reach"], cell)

@@ -1,0 +1,174 @@
+#!/usr/bin/python3
+"""Issue 17's results from a suite folder of experiments/suites/transfer.json (or any suite with holdout and
+new_task grids): per (set, new task, method, demonstrations of the new task) the new task's score, mean +- 95% t
+interval over seeds; paired differences of transfer from each other method; the training cost (best-validation step,
+wall seconds); and which modules the new task picks next to those its named neighbour used in the source run.
+
+    python3 experiments/suites/transfer_table.py results/transfer --out results/transfer/report
+
+writes OUT/transfer.md (the tables) and OUT/transfer_scores.png (score against demonstrations, per task)."""
+import argparse
+import math
+import pathlib
+import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from suite_results import SuiteError, load_suite, order, METHOD_ORDER  # noqa: E402
+from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p  # noqa: E402
+
+# The trained task each new task is nearest to (its neighbour in the set's parameter, or its counterpart).
+NEIGHBOUR = {"gravity/0.5": "gravity/0.75", "gravity/1.5": "gravity/1.25", "modified/big_foot": "modified/original",
+             "modified/small_thigh": "modified/original", "mt10/drawer-open": "mt10/drawer-close",
+             "mt10/window-close": "mt10/window-open"}
+NAMES = {"transfer": "MAPS transfer", "single_bc": "Single BC (new task alone)", "mt_bc": "MT-BC (all tasks)",
+         "maps": "MAPS from scratch (all tasks)", "mt_mh_bc": "MT-MH-BC (all tasks)", "maml": "MAML (all tasks)"}
+
+
+def new_task_of(cell):
+    """The new task of a new_task cell (variant "...new-<task>", the task's own demo count in data.task_demos)."""
+    demos = cell.config.get("data", {}).get("task_demos", {})
+    if len(demos) != 1:
+        return None
+    task = next(iter(demos))
+    return task if cell.variant.endswith("new-" + task.rsplit("/", 1)[-1]) else None
+
+
+def score_of(cell, task):
+    for t in cell.tasks:
+        if t.task == task:
+            return t.score
+    return None
+
+
+def top_modules(usage, count=3):
+    ranked = sorted(range(len(usage)), key=lambda m: -usage[m])[:count]
+    return ", ".join(f"m{m} ({usage[m]:.2f})" for m in ranked)
+
+
+def overlap(a, b, count=3):
+    top_a = set(sorted(range(len(a)), key=lambda m: -a[m])[:count])
+    top_b = set(sorted(range(len(b)), key=lambda m: -b[m])[:count])
+    return len(top_a & top_b)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("suite", help="a suite folder (maps suite run C.json --out DIR)")
+    parser.add_argument("--out", help="where to write transfer.md and the figure (default: SUITE/report)")
+    args = parser.parse_args()
+    try:
+        suite = load_suite(args.suite)
+    except SuiteError as e:
+        sys.exit(f"transfer_table: {e}")
+    out = pathlib.Path(args.out or pathlib.Path(args.suite) / "report")
+    out.mkdir(parents=True, exist_ok=True)
+
+    rows = {}  # (set, task, method, demos) -> [cells]
+    for cell in suite.cells:
+        task = new_task_of(cell)
+        if task is not None:
+            rows.setdefault((cell.set, task, cell.method, cell.demos), []).append(cell)
+    if not rows:
+        sys.exit(f"transfer_table: {args.suite} has no finished new-task cells (grids with new_task)")
+    sources = {}  # (set, task, seed) -> the holdout MAPS cell
+    for cell in suite.cells:
+        held = cell.config.get("data", {}).get("holdout", [])
+        if cell.method == "maps" and len(held) == 1:
+            sources[(cell.set, held[0], cell.seed)] = cell
+
+    lines = ["# Transfer: a new task from few demonstrations", "",
+             f"Suite folder `{args.suite}`. The new task's score (HalfCheetah: return / its demonstrations' mean "
+             "return, floored at 0; MT10: success at any step), mean +- 95% t interval over seeds.", ""]
+    tasks = sorted({(s, t) for s, t, _, _ in rows})
+    figure_data = {}
+    for set_name, task in tasks:
+        methods = order(METHOD_ORDER, {m for s, t, m, _ in rows if (s, t) == (set_name, task)})
+        methods = (["transfer"] if "transfer" in methods else []) + [m for m in methods if m != "transfer"]
+        counts = sorted({d for s, t, _, d in rows if (s, t) == (set_name, task)})
+        lines += [f"## {task}", "", "| method | " + " | ".join(f"{d} demos" for d in counts) + " |",
+                  "|---|" + "---|" * len(counts)]
+        for method in methods:
+            cells_at = [rows.get((set_name, task, method, d), []) for d in counts]
+            lines.append(f"| {NAMES.get(method, method)} | " + " | ".join(
+                fmt([score_of(c, task) for c in cells]) + f" ({len(cells)})" if cells else "-" for cells in cells_at)
+                + " |")
+            figure_data[(task, method)] = [(d, [score_of(c, task) for c in cells]) for d, cells in zip(counts, cells_at)
+                                           if cells]
+        lines += ["", "Paired differences, transfer - method, over the seeds both ran (p: paired t test; Holm over "
+                      "this task's comparisons):", "", "| method | demos | pairs | difference | p | p (Holm) |",
+                  "|---|---|---|---|---|---|"]
+        comparisons = []
+        for method in methods:
+            if method == "transfer":
+                continue
+            for d in counts:
+                diffs = paired(rows.get((set_name, task, "transfer", d), []), rows.get((set_name, task, method, d), []),
+                               lambda c: score_of(c, task))
+                comparisons.append((method, d, diffs, paired_p(diffs)))
+        adjusted = holm([p for *_, p in comparisons])
+        for (method, d, diffs, p), p_holm in zip(comparisons, adjusted):
+            if diffs:
+                lines.append(f"| {NAMES.get(method, method)} | {d} | {len(diffs)} | {fmt(diffs, signed=True)} | "
+                             f"{fmt_p(p)} | {fmt_p(p_holm)} |")
+        lines += ["", "Training cost (the best-validation step; wall seconds of the cell, training and evaluation):",
+                  "", "| method | demos | best step | wall seconds |", "|---|---|---|---|"]
+        for method in methods:
+            for d in counts:
+                cells = rows.get((set_name, task, method, d), [])
+                if cells:
+                    lines.append(f"| {NAMES.get(method, method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
+                                 f"{mean([c.wall_seconds for c in cells]):.0f} |")
+        neighbour = NEIGHBOUR.get(task)
+        usage_lines = []
+        for d in counts:
+            for cell in rows.get((set_name, task, "transfer", d), []):
+                mine = next((t.usage for t in cell.tasks if t.task == task), None)
+                source = sources.get((set_name, task, cell.seed))
+                theirs = next((t.usage for t in source.tasks if t.task == neighbour), None) if source else None
+                if mine and theirs:
+                    usage_lines.append(f"| {d} | {cell.seed} | {top_modules(mine)} | {top_modules(theirs)} | "
+                                       f"{overlap(mine, theirs)} of 3 |")
+        if usage_lines:
+            lines += ["", f"Modules: the new task's most used modules after transfer, and those {neighbour} used in "
+                          "the source run (the same modules: the numbering is the source run's):", "",
+                      "| demos | seed | new task | neighbour in the source run | shared |", "|---|---|---|---|---|"]
+            lines += usage_lines
+        lines.append("")
+    (out / "transfer.md").write_text("\n".join(lines) + "\n")
+    draw(figure_data, tasks, out / "transfer_scores.png")
+    print(f"transfer_table: {out / 'transfer.md'}, {out / 'transfer_scores.png'}")
+
+
+def draw(data, tasks, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from suite_stats import ci95
+    colours = {"transfer": "tab:cyan", "maps": "tab:blue", "single_bc": "tab:green", "mt_bc": "m",
+               "mt_mh_bc": "tab:red", "maml": "tab:orange"}
+    columns = min(2, len(tasks))
+    rows = math.ceil(len(tasks) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(6 * columns, 3.6 * rows), squeeze=False)
+    for ax, (set_name, task) in zip(axes.flat, tasks):
+        for (t, method), points in data.items():
+            if t != task or not points:
+                continue
+            xs = [d for d, _ in points]
+            ys = [mean(v) for _, v in points]
+            err = [0.0 if math.isnan(ci95(v)) else ci95(v) for _, v in points]
+            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=NAMES.get(method, method),
+                        color=colours.get(method))
+        ax.set(title=task, xlabel="demonstrations of the new task", ylabel="new task's score", ylim=(0, 1.1))
+        ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    for ax in list(axes.flat)[len(tasks):]:
+        ax.axis("off")
+    fig.suptitle("Transfer to a held-out task: mean over seeds, bars the 95% t interval")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+if __name__ == "__main__":
+    main()
