@@ -52,28 +52,19 @@ class Transfer(unittest.TestCase):
         self.assertEqual((request["train"]["freeze"], request["train"]["lr_scale"]), ([], {"modules": 0.1}))
 
     def test_transfers_that_cannot_be_meant_are_refused(self):
-        seen = run("transfer", "--run", "all_tasks", "--task", "mt10/reach", "--demos", "2", "--out", "x",
-                   check=False)
-        self.assertEqual(seen.returncode, 1)
-        self.assertIn("was trained on mt10/reach", seen.stderr)
-        unknown = run("transfer", "--run", "without_reach", "--task", "gravity/0.5", "--demos", "2", "--out", "x",
-                      check=False)
-        self.assertEqual(unknown.returncode, 1)
-        self.assertIn("is not a task of", unknown.stderr)
-        frozen = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "x",
-                     "--module-lr-scale", "0.1", check=False)
-        self.assertEqual(frozen.returncode, 2)
-        self.assertIn("frozen", frozen.stderr)
-        too_many = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "5", "--out", "y",
+        def refused(code, needle, source, task="mt10/reach", demos="2", *extra):
+            proc = run("transfer", "--run", source, "--task", task, "--demos", demos, "--out", "refused", *extra,
                        check=False)
-        self.assertEqual(too_many.returncode, 1)
-        self.assertIn("mt10/reach has 3 training demos (mask/train), 5 requested", too_many.stderr)
+            self.assertEqual(proc.returncode, code, proc.stderr)
+            self.assertIn(needle, proc.stderr)
+
+        refused(1, "was trained on mt10/reach", "all_tasks")
+        refused(1, "is not a task of", "without_reach", "gravity/0.5")
+        refused(2, "frozen", "without_reach", "mt10/reach", "2", "--module-lr-scale", "0.1")
+        refused(1, "mt10/reach has 3 training demos (mask/train), 5 requested", "without_reach", "mt10/reach", "5")
         run("train", "--config", self.config, "--out", "baseline", "--set", "method=mt_bc",
             "--set", 'data.holdout=["mt10/reach"]')
-        baseline = run("transfer", "--run", "baseline", "--task", "mt10/reach", "--demos", "2", "--out", "z",
-                       check=False)
-        self.assertEqual(baseline.returncode, 1)
-        self.assertIn("mt_bc run", baseline.stderr)
+        refused(1, "mt_bc run", "baseline")
 
     def test_a_suite_runs_transfer_cells_after_their_sources(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
