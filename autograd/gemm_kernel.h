@@ -6,6 +6,7 @@
 // autograd layer.
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <type_traits>
 
@@ -48,10 +49,17 @@ inline StridedF32 op_strides(MatrixRef<const float> x, bool transposed) {
   return transposed ? StridedF32{x.data, 1, x.ld} : StridedF32{x.data, x.ld, 1};
 }
 
+// The products' FLOPs (2 m n k each) while a GemmFlopCounter lives (ops.h); one relaxed load per product otherwise.
+extern std::atomic<int> gemm_flop_counters;
+extern std::atomic<std::uint64_t> gemm_flops_counted;
+
 // C (=|+=) op(A) op(B), one thread. A and B as stored; op transposes when asked. float32 runs the own kernel
 // (gemm_f32.h) when the build has it, float64 (gradient checks) Eigen's.
 template <typename T>
 void gemm_serial(MatrixRef<const T> a, bool ta, MatrixRef<const T> b, bool tb, MatrixRef<T> c, bool accumulate) {
+  if (gemm_flop_counters.load(std::memory_order_relaxed) > 0)
+    gemm_flops_counted.fetch_add(static_cast<std::uint64_t>(2 * c.rows * c.cols * (ta ? a.rows : a.cols)),
+                                 std::memory_order_relaxed);
   if constexpr (std::is_same_v<T, float> && kHaveF32Kernel) {
     gemm_f32(op_strides(a, ta), op_strides(b, tb), c.data, c.ld, c.rows, c.cols, ta ? a.rows : a.cols, accumulate);
     return;

@@ -51,6 +51,25 @@ Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b
 // Which kernel runs float32 products in this build: "maps AVX-512" or "maps AVX2" (autograd/gemm_f32.h), or
 // "Eigen" (a CPU or build with neither). float64 products always run Eigen's.
 const char* float32_gemm_kernel();
+// Counts the FLOPs (2 m n k per product) of every matrix product any thread runs while it lives, in every op that
+// multiplies (matmul, gemm, linear, parallel_linear, mlp, parallel_mlp, and their gradients): `maps bench step`'s
+// work count for any method's step. Counters may nest; each sees the products since it was made.
+class GemmFlopCounter {
+ public:
+  GemmFlopCounter();
+  ~GemmFlopCounter();
+  GemmFlopCounter(const GemmFlopCounter&) = delete;
+  GemmFlopCounter& operator=(const GemmFlopCounter&) = delete;
+  double flops() const;
+
+ private:
+  std::uint64_t start_;
+};
+// Classical Gram-Schmidt per sample (ops_orthogonal.cpp): v [k, n, F] holds k vectors of width F for each of n
+// samples; u_i = normalise(v_i - sum_{j<i} <v_i, u_j> u_j) in the order of k -> [k, n, F], orthonormal per sample
+// (MOORE's orthogonal layer). Needs k <= F; no epsilon in the division, like MOORE's: linearly dependent vectors
+// give non-finite values. Gradients are ops again (create_graph): the thin QR's rule V = R^T U, solved with R.
+Tensor gram_schmidt(const Tensor& v);
 
 // ----- layers (ops_layer.cpp) -----
 // An activation a layer op applies in its own pass over its output, while the output is still in cache.

@@ -104,6 +104,15 @@ Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_
 
 const char* float32_gemm_kernel() { return detail::kF32KernelName; }
 
+namespace detail {
+std::atomic<int> gemm_flop_counters{0};
+std::atomic<std::uint64_t> gemm_flops_counted{0};
+}  // namespace detail
+
+GemmFlopCounter::GemmFlopCounter() : start_(detail::gemm_flops_counted.load()) { ++detail::gemm_flop_counters; }
+GemmFlopCounter::~GemmFlopCounter() { --detail::gemm_flop_counters; }
+double GemmFlopCounter::flops() const { return static_cast<double>(detail::gemm_flops_counted.load() - start_); }
+
 Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b) {
   return product("gemm", a, b, transpose_a, transpose_b);
 }

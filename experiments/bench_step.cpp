@@ -15,6 +15,7 @@
 #include "autograd/autograd.h"
 #include "maps/policies/maps_flops.h"
 #include "maps/policies/maps_policy.h"
+#include "maps/training/run_config.h"
 #include "nn/optim/adam.h"
 
 namespace maps::experiments {
@@ -158,12 +159,24 @@ int run_bench_step(const BenchStepOptions& options) {
   if (!(options.seconds > 0.0)) throw std::invalid_argument("bench step: --seconds must be > 0");
   ag::set_num_threads(options.threads);
 
+  // The method at its defaults (MAPS: the paper's model, M = 10, modules 3x128, selector 2x128, four losses; the
+  // baselines 3x128; the zoo's methods at MAPS's parameter count), as `maps train` would build it.
+  const core::RunConfig run_config =
+      core::parse_run_config({{"method", options.method}, {"data", {{"file", "unused by bench step"}}}});
+  const core::MAPSConfig& config = run_config.maps;
+  if (options.vs_pytorch && options.method != "maps")
+    throw std::invalid_argument(
+        "bench step: --vs-pytorch times MAPS's step only (experiments/benchmarks/"
+        "peer_pytorch.py); drop it for --method " +
+        options.method);
+  const auto policy_pointer = core::make_policy(run_config, s.shape);
+  core::Policy& policy = *policy_pointer;
   ag::Generator gen(0);
-  const core::MAPSConfig config;  // the paper's model: M = 10, modules 3x128, selector 2x128, four losses
-  core::MAPSPolicy policy(s.shape, config, gen);
   policy.train();
   optim::Adam adam(policy.parameters(), {.lr = 1e-4});
-  const core::Batch batch = random_batch(s, gen);
+  SetShapes batch_shapes = s;
+  batch_shapes.per_task = policy.batch_per_task(s.per_task);
+  const core::Batch batch = random_batch(batch_shapes, gen);
   // Seconds of the last step's phases: forward (the loss terms), backward, Adam.
   std::array<double, 3> phase{};
   auto step = [&] {
@@ -181,6 +194,12 @@ int run_bench_step(const BenchStepOptions& options) {
 
   GemmCeiling ceiling(options.threads);
   for (int i = 0; i < 5; ++i) step();  // warm-up: first allocations, Adam's state
+  double counted_flops = 0.0;
+  {
+    const ag::GemmFlopCounter counter;
+    step();
+    counted_flops = counter.flops();
+  }
   ceiling.time_one();
   ceiling.time_own();
   // Rounds of steps and GEMMs alternate, so both medians see the same clock and load: each round times a GEMM,
@@ -210,12 +229,18 @@ int run_bench_step(const BenchStepOptions& options) {
   const double step_seconds = median(times);
   const double forward_ms = median(phases[0]) * 1e3, backward_ms = median(phases[1]) * 1e3,
                adam_ms = median(phases[2]) * 1e3;
-  const double flops = core::maps_training_step_flops(s.shape, config, s.per_task);
+  // MAPS's work is counted analytically (maps_flops.h: what the step needs); another method's is the products it
+  // ran, counted as they ran (for MAPS the two agree to within the products it need not run).
+  const double flops =
+      options.method == "maps" ? core::maps_training_step_flops(s.shape, config, s.per_task) : counted_flops;
   const double gflops = flops / step_seconds * 1e-9;
   const double gemm = GemmCeiling::flops() / median(gemm_times) * 1e-9;
   const double own_gemm = GemmCeiling::flops() / median(own_gemm_times) * 1e-9;
 
   nlohmann::json result{{"set", s.name},
+                        {"method", options.method},
+                        {"parameters", policy.parameter_count()},
+                        {"gemm_gflop_counted", counted_flops * 1e-9},
                         {"threads", options.threads},
                         {"states", s.shape.num_tasks * s.per_task},
                         {"steps_timed", times.size()},
@@ -242,11 +267,12 @@ int run_bench_step(const BenchStepOptions& options) {
     return 0;
   }
   char line[256];
-  std::printf("MAPS training step, set %s: %lld states (%lld tasks x %lld), S=%lld A=%lld M=%lld, %d thread%s\n",
-              s.name, static_cast<long long>(s.shape.num_tasks * s.per_task), static_cast<long long>(s.shape.num_tasks),
-              static_cast<long long>(s.per_task), static_cast<long long>(s.shape.observation_size),
-              static_cast<long long>(s.shape.action_size), static_cast<long long>(config.modules), options.threads,
-              options.threads == 1 ? "" : "s");
+  std::printf(
+      "%s training step, set %s: %lld states (%lld tasks x %lld), S=%lld A=%lld, %lld parameters, %d thread%s\n",
+      options.method.c_str(), s.name, static_cast<long long>(s.shape.num_tasks * s.per_task),
+      static_cast<long long>(s.shape.num_tasks), static_cast<long long>(s.per_task),
+      static_cast<long long>(s.shape.observation_size), static_cast<long long>(s.shape.action_size),
+      static_cast<long long>(policy.parameter_count()), options.threads, options.threads == 1 ? "" : "s");
   std::snprintf(line, sizeof line, "  %.3f ms/step (median of %zu), %.3f GFLOP/step, %.1f GFLOP/s", step_seconds * 1e3,
                 times.size(), flops * 1e-9, gflops);
   std::cout << line << "\n";

@@ -137,14 +137,15 @@ int run_eval(const EvalRunOptions& options) {
                                   " run; only MAPS has modules");
     return evaluate_each_module(options.run, *maps_policy, data, names, expert_returns, eval, best);
   }
-  if (maps_policy)
-    usage = [maps_policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
-      return maps_policy->scores(obs, tasks);
+  const bool routed = policy->routed_modules() > 0;
+  if (routed)
+    usage = [&policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
+      return policy->routing(obs, tasks);
     };
   std::printf("maps eval: %s, %d episodes per task\n", options.run.c_str(), eval.episodes);
   std::fflush(stdout);
   const core::EvaluationResult result = core::evaluate(*policy, standardizer, names, expert_returns, eval,
-                                                       maps_policy ? &usage : nullptr, progress_lines(names));
+                                                       routed ? &usage : nullptr, progress_lines(names));
 
   nlohmann::json tasks = nlohmann::json::array();
   std::printf("| task | score (95%% CI) | return | success |\n|---|---|---|---|\n");

@@ -28,6 +28,7 @@
 #include "experiments/train_run.h"
 #include "experiments/transfer_run.h"
 #include "experiments/usage_error.h"
+#include "maps/policies/policy_registry.h"
 
 namespace {
 
@@ -237,6 +238,11 @@ int main(int argc, char** argv) {
 
   maps::experiments::TrainRunOptions train_run;
   CLI::App* train_cmd = app.add_subcommand("train", "Train one method on a demo file as a JSON config says");
+  std::string method_lines = "Methods (config \"method\"; docs/configs.md, docs/zoo.md):";
+  for (const auto& method : maps::core::policy_methods())
+    method_lines +=
+        "\n  " + method.name + std::string(method.name.size() < 10 ? 10 - method.name.size() : 1, ' ') + method.summary;
+  train_cmd->footer(method_lines);
   train_cmd->add_option("--config", train_run.config_path, "Run config (JSON; every key in docs/configs.md)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -302,6 +308,9 @@ int main(int argc, char** argv) {
   CLI::App* bench_step_cmd = bench_cmd->add_subcommand(
       "step", "Time one whole MAPS training step at the paper's shapes against Eigen's GEMM (and PyTorch)");
   bench_step_cmd->add_option("--set", bench_step.set, "Shapes: gravity, modified or mt10")->capture_default_str();
+  bench_step_cmd
+      ->add_option("--method", bench_step.method, "The method whose step is timed, at its defaults (maps train --help)")
+      ->capture_default_str();
   bench_step_cmd->add_option("--threads", bench_step.threads, "Threads (0: one per core)")
       ->check(non_negative)
       ->capture_default_str();

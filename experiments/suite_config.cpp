@@ -15,7 +15,13 @@ namespace {
 using Json = nlohmann::json;
 
 const std::vector<std::string> kSets = {"gravity", "modified", "mt10"};
-const std::vector<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer"};
+// Every registered method, and "transfer" (MAPS taught a held-out task from a trained run's modules).
+std::vector<std::string> suite_methods() {
+  std::vector<std::string> names;
+  for (const auto& method : core::policy_methods()) names.push_back(method.name);
+  names.push_back("transfer");
+  return names;
+}
 
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
@@ -229,9 +235,10 @@ Suite parse_suite(const Json& json, const std::string& where) {
     for (const auto& s : set_names)
       if (!suite.sets.count(s)) throw std::invalid_argument(at + ".sets: '" + s + "' is not defined under \"sets\"");
     const auto methods = names_of(required(grid, at, "methods"), at + ".methods");
+    const auto known_methods = suite_methods();
     for (const auto& m : methods)
-      if (std::find(kMethods.begin(), kMethods.end(), m) == kMethods.end())
-        throw std::invalid_argument(at + ".methods: '" + m + "' is not one of " + joined(kMethods));
+      if (std::find(known_methods.begin(), known_methods.end(), m) == known_methods.end())
+        throw std::invalid_argument(at + ".methods: '" + m + "' is not one of " + joined(known_methods));
     const auto variant_names =
         grid.contains("variants") ? names_of(grid["variants"], at + ".variants") : std::vector<std::string>{"base"};
     for (const auto& v : variant_names)

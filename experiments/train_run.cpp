@@ -103,6 +103,9 @@ int run_train(const TrainRunOptions& options) {
         << (fewest == most ? std::to_string(most) : std::to_string(fewest) + "-" + std::to_string(most))
         << " demos per task, subsample " << config.data.subsample << "), seed " << config.seed << ", "
         << config.train.steps << " steps -> " << options.out << std::endl;
+    const double maps_parameters = core::maps_parameter_count(config, shape);
+    log << "maps train: " << policy->parameter_count()
+        << " parameters (MAPS under this config: " << static_cast<long long>(maps_parameters) << ")" << std::endl;
     ag::set_num_threads(options.threads);
     const core::TrainSummary summary = core::train_policy(*policy, data, config.train, options.out, &log);
 
@@ -114,6 +117,7 @@ int run_train(const TrainRunOptions& options) {
                                                     {"seconds_this_process", summary.seconds},
                                                     {"resumed", summary.resumed},
                                                     {"parameters", policy->parameter_count()},
+                                                    {"maps_parameters", maps_parameters},
                                                     {"training_demo_seeds", seeds}});
     log << "done: best validation BC " << summary.best_validation_loss << " at step " << summary.best_step << "; "
         << options.out << "/best.ckpt" << std::endl;

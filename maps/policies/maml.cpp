@@ -6,6 +6,7 @@
 #include <string>
 
 #include "maps/data/demo_dataset.h"
+#include "maps/policies/policy_registry.h"
 #include "nn/mlp.h"
 
 namespace maps::core {
@@ -233,6 +234,23 @@ double MAML::validation_loss(const Batch& validation, const DemoDataset& data) {
   const double loss = mean_action_error(*this, validation);
   clear_adaptation();
   return loss;
+}
+
+PolicyMethod maml_method() {
+  PolicyMethod method;
+  method.name = "maml";
+  method.summary =
+      "MAML: one MLP meta-trained across tasks, fine-tuned on each before evaluation (maml.*, baselines.hidden)";
+  method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
+    return mlp_parameter_count(detail::layer_sizes(shape.observation_size, o.baseline_hidden, shape.action_size));
+  };
+  method.size_keys = "baselines.hidden";
+  method.uses_baselines_hidden = true;
+  method.sampled_bc_loss = false;
+  method.make = [](const PolicyShape& shape, const MethodOptions& o, ag::Generator& gen) -> std::shared_ptr<Policy> {
+    return std::make_shared<MAML>(shape, gen, o.maml, o.baseline_hidden);
+  };
+  return method;
 }
 
 }  // namespace maps::core

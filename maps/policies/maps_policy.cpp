@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "maps/policies/baseline_util.h"
+#include "maps/policies/policy_registry.h"
 #include "nn/linear.h"
 
 namespace maps::core {
@@ -205,6 +206,20 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   }
   result.total = bc * config_.bc_weight + selector_total * config_.selector_weight;
   return result;
+}
+
+PolicyMethod maps_method() {
+  PolicyMethod method;
+  method.name = "maps";
+  method.summary = "MAPS: M state-only modules scored by a selector G(s, k), a head over the scored features (maps.*)";
+  method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
+    return maps_parameter_count(shape, o.maps);
+  };
+  method.size_keys = "maps.modules, maps.module_hidden and maps.selector_hidden";
+  method.make = [](const PolicyShape& shape, const MethodOptions& o, ag::Generator& gen) -> std::shared_ptr<Policy> {
+    return std::make_shared<MAPSPolicy>(shape, o.maps, gen);
+  };
+  return method;
 }
 
 }  // namespace maps::core

@@ -44,6 +44,12 @@ class MAPSPolicy : public Policy {
   // total = bc_weight * L_BC + selector_weight * sum_j lambda_j L_j; terms: "bc", then each selector loss by name.
   LossTerms loss(const Batch& batch) override;
 
+  // The selector's scores (scores()).
+  ag::Tensor routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override {
+    return scores(observations, tasks);
+  }
+  std::int64_t routed_modules() const override { return config_.modules; }
+
   // Module features [M, n, F] of standardised observations [n, S].
   ag::Tensor features(const ag::Tensor& observations);
   // Selector scores g(s, k) [n, M] (softmax over modules) of each observation under its task.

@@ -1,5 +1,6 @@
 #include "maps/policies/mt_mh_bc.h"
 
+#include "maps/policies/policy_registry.h"
 #include "nn/mlp.h"
 #include "nn/parallel_linear.h"
 
@@ -34,6 +35,24 @@ ag::Tensor MTMHBC::predict(const Batch& batch) {
 LossTerms MTMHBC::loss(const Batch& batch) {
   detail::check_batch("MTMHBC::loss", shape(), batch);
   return detail::bc_terms(bc_loss(predict(batch), batch));
+}
+
+PolicyMethod mt_mh_bc_method() {
+  PolicyMethod method;
+  method.name = "mt_mh_bc";
+  method.summary = "MT-MH-BC: a shared trunk MLP on the state and one linear head per task (baselines.hidden)";
+  method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
+    std::vector<std::int64_t> trunk{shape.observation_size};
+    trunk.insert(trunk.end(), o.baseline_hidden.begin(), o.baseline_hidden.end());
+    return mlp_parameter_count(trunk) +
+           static_cast<double>(shape.num_tasks) * mlp_parameter_count({o.baseline_hidden.back(), shape.action_size});
+  };
+  method.size_keys = "baselines.hidden";
+  method.uses_baselines_hidden = true;
+  method.make = [](const PolicyShape& shape, const MethodOptions& o, ag::Generator& gen) -> std::shared_ptr<Policy> {
+    return std::make_shared<MTMHBC>(shape, gen, o.baseline_hidden);
+  };
+  return method;
 }
 
 }  // namespace maps::core

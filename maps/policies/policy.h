@@ -45,6 +45,14 @@ class Policy : public nn::Module {
   // them as buffers, so that its checkpoints carry them.
   virtual void set_observation_statistics(const Eigen::VectorXd& /*mean*/, const Eigen::VectorXd& /*std*/) {}
 
+  // How much each of the policy's modules (experts, parameter sets) weighs in each row's action: [n, M] rows of
+  // non-negative shares summing to 1, for the evaluator's module usage per task (and the zoo's task division).
+  // Policies without modules return an undefined tensor and routed_modules() 0.
+  virtual ag::Tensor routing(const ag::Tensor& /*observations*/, const std::vector<std::int64_t>& /*tasks*/) {
+    return {};
+  }
+  virtual std::int64_t routed_modules() const { return 0; }
+
   const PolicyShape& shape() const { return shape_; }
 
   // The paper's code's BC loss (train.bc_loss "sampled"): the squared error of a Gaussian sample

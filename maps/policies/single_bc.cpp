@@ -1,5 +1,6 @@
 #include "maps/policies/single_bc.h"
 
+#include "maps/policies/policy_registry.h"
 #include "nn/module_list.h"
 #include "nn/parallel_linear.h"
 
@@ -49,6 +50,22 @@ ag::Tensor SingleBC::predict(const Batch& batch) {
 LossTerms SingleBC::loss(const Batch& batch) {
   detail::check_batch("SingleBC::loss", shape(), batch);
   return detail::bc_terms(bc_loss(predict(batch), batch));
+}
+
+PolicyMethod single_bc_method() {
+  PolicyMethod method;
+  method.name = "single_bc";
+  method.summary = "Single BC: one MLP per task, each trained on its own task's demonstrations (baselines.hidden)";
+  method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
+    return static_cast<double>(shape.num_tasks) *
+           mlp_parameter_count(detail::layer_sizes(shape.observation_size, o.baseline_hidden, shape.action_size));
+  };
+  method.size_keys = "baselines.hidden";
+  method.uses_baselines_hidden = true;
+  method.make = [](const PolicyShape& shape, const MethodOptions& o, ag::Generator& gen) -> std::shared_ptr<Policy> {
+    return std::make_shared<SingleBC>(shape, gen, o.baseline_hidden);
+  };
+  return method;
 }
 
 }  // namespace maps::core

@@ -7,9 +7,6 @@
 #include <type_traits>
 
 #include "envs/portable_random.h"
-#include "maps/policies/mt_bc.h"
-#include "maps/policies/mt_mh_bc.h"
-#include "maps/policies/single_bc.h"
 
 namespace maps::core {
 namespace {
@@ -60,52 +57,73 @@ void read(const Json& json, const std::string& where, const char* key, T& out) {
   out = value.get<T>();
 }
 
-// Parameters of an MLP with these layer sizes (weights and biases).
-double mlp_parameters(const std::vector<std::int64_t>& sizes) {
-  double count = 0.0;
-  for (std::size_t i = 0; i + 1 < sizes.size(); ++i)
-    count += static_cast<double>(sizes[i]) * static_cast<double>(sizes[i + 1]) + static_cast<double>(sizes[i + 1]);
-  return count;
-}
-
-// An upper estimate of the policy's parameter count, computed before anything is allocated.
-double parameter_estimate(const RunConfig& c, const PolicyShape& shape) {
-  auto with_ends = [](std::int64_t in, const std::vector<std::int64_t>& hidden, std::int64_t out) {
-    std::vector<std::int64_t> sizes{in};
-    sizes.insert(sizes.end(), hidden.begin(), hidden.end());
-    sizes.push_back(out);
-    return sizes;
-  };
-  const double K = static_cast<double>(shape.num_tasks);
-  if (c.method == "maps") {
-    const double M = static_cast<double>(c.maps.modules);
-    std::vector<std::int64_t> module{shape.observation_size};
-    module.insert(module.end(), c.maps.module_hidden.begin(), c.maps.module_hidden.end());
-    const double features = static_cast<double>(module.back());
-    return M * mlp_parameters(module) +
-           mlp_parameters(with_ends(shape.observation_size + shape.num_tasks, c.maps.selector_hidden, c.maps.modules)) +
-           M * features * static_cast<double>(shape.action_size);
-  }
-  const double one = mlp_parameters(
-      with_ends(shape.observation_size + shape.num_tasks, c.baseline_hidden, shape.action_size * shape.num_tasks));
-  return c.method == "single_bc" ? K * one : one;
-}
-
 // Far above any model the paper or this library trains (MAPS at M = 20: about 0.8M); a bigger request is a typo
 // (a size of 12E8) that would otherwise fail deep inside an allocation.
 constexpr double kMaxParameters = 1e8;
 
-const std::set<std::string> kMethods = {"maps", "single_bc", "mt_bc", "mt_mh_bc", "maml"};
+// A value of a method's own section must have its default's JSON type.
+bool same_kind(const Json& value, const Json& default_value) {
+  if (default_value.is_boolean()) return value.is_boolean();
+  if (default_value.is_number_integer()) return value.is_number_integer();
+  if (default_value.is_number()) return value.is_number();
+  if (default_value.is_string()) return value.is_string();
+  if (default_value.is_array()) {
+    if (!value.is_array()) return false;
+    for (const Json& element : value)
+      if (!default_value.empty() && !same_kind(element, default_value.front())) return false;
+    return true;
+  }
+  if (default_value.is_object()) return value.is_object();
+  return false;
+}
+
+std::string kind_name(const Json& default_value) {
+  if (default_value.is_boolean()) return "true or false";
+  if (default_value.is_number_integer()) return "an integer";
+  if (default_value.is_number()) return "a number";
+  if (default_value.is_string()) return "a string";
+  if (default_value.is_array())
+    return default_value.empty() ? "an array" : "an array of " + kind_name(default_value.front()).substr(2) + "s";
+  return "an object";
+}
+
+// A registered method's own section: known keys of its defaults' types, then the method's range checks.
+Json read_method_section(const PolicyMethod& method, const Json& given) {
+  std::set<std::string> known;
+  for (const auto& [key, value] : method.defaults.items()) known.insert(key);
+  check_keys(given, method.name, known);
+  Json filled = method.defaults;
+  for (const auto& [key, value] : given.items()) {
+    const Json& default_value = method.defaults.at(key);
+    if (!same_kind(value, default_value))
+      throw std::invalid_argument("config " + method.name + "." + key + ": wrong type (" + value.dump() +
+                                  "), expected " + kind_name(default_value));
+    filled[key] = value;
+  }
+  if (method.check) method.check(filled);
+  return filled;
+}
 
 }  // namespace
 
 RunConfig parse_run_config(const Json& json) {
   RunConfig c;
-  check_keys(json, "", {"method", "seed", "data", "train", "maps", "maml", "baselines", "eval", "init"});
+  std::set<std::string> top_keys = {"method", "seed", "data", "train", "maps", "maml", "baselines", "eval", "init"};
+  for (const auto& method : policy_methods())
+    if (!method.defaults.empty()) top_keys.insert(method.name);
+  check_keys(json, "", top_keys);
   read(json, "", "method", c.method);
-  if (!kMethods.count(c.method))
-    throw std::invalid_argument("config method: '" + c.method +
-                                "' is not one of maps, single_bc, mt_bc, mt_mh_bc, maml");
+  const PolicyMethod* chosen = nullptr;
+  for (const auto& method : policy_methods()) {
+    if (method.name == c.method) chosen = &method;
+    // Every registered section present is checked (a typo in another method's section is still a typo).
+    if (!method.defaults.empty() && json.contains(method.name)) {
+      Json filled = read_method_section(method, json.at(method.name));
+      if (method.name == c.method) c.method_options = std::move(filled);
+    }
+  }
+  if (!chosen) throw std::invalid_argument("config method: '" + c.method + "' is not one of " + policy_method_list());
+  if (!chosen->defaults.empty() && !json.contains(c.method)) c.method_options = chosen->defaults;
   read(json, "", "seed", c.seed);
   if (!json.contains("data")) throw std::invalid_argument("config: \"data\": {\"file\": ...} is required");
   const Json& data = json["data"];
@@ -156,10 +174,9 @@ RunConfig parse_run_config(const Json& json) {
     if (c.train.bc_loss != "mean" && c.train.bc_loss != "sampled")
       throw std::invalid_argument("config train.bc_loss: expected \"mean\" or \"sampled\", got \"" + c.train.bc_loss +
                                   "\"");
-    if (c.train.bc_loss == "sampled" && c.method == "maml")
-      throw std::invalid_argument(
-          "config train.bc_loss: \"sampled\" is not available for maml (its inner and fine-tuning steps use the "
-          "mean's squared error); use \"mean\"");
+    if (c.train.bc_loss == "sampled" && !chosen->sampled_bc_loss)
+      throw std::invalid_argument("config train.bc_loss: \"sampled\" is not available for " + c.method +
+                                  " (its inner and fine-tuning steps use the mean's squared error); use \"mean\"");
   }
   c.train.seed = c.seed;
   if (json.contains("maps")) {
@@ -232,10 +249,9 @@ RunConfig parse_run_config(const Json& json) {
         c.baseline_hidden.push_back(size.get<std::int64_t>());
       }
     }
-    if (c.method == "maps" && c.baseline_hidden != detail::default_hidden_sizes())
-      throw std::invalid_argument(
-          "config baselines.hidden: MAPS has no baseline MLP (its sizes are maps.module_hidden and "
-          "maps.selector_hidden)");
+    if (!chosen->uses_baselines_hidden && c.baseline_hidden != detail::default_hidden_sizes())
+      throw std::invalid_argument("config baselines.hidden: " + c.method + " has no baseline MLP (its sizes are " +
+                                  chosen->size_keys + ")");
   }
   if (json.contains("init")) {
     const Json& init = json["init"];
@@ -265,72 +281,70 @@ Json to_json(const RunConfig& c) {
   for (const auto& [prefix, factor] : c.train.lr_scale) lr_scale[prefix] = factor;
   Json task_demos = Json::object();
   for (const auto& [name, count] : c.data.task_demos) task_demos[name] = count;
-  return Json{{"method", c.method},
-              {"seed", c.seed},
-              {"data",
-               {{"file", c.data_file},
-                {"demos_per_task", c.data.demos_per_task},
-                {"subsample", c.data.subsample},
-                {"tasks", c.data.tasks},
-                {"holdout", c.data.holdout},
-                {"task_demos", task_demos}}},
-              {"train",
-               {{"steps", c.train.steps},
-                {"learning_rate", c.train.learning_rate},
-                {"states_per_task", c.train.states_per_task},
-                {"validate_every", c.train.validate_every},
-                {"checkpoint_every", c.train.checkpoint_every},
-                {"validation_states_per_task", c.train.validation_states_per_task},
-                {"keep_every", c.train.keep_every},
-                {"bc_loss", c.train.bc_loss},
-                {"freeze", c.train.freeze},
-                {"lr_scale", lr_scale}}},
-              {"maps",
-               {{"modules", c.maps.modules},
-                {"module_hidden", c.maps.module_hidden},
-                {"selector_hidden", c.maps.selector_hidden},
-                {"activation", c.maps.activation},
-                {"bc_weight", c.maps.bc_weight},
-                {"selector_weight", c.maps.selector_weight},
-                {"selector", c.maps.selector},
-                {"observations", c.maps.observations},
-                {"selector_losses", losses}}},
-              {"maml",
-               {{"inner_lr", c.maml.inner_lr},
-                {"inner_steps", c.maml.inner_steps},
-                {"first_order", c.maml.first_order},
-                {"query_per_task", c.maml.query_per_task},
-                {"finetune_steps", c.maml.finetune_steps},
-                {"validate", c.maml.validate}}},
-              {"baselines", {{"hidden", c.baseline_hidden}}},
-              {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}, {"tasks", c.eval_tasks}}},
-              {"init", {{"run", c.init_run}, {"checkpoint", c.init_checkpoint}}}};
+  Json out{{"method", c.method},
+           {"seed", c.seed},
+           {"data",
+            {{"file", c.data_file},
+             {"demos_per_task", c.data.demos_per_task},
+             {"subsample", c.data.subsample},
+             {"tasks", c.data.tasks},
+             {"holdout", c.data.holdout},
+             {"task_demos", task_demos}}},
+           {"train",
+            {{"steps", c.train.steps},
+             {"learning_rate", c.train.learning_rate},
+             {"states_per_task", c.train.states_per_task},
+             {"validate_every", c.train.validate_every},
+             {"checkpoint_every", c.train.checkpoint_every},
+             {"validation_states_per_task", c.train.validation_states_per_task},
+             {"keep_every", c.train.keep_every},
+             {"bc_loss", c.train.bc_loss},
+             {"freeze", c.train.freeze},
+             {"lr_scale", lr_scale}}},
+           {"maps",
+            {{"modules", c.maps.modules},
+             {"module_hidden", c.maps.module_hidden},
+             {"selector_hidden", c.maps.selector_hidden},
+             {"activation", c.maps.activation},
+             {"bc_weight", c.maps.bc_weight},
+             {"selector_weight", c.maps.selector_weight},
+             {"selector", c.maps.selector},
+             {"observations", c.maps.observations},
+             {"selector_losses", losses}}},
+           {"maml",
+            {{"inner_lr", c.maml.inner_lr},
+             {"inner_steps", c.maml.inner_steps},
+             {"first_order", c.maml.first_order},
+             {"query_per_task", c.maml.query_per_task},
+             {"finetune_steps", c.maml.finetune_steps},
+             {"validate", c.maml.validate}}},
+           {"baselines", {{"hidden", c.baseline_hidden}}},
+           {"eval", {{"episodes", c.eval_episodes}, {"threads", c.eval_threads}, {"tasks", c.eval_tasks}}},
+           {"init", {{"run", c.init_run}, {"checkpoint", c.init_checkpoint}}}};
+  if (!c.method_options.empty()) out[c.method] = c.method_options;
+  return out;
+}
+
+double policy_parameter_count(const RunConfig& config, const PolicyShape& shape) {
+  const MethodOptions options{config.maps, config.maml, config.baseline_hidden, config.method_options};
+  return policy_method(config.method).parameters(shape, options);
+}
+
+double maps_parameter_count(const RunConfig& config, const PolicyShape& shape) {
+  return maps_parameter_count(shape, config.maps);
 }
 
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {
+  const PolicyMethod& method = policy_method(config.method);
+  const MethodOptions options{config.maps, config.maml, config.baseline_hidden, config.method_options};
+  const double parameters = method.parameters(shape, options);
+  if (!(parameters <= kMaxParameters))
+    throw std::invalid_argument("config: this " + config.method + " policy would have about " +
+                                std::to_string(static_cast<long long>(std::min(parameters, 9e18))) +
+                                " parameters, more than the 1e8 this library accepts; check " + method.size_keys);
   // The initialisation's own stream of the run's seed ("init").
-  const double parameters = parameter_estimate(config, shape);
-  if (parameters > kMaxParameters)
-    throw std::invalid_argument(
-        "config: this " + config.method + " policy would have about " +
-        std::to_string(static_cast<long long>(std::min(parameters, 9e18))) +
-        " parameters, more than the 1e8 this library accepts; check " +
-        (config.method == "maps" ? "maps.modules, maps.module_hidden and maps.selector_hidden" : "baselines.hidden"));
   ag::Generator gen(envs::splitmix64(config.seed ^ 0x696e6974ULL));
-  const auto& hidden = config.baseline_hidden;
-  std::shared_ptr<Policy> policy;
-  if (config.method == "maps")
-    policy = std::make_shared<MAPSPolicy>(shape, config.maps, gen);
-  else if (config.method == "single_bc")
-    policy = std::make_shared<SingleBC>(shape, gen, hidden);
-  else if (config.method == "mt_bc")
-    policy = std::make_shared<MTBC>(shape, gen, hidden);
-  else if (config.method == "mt_mh_bc")
-    policy = std::make_shared<MTMHBC>(shape, gen, hidden);
-  else if (config.method == "maml")
-    policy = std::make_shared<MAML>(shape, gen, config.maml, hidden);
-  else
-    throw std::invalid_argument("unknown method '" + config.method + "'");
+  std::shared_ptr<Policy> policy = method.make(shape, options, gen);
   if (config.train.bc_loss == "sampled") policy->use_sampled_bc_loss();
   return policy;
 }

@@ -12,11 +12,12 @@
 #include "maps/policies/maml.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/policy.h"
+#include "maps/policies/policy_registry.h"
 #include "maps/training/trainer.h"
 
 // One run's configuration as JSON (`maps train --config`), every key optional but "method" and "data.file":
 //
-//   {"method": "maps",                       // maps | single_bc | mt_bc | mt_mh_bc | maml
+//   {"method": "maps",                       // a name of policy_registry.h (maps, single_bc, mt_bc, ...)
 //    "seed": 0,                              // data draw, initialisation and batches all derive from it
 //    "data": {"file": "data/gravity.h5", "demos_per_task": 5, "subsample": 20},
 //    "train": {"steps": 30000, "learning_rate": 3e-4, "states_per_task": 128, "validate_every": 1000,
@@ -28,7 +29,8 @@
 //             "validate": "unadapted"},              // or "adapted": checkpoints judged after fine-tuning
 //    "baselines": {"hidden": [128, 128, 128]},  // the MLP of Single BC, MT-BC, MT-MH-BC and MAML
 //    "eval": {"episodes": 100, "threads": 0, "tasks": []},   // tasks: evaluate only these of the run's
-//    "init": {"run": "", "checkpoint": "best.ckpt"}}        // transfer: start from that run's parameters
+//    "init": {"run": "", "checkpoint": "best.ckpt"},        // transfer: start from that run's parameters
+//    "<method>": {...}}                       // a registered method's own section (its keys and defaults there)
 //
 // An unknown key is an error naming it (a typo must not silently run the default).
 namespace maps::core {
@@ -42,6 +44,8 @@ struct RunConfig {
   MAPSConfig maps;
   MAMLConfig maml;
   std::vector<std::int64_t> baseline_hidden = detail::default_hidden_sizes();
+  // The method's own section ("moore": {...}) with every default filled in; {} for a method without one.
+  nlohmann::json method_options = nlohmann::json::object();
   int eval_episodes = 100;
   int eval_threads = 0;
   std::vector<std::string> eval_tasks;  // `maps eval` scores only these of the run's tasks (empty: all)
@@ -57,5 +61,8 @@ nlohmann::json to_json(const RunConfig& config);
 
 // The method's policy for the data's shapes, initialised from the run's seed.
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape);
+// The method's parameter count for these shapes, and MAPS's under the same config (the zoo's budget).
+double policy_parameter_count(const RunConfig& config, const PolicyShape& shape);
+double maps_parameter_count(const RunConfig& config, const PolicyShape& shape);
 
 }  // namespace maps::core

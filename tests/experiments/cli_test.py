@@ -66,6 +66,19 @@ class Tool(unittest.TestCase):
         self.assertGreater(len(keys), 30)
         for key in keys:
             self.assertIn(f"| `{key}` |", doc, f"docs/configs.md does not list {key}")
+        # Every registered method, with its own section's keys (printed when it is the method).
+        help_text = run("train", "--help").stdout
+        methods = [line.split()[0] for line in help_text[help_text.index("Methods ("):].splitlines()[1:]
+                   if line.startswith("  ") and line.split()]
+        self.assertIn("moore", methods)
+        method_row = next(line for line in doc.splitlines() if line.startswith("| `method` |"))
+        zoo = (ROOT / "docs" / "zoo.md").read_text()
+        for method in methods:
+            with self.subTest(method=method):
+                self.assertIn(f"`{method}`", method_row, f"docs/configs.md's method row does not name {method}")
+                self.assertIn(f"`{method}`", zoo, f"docs/zoo.md does not name {method}")
+                for key in dotted_keys(self.print_config("--set", f"method={method}")):
+                    self.assertIn(f"| `{key}` |", doc, f"docs/configs.md does not list {key}")
         for example in (ROOT / "experiments" / "configs").glob("*.json"):
             with self.subTest(example=example.name):
                 run("train", "--config", example, "--print-config")

@@ -175,7 +175,8 @@ TEST(RunConfig, BaselineHiddenSizesReachEveryBaselineAndAreChecked) {
       {R"({"method": "mt_bc", "baselines": {"hidden": [64, 0]}})", "baselines.hidden"},
       {R"({"method": "mt_bc", "baselines": {"width": 64}})", "unknown key 'width'"},
       {R"({"method": "mt_bc", "baselines": {"hidden": [64.5]}})", "64.5"},                    // not silently truncated
-      {R"({"method": "maps", "baselines": {"hidden": [430]}})", "MAPS has no baseline MLP"},  // would do nothing
+      {R"({"method": "maps", "baselines": {"hidden": [430]}})", "maps has no baseline MLP"},  // would do nothing
+      {R"({"method": "moore", "baselines": {"hidden": [430]}})", "moore has no baseline MLP"},
   };
   for (const auto& [text, words] : bad) {
     nlohmann::json json = nlohmann::json::parse(text);

@@ -1,0 +1,74 @@
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "autograd/autograd.h"
+#include "maps/policies/maml.h"
+#include "maps/policies/maps_policy.h"
+#include "maps/policies/policy.h"
+
+// Every method the run config, the suite and `maps train --help` know, by name. A method is one file pair under
+// maps/policies/ whose .cpp ends with its `<name>_method()` entry, plus one line in policy_registry.cpp (as the
+// selector losses do; docs/zoo.md, "Adding a method").
+namespace maps::core {
+
+// What a method's factory gets besides the shapes.
+struct MethodOptions {
+  const MAPSConfig& maps;  // MAPS's settings: also the parameter budget the zoo's methods match by default
+  const MAMLConfig& maml;
+  const std::vector<std::int64_t>& baseline_hidden;  // config baselines.hidden
+  const nlohmann::json& own;                         // the method's own section, every default filled in
+};
+
+struct PolicyMethod {
+  std::string name;     // the config's "method"
+  std::string summary;  // one line: `maps train --help`, docs/configs.md
+  // The method's own config section, named after it ({"moore": {...}}): its keys with their default values. A
+  // given value must have its default's JSON type (an integer for an integer, an array of the element's type).
+  // Empty: the method has no section of its own.
+  nlohmann::json defaults = nlohmann::json::object();
+  // Range checks beyond the types on the filled-in section; throws naming the key ("config moore.experts: ...").
+  std::function<void(const nlohmann::json& own)> check;
+  // The parameter count for these shapes, computed before anything is allocated (a typo of 12E8 is refused
+  // instead of reaching the allocator).
+  std::function<double(const PolicyShape&, const MethodOptions&)> parameters;
+  // The keys that set its size, for the error when it is too big.
+  std::string size_keys;
+  // Whether config baselines.hidden sizes it (otherwise a non-default baselines.hidden is refused as a mistake).
+  bool uses_baselines_hidden = false;
+  // Whether train.bc_loss "sampled" applies (MAML's inner steps use the mean's squared error).
+  bool sampled_bc_loss = true;
+  std::function<std::shared_ptr<Policy>(const PolicyShape&, const MethodOptions&, ag::Generator&)> make;
+};
+
+// Every method, in the order help, docs and tables list them.
+const std::vector<PolicyMethod>& policy_methods();
+// The entry of a name; an unknown name is an error listing the known ones.
+const PolicyMethod& policy_method(const std::string& name);
+// "maps, single_bc, ...".
+std::string policy_method_list();
+
+// Each method's entry (at the end of its own .cpp).
+PolicyMethod maps_method();
+PolicyMethod single_bc_method();
+PolicyMethod mt_bc_method();
+PolicyMethod mt_mh_bc_method();
+PolicyMethod maml_method();
+PolicyMethod moore_method();
+
+// Parameters of an MLP with these layer sizes (weights and biases), for the entries' counts.
+double mlp_parameter_count(const std::vector<std::int64_t>& sizes);
+// MAPS's parameter count for these shapes and settings (the budget the zoo's methods are scaled to).
+double maps_parameter_count(const PolicyShape& shape, const MAPSConfig& config);
+// The width whose count(width) is nearest `target` (count grows with the width), in [1, 65536]: how the zoo's
+// methods keep the paper's shape at MAPS's parameter count.
+std::int64_t matched_width(double target, const std::function<double(std::int64_t)>& count);
+// An own-section integer as int64 ("width": 0 means matched to MAPS).
+std::int64_t option_int(const nlohmann::json& own, const char* key);
+
+}  // namespace maps::core
