@@ -41,6 +41,8 @@ Tensor tanh(const Tensor& x);
 Tensor tanh_backward(const Tensor& grad, const Tensor& output);
 Tensor sigmoid(const Tensor& x);
 Tensor square(const Tensor& x);
+Tensor softplus(const Tensor& x);  // log(1 + exp(x)), computed stably; gradient sigmoid(x), also at 0
+Tensor erf(const Tensor& x);       // gradient 2/sqrt(pi) exp(-x^2); the normal CDF is 0.5 (1 + erf(x / sqrt(2)))
 
 // ----- linear algebra -----
 // [n,k]@[k,m] -> [n,m]; [b,n,k]@[b,k,m] -> [b,n,m]; [b,n,k]@[k,m] -> [b,n,m].

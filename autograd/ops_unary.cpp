@@ -1,4 +1,5 @@
 // Elementwise unary ops. Rules that need the output use Node::output() (saved without a cycle).
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -123,6 +124,31 @@ Tensor tanh_backward(const Tensor& grad, const Tensor& output) {
     if (need[0]) grads[0] = tanh_backward(gg, output);
     if (need[1]) grads[1] = mul(mul(gg, grad), mul(output, -2.0));
     return grads;
+  });
+}
+
+Tensor softplus(const Tensor& x) {
+  // max(x, 0) + log1p(exp(-|x|)): no overflow for large x, no loss of precision for very negative x.
+  Tensor out = unary_kernel(
+      x, "softplus",
+      [](const auto& a) {
+        using T = scalar_of<decltype(a)>;
+        return a.max(T(0)) + (-a.abs()).exp().log1p();
+      },
+      kTranscendentalGrain);
+  return record("softplus", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{mul(g, sigmoid(x))}; });
+}
+
+Tensor erf(const Tensor& x) {
+  Tensor out = unary_kernel(
+      x, "erf",
+      [](const auto& a) {
+        using T = scalar_of<decltype(a)>;
+        return a.unaryExpr([](T v) { return std::erf(v); });
+      },
+      kTranscendentalGrain);
+  return record("erf", out, {x}, [x](const Tensor& g, const Needs&, Node&) {
+    return Grads{mul(g, mul(exp(neg(square(x))), 2.0 / std::sqrt(3.14159265358979323846)))};
   });
 }
 

@@ -76,4 +76,9 @@ void check_balanced_batch(const std::string& where, const PolicyShape& shape, co
 
 LossTerms bc_terms(const ag::Tensor& bc) { return LossTerms{bc, {{"bc", bc}}}; }
 
+ag::Tensor task_weight_shares(const ag::Tensor& weights, const std::vector<std::int64_t>& tasks) {
+  const ag::Tensor magnitude = ag::abs(ag::index_select(weights, tasks));
+  return ag::div(magnitude, ag::sum(magnitude, {1}, true));
+}
+
 }  // namespace maps::core::detail

@@ -39,4 +39,8 @@ void check_balanced_batch(const std::string& where, const PolicyShape& shape, co
 // The BC loss as the only term.
 LossTerms bc_terms(const ag::Tensor& bc);
 
+// Rows |w_{tasks[j]}| / sum |w_{tasks[j]}| of per-task weights [K, m]: each module's share in each row's mixture, for
+// the methods whose modules are weighted by the task alone (MOORE, PaCo): Policy::routing.
+ag::Tensor task_weight_shares(const ag::Tensor& weights, const std::vector<std::int64_t>& tasks);
+
 }  // namespace maps::core::detail

@@ -75,8 +75,7 @@ LossTerms MOORE::loss(const Batch& batch) {
 
 ag::Tensor MOORE::routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("MOORE::routing", shape(), observations, tasks);
-  const ag::Tensor magnitude = ag::abs(ag::index_select(parameter_at(task_weights_), tasks));  // [n, k]
-  return ag::div(magnitude, ag::sum(magnitude, {1}, true));
+  return detail::task_weight_shares(parameter_at(task_weights_), tasks);
 }
 
 double moore_parameter_count(const PolicyShape& shape, const MOOREConfig& c) {
@@ -94,14 +93,9 @@ MOOREConfig moore_config(const PolicyShape& shape, const MethodOptions& o) {
   c.layers = option_int(o.own, "layers");
   c.orthogonal = o.own.at("orthogonal").get<bool>();
   c.width = option_int(o.own, "width");
-  if (c.width == 0) {
-    c.width = matched_width(maps_parameter_count(shape, o.maps), [&](std::int64_t width) {
-      MOOREConfig sized = c;
-      sized.width = width;
-      return moore_parameter_count(shape, sized);
-    });
-    if (c.orthogonal) c.width = std::max(c.width, c.experts);
-  }
+  const bool matched = c.width == 0;
+  c = with_matched_width(c, &MOOREConfig::width, shape, o, moore_parameter_count);
+  if (matched && c.orthogonal) c.width = std::max(c.width, c.experts);
   return c;
 }
 
@@ -114,13 +108,9 @@ PolicyMethod moore_method() {
       "MOORE: k state-only experts made orthonormal per state (Gram-Schmidt), mixed by task weights, a head per task";
   method.defaults = {{"experts", 4}, {"layers", 3}, {"width", 0}, {"orthogonal", true}};
   method.check = [](const nlohmann::json& own) {
-    if (option_int(own, "experts") < 1 || option_int(own, "experts") > 64)
-      throw std::invalid_argument("config moore.experts: expected 1 to 64, got " + own.at("experts").dump());
-    if (option_int(own, "layers") < 1 || option_int(own, "layers") > 16)
-      throw std::invalid_argument("config moore.layers: expected 1 to 16, got " + own.at("layers").dump());
-    if (option_int(own, "width") < 0)
-      throw std::invalid_argument("config moore.width: expected >= 0 (0: MAPS's parameter count), got " +
-                                  own.at("width").dump());
+    check_option_range(own, "moore", "experts", 1, 64);
+    check_option_range(own, "moore", "layers", 1, 16);
+    check_option_range(own, "moore", "width", 0, 65536, " (0: MAPS's parameter count)");
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return moore_parameter_count(shape, moore_config(shape, o));

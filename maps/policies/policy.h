@@ -38,6 +38,8 @@ class Policy : public nn::Module {
   virtual LossTerms loss(const Batch& batch) = 0;
   // Rows per task a training batch should hold (MAML asks for support + query).
   virtual std::int64_t batch_per_task(std::int64_t states_per_task) const { return states_per_task; }
+  // Called by the trainer after each optimiser step (PaCo resets the task weights of the tasks its loss masked).
+  virtual void after_step() {}
   // Called once after training, before evaluation (MAML fine-tunes on each task here).
   virtual void prepare_for_evaluation(const DemoDataset& /*data*/) {}
   // The statistics the observations it is given were standardised with (mean, std [S]); called by the trainer

@@ -1,14 +1,26 @@
 #include "maps/policies/policy_registry.h"
 
+#include <cmath>
 #include <stdexcept>
 
 namespace maps::core {
 
 const std::vector<PolicyMethod>& policy_methods() {
-  // One line per method.
+  // One line per method, in the order help, docs and tables list them.
+  // clang-format off
   static const std::vector<PolicyMethod> entries = {
-      maps_method(), single_bc_method(), mt_bc_method(), mt_mh_bc_method(), maml_method(), moore_method(),
+      maps_method(),
+      single_bc_method(),
+      mt_bc_method(),
+      mt_mh_bc_method(),
+      maml_method(),
+      moore_method(),
+      paco_method(),
+      care_method(),
+      top_k_moe_method(),
+      soft_modularization_method(),
   };
+  // clang-format on
   return entries;
 }
 
@@ -57,5 +69,17 @@ std::int64_t matched_width(double target, const std::function<double(std::int64_
 }
 
 std::int64_t option_int(const nlohmann::json& own, const char* key) { return own.at(key).get<std::int64_t>(); }
+
+void check_option_range(const nlohmann::json& own, const std::string& method, const char* key, double low, double high,
+                        const std::string& note) {
+  const double value = own.at(key).get<double>();
+  if (!(value >= low && value <= high)) {
+    auto text = [](double x) {
+      return x == std::floor(x) && std::abs(x) < 1e15 ? std::to_string(static_cast<long long>(x)) : std::to_string(x);
+    };
+    throw std::invalid_argument("config " + method + "." + key + ": expected " + text(low) + " to " + text(high) +
+                                note + ", got " + own.at(key).dump());
+  }
+}
 
 }  // namespace maps::core

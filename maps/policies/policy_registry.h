@@ -60,6 +60,10 @@ PolicyMethod mt_bc_method();
 PolicyMethod mt_mh_bc_method();
 PolicyMethod maml_method();
 PolicyMethod moore_method();
+PolicyMethod paco_method();
+PolicyMethod care_method();
+PolicyMethod top_k_moe_method();
+PolicyMethod soft_modularization_method();
 
 // Parameters of an MLP with these layer sizes (weights and biases), for the entries' counts.
 double mlp_parameter_count(const std::vector<std::int64_t>& sizes);
@@ -70,5 +74,21 @@ double maps_parameter_count(const PolicyShape& shape, const MAPSConfig& config);
 std::int64_t matched_width(double target, const std::function<double(std::int64_t)>& count);
 // An own-section integer as int64 ("width": 0 means matched to MAPS).
 std::int64_t option_int(const nlohmann::json& own, const char* key);
+// Throws "config <method>.<key>: expected <low> to <high><note>, got <value>" unless low <= value <= high.
+void check_option_range(const nlohmann::json& own, const std::string& method, const char* key, double low, double high,
+                        const std::string& note = "");
+
+// The config with its width member chosen by matched_width for MAPS's parameter count when it is 0 (the default).
+template <typename Config>
+Config with_matched_width(Config config, std::int64_t Config::*width, const PolicyShape& shape,
+                          const MethodOptions& options, double (*count)(const PolicyShape&, const Config&)) {
+  if (config.*width != 0) return config;
+  config.*width = matched_width(maps_parameter_count(shape, options.maps), [&](std::int64_t candidate) {
+    Config sized = config;
+    sized.*width = candidate;
+    return count(shape, sized);
+  });
+  return config;
+}
 
 }  // namespace maps::core

@@ -235,6 +235,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     adam.zero_grad();
     terms.total.backward();
     adam.step();
+    policy.after_step();
     ++progress.step;
     if (term_names.empty()) {
       for (const auto& [name, value] : terms.terms) term_names.push_back(name);

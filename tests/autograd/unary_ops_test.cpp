@@ -1,5 +1,5 @@
 // Elementwise unary ops: neg, exp, log, sqrt, abs, clamp (both sides, min, max), relu, tanh,
-// sigmoid, square.
+// sigmoid, square, erf, softplus.
 
 #include <gtest/gtest.h>
 
@@ -61,6 +61,9 @@ std::vector<UnaryCase> unary_cases() {
       {"tanh", [](const Tensor& x) { return ag::tanh(x); }, [](double x) { return std::tanh(x); }, normal},
       {"sigmoid", [](const Tensor& x) { return ag::sigmoid(x); }, sigmoid_ref, normal},
       {"square", [](const Tensor& x) { return ag::square(x); }, [](double x) { return x * x; }, normal},
+      {"erf", [](const Tensor& x) { return ag::erf(x); }, [](double x) { return std::erf(x); }, normal},
+      {"softplus", [](const Tensor& x) { return ag::softplus(x); }, [](double x) { return std::log1p(std::exp(x)); },
+       normal},
   };
 }
 
