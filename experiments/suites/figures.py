@@ -30,9 +30,11 @@ from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, usag
 Figure = namedtuple("Figure", "file caption")
 DPI = 120
 NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML",
-         "transfer": "MAPS transfer"}
+         "transfer": "MAPS transfer", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style",
+         "top_k_moe": "top-k MoE", "soft_modularization": "Soft Modularization"}
 COLORS = {"maps": "tab:blue", "maml": "tab:orange", "mt_bc": "m", "mt_mh_bc": "tab:red", "single_bc": "tab:green",
-          "transfer": "tab:cyan"}
+          "transfer": "tab:cyan", "moore": "tab:purple", "paco": "tab:brown", "care": "tab:olive",
+          "top_k_moe": "tab:gray", "soft_modularization": "tab:pink"}
 SPARE = ["tab:purple", "tab:brown", "tab:gray", "tab:olive", "tab:cyan", "k"]
 # MAPS's variants in Fig. 4 (base MAPS keeps its blue): colours no method has.
 VARIANT_COLORS = ["tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:gray", "tab:pink", "k", "gold"]

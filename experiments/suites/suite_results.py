@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 SUITE_FORMAT = "maps-suite/1"
 CELL_FORMAT = "maps-suite-cell/1"
 SET_ORDER = ["gravity", "modified", "mt10"]
-METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer"]
+METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer", "moore", "paco", "care", "top_k_moe",
+                "soft_modularization"]
 SELECTOR_TERMS = ["share", "explore", "sparse", "smooth"]
 
 GroupKey = namedtuple("GroupKey", "set label demos subsample")
