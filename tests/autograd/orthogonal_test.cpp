@@ -75,6 +75,19 @@ TEST(GramSchmidt, GradcheckAndGradgradcheck) {
   }
 }
 
+// The backward runs as one kernel pass when no graph of the gradient is asked for (training) and as ops with
+// create_graph; both give the same gradient.
+TEST(GramSchmidt, KernelBackwardAgreesWithTheOpsBackward) {
+  for (const Shape& shape : {Shape{4, 7, 9}, Shape{3, 5, 3}, Shape{1, 2, 4}}) {
+    const Tensor v = randn64(shape, 41);
+    const Tensor weights = randn64(shape, 42, false);
+    const Tensor loss = ag::sum(ag::mul(ag::gram_schmidt(v), weights));
+    const Tensor kernel = ag::grad({loss}, {v}, {}, /*retain_graph=*/true, /*create_graph=*/false)[0];
+    const Tensor ops = ag::grad({loss}, {v}, {}, /*retain_graph=*/true, /*create_graph=*/true)[0];
+    agtest::expect_close(kernel, ops.detach(), 1e-12);
+  }
+}
+
 TEST(GramSchmidt, ThroughAWeightedSumAndTanhLikeMoore) {
   // MOORE's use: tanh(sum_i w_i u_i) with task weights w [k]; both inputs differentiable.
   const Tensor v = randn64({3, 4, 5}, 31);
