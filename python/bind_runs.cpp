@@ -52,6 +52,17 @@ class PythonRun {
     return ag::to_eigen_double(policy.scores(input, tasks));
   }
 
+  // Any routing method's shares [n, M] (MAPS's scores, the zoo's task weights, attention, gates; docs/zoo.md).
+  RowMatrixD routing(const RowMatrixD& observations, const std::vector<std::int64_t>& tasks) {
+    if (run_.policy->routed_modules() == 0)
+      throw py::type_error("routing: " + folder_ + " is a " + run_.config.method +
+                           " run, which has no modules to route between (maps train --help: the zoo's methods and "
+                           "MAPS route)");
+    const ag::Tensor input = checked_input(observations, tasks, "routing");
+    ag::NoGradGuard no_grad;
+    return ag::to_eigen_double(run_.policy->routing(input, tasks));
+  }
+
   std::int64_t num_modules() { return maps_policy("num_modules").num_modules(); }
   void force_module(std::int64_t module) {
     core::MAPSPolicy& policy = maps_policy("force_module");
@@ -111,6 +122,8 @@ void bind_runs(py::module_& m) {
       .def_property_readonly("demo_mean_returns", &PythonRun::demo_mean_returns)
       .def("act", &PythonRun::act, py::arg("observations"), py::arg("tasks"), py::call_guard<py::gil_scoped_release>())
       .def("selector_scores", &PythonRun::selector_scores, py::arg("observations"), py::arg("tasks"),
+           py::call_guard<py::gil_scoped_release>())
+      .def("routing", &PythonRun::routing, py::arg("observations"), py::arg("tasks"),
            py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("num_modules", &PythonRun::num_modules)
       .def("force_module", &PythonRun::force_module, py::arg("module"))

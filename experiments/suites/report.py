@@ -117,7 +117,8 @@ def report_lines(suite, draw):
         figure = task_figures.get(f"fig2_tasks_{set_name}.png")
         lines += embed([figure] if figure else [])
         usage = tables.usage_tables(mine)
-        lines += ["", "### MAPS module usage and routing"] + (usage or ["", "No MAPS cells with module usage."])
+        lines += ["", "### Module usage and routing (MAPS, and the zoo's methods that route)"] + (
+            usage or ["", "No cells with module usage."])
 
     ablations = per_set(suite, tables.ablation_table, [])
     lines += section("Fig. 4: ablations of the selector terms",

@@ -118,16 +118,27 @@ def paired_table(cells):
             + table(["method", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
 
+# Display names of the methods that route (their usage is a share per module, summing to 1 over a task's states).
+ROUTED_NAMES = {"maps": "MAPS", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style", "top_k_moe": "top-k MoE",
+                "soft_modularization": "Soft Modularization"}
+USAGE_MEANING = {"maps": "mean selector score", "moore": "share |w_k,i| / sum |w_k|", "paco": "share |w_k,p| / sum |w_k|",
+                 "care": "mean attention", "top_k_moe": "mean gate", "soft_modularization": "mean use per layer / L"}
+
+
 def usage_tables(cells):
-    """Base MAPS's per-task module usage (lowest seed) and routing (per seed, then mean +- CI)."""
+    """Every routing method's per-task module usage (lowest seed) and routing (per seed, then mean +- CI): MAPS's,
+    and the zoo's (docs/zoo.md), base methods only (no variants)."""
     lines = []
     for key, runs in groups(cells).items():
         runs = [c for c in runs if c.has_usage]
-        if key.label != "maps" or not runs:
+        if not runs or key.label != runs[0].method:
             continue
+        method = runs[0].method
+        who = ROUTED_NAMES.get(method, method)
+        meaning = USAGE_MEANING.get(method, "mean routing share")
         tasks = task_names(runs)
         modules = len(runs[0].tasks[0].usage)
-        lines += ["", f"MAPS, {key.demos} demos, k = {key.subsample}: module usage (mean selector score over the"
+        lines += ["", f"{who}, {key.demos} demos, k = {key.subsample}: module usage ({meaning} over the"
                   f" task's evaluation states) of seed {runs[0].seed}, and the range over the {len(runs)} seeds of"
                   f" the most used module's share:", ""]
         rows = []

@@ -227,6 +227,12 @@ class Run:
     def selector_scores(self, observations, tasks):
         return self._call(self._run.selector_scores, observations, tasks)
 
+    def routing(self, observations, tasks):
+        """Each row's shares [n, M] over the policy's modules, for any method that routes: MAPS's selector scores,
+        MOORE's and PaCo's task-weight shares, the CARE-style attention, the top-k gates, Soft Modularization's
+        per-layer use (docs/zoo.md). A method without modules raises TypeError."""
+        return self._call(self._run.routing, observations, tasks)
+
     @property
     def num_modules(self):
         return self._run.num_modules

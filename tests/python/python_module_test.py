@@ -244,6 +244,10 @@ class Runs(unittest.TestCase):
         self.assertFalse(np.allclose(forced, self.maps_run.act(obs, tasks)))
         with self.assertRaises(IndexError):
             self.maps_run.force_module(4)
+        # routing() is the selector's scores for MAPS, and refused by name for a method without modules.
+        np.testing.assert_array_equal(self.maps_run.routing(obs, tasks), scores)
+        with self.assertRaisesRegex(TypeError, "mt_bc run, which has no modules"):
+            self.baseline.routing(np.zeros(17), 0)
 
     def test_bad_inputs_are_refused_by_name(self):
         with self.assertRaisesRegex(ValueError, "39"):
