@@ -6,6 +6,7 @@
     fig4_ablations.png     Fig. 4: MAPS with a selector term zeroed: module usage and score against demos
     fig5_modules_heatmap.png  Fig. 5: MAPS's mean score by number of modules M and demos
     fig6_module_usage.png  Fig. 6 (left): MAPS's per-task module usage on MT10, one seed
+    zoo_routing.png        every routing method's per-task module usage (the zoo, docs/zoo.md), one seed each
     validation.png         validation BC loss against training step, mean over seeds per method
 
 Each function returns the Figures it wrote ((file name, caption) pairs; the caption says what n is and what the
@@ -411,6 +412,51 @@ def fig6_module_usage(cells, out):
                    f" {modules}): each bar is the mean selector score of one module over the states of that task's"
                    f" evaluation episodes, from one seed's run (the lowest finished seed; {seeds}), since module"
                    f" indices mean nothing across seeds. n = one seed, {describe_n(mine).split(', ', 1)[1]}.")]
+
+
+def zoo_routing(cells, out):
+    """Every routing method's per-task module usage as a heatmap (tasks x modules), one seed each (module indices
+    mean nothing across seeds), on MT10 (else the first set that has them) at the largest demonstration count: the
+    task division of MAPS and of the zoo's methods side by side. Drawn only when a method other than MAPS routes."""
+    usable = [c for c in cells if c.label == c.method and c.has_usage]
+    if not any(c.method != "maps" for c in usable):
+        return []
+    sets = order(SET_ORDER, {c.set for c in usable if c.method != "maps"})
+    set_name = "mt10" if "mt10" in sets else sets[0]
+    mine = [c for c in usable if c.set == set_name]
+    methods = methods_of(mine)
+    panels = []
+    for method in methods:
+        runs = [c for c in mine if c.method == method]
+        demos = max(c.demos for c in runs)
+        runs = sorted((c for c in runs if c.demos == demos), key=lambda c: c.seed)
+        panels.append((method, demos, runs[0]))
+    tasks = task_names(mine)
+    fig, axes = plt.subplots(1, len(panels), figsize=(2.0 + 2.2 * len(panels), 0.32 * len(tasks) + 2.2),
+                             squeeze=False)
+    rows = []
+    for ax, (method, demos, run) in zip(axes[0], panels):
+        usage = np.array([next(t.usage for t in run.tasks if t.task == task) for task in tasks])
+        image = ax.imshow(usage, vmin=0.0, vmax=max(0.5, float(usage.max())), cmap="viridis", aspect="auto")
+        ax.set_title(f"{name(method)}\n{demos} demos, seed {run.seed}", fontsize=9)
+        ax.set_xticks(range(usage.shape[1]), [str(m) for m in range(usage.shape[1])], fontsize=7)
+        ax.set_xlabel("module")
+        ax.set_yticks(range(len(tasks)), [short_task(t) for t in tasks] if ax is axes[0, 0] else [], fontsize=8)
+        fig.colorbar(image, ax=ax, fraction=0.08, pad=0.03)
+        for task, values in zip(tasks, usage):
+            rows += [[set_name, method, demos, run.seed, task, m, float(u)] for m, u in enumerate(values)]
+    fig.suptitle(f"Module usage per task on {set_name}, each routing method (one seed): MAPS's selector scores,\n"
+                 "MOORE's and PaCo's task-weight shares, the CARE-style attention, the top-k gates, Soft"
+                 " Modularization's per-layer use", fontsize=9)
+    fig.tight_layout()
+    save(fig, out, "zoo_routing.png")
+    write_csv(out / "zoo_routing.csv", ["set", "method", "demos", "seed", "task", "module", "usage"], rows)
+    return [Figure("zoo_routing.png", f"Module usage per task on {set_name} for every method that routes, each at its"
+                   " largest demonstration count and lowest finished seed (module indices mean nothing across"
+                   " seeds): a column used by every task is a shared module, one used by few tasks a specific one."
+                   " Usage is what each method records (docs/zoo.md): MAPS's mean selector score, MOORE's and PaCo's"
+                   " |w| shares (constant within a task), the mean CARE-style attention, the mean top-k gate, Soft"
+                   " Modularization's mean per-layer use (modules layer-major).")]
 
 
 def log_ticks(ax):

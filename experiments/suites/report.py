@@ -130,6 +130,9 @@ def report_lines(suite, draw):
                      "No module-count cells in this suite (MAPS at another M than the base one).")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
                      "No MAPS cells with module usage in this suite.")
+    zoo = draw("zoo_routing")
+    if zoo:
+        lines += section("Routing of every method (the zoo)", embed(zoo), "")
     lines += section("Validation curves", embed(draw("validation")), "No validation curves (curve.csv) in this suite.")
     if draw.failed:
         lines += section("Figures that failed", [f"- {message}" for message in draw.failed], "")
