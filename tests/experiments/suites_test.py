@@ -261,6 +261,46 @@ class Report(unittest.TestCase):
                 stack += d.subdirs.values()
 
 
+class ZooRouting(unittest.TestCase):
+    """The fixture plus one cell of a zoo method that routes (MOORE, 4 modules): the usage tables cover it and
+    zoo_routing.png draws it beside MAPS; without it (the plain fixture) the figure is not drawn."""
+
+    def test_a_routing_zoo_method_gets_its_tables_and_figure(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            suite_dir = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite_dir)
+            suite = json.loads((suite_dir / "suite.json").read_text())
+            source = next(c for c in suite["cells"] if c["name"] == "mt10/maps_d5_s0")
+            cell = json.loads(json.dumps(source))
+            cell.update(index=len(suite["cells"]), name="mt10/moore_d5_s0", method="moore")
+            cell["request"]["method"] = "moore"
+            suite["cells"].append(cell)
+            (suite_dir / "suite.json").write_text(json.dumps(suite))
+            result = json.loads((suite_dir / "cells" / "mt10" / "maps_d5_s0" / "result.json").read_text())
+            result["cell"].update(index=cell["index"], name=cell["name"], method="moore")
+            result["config"]["method"] = result["eval"]["method"] = "moore"
+            for i, task in enumerate(result["eval"]["tasks"]):
+                task["module_usage"] = [0.7, 0.1, 0.1, 0.1] if i == 0 else [0.1, 0.1, 0.1, 0.7]
+            moore_dir = suite_dir / "cells" / "mt10" / "moore_d5_s0"
+            moore_dir.mkdir()
+            (moore_dir / "result.json").write_text(json.dumps(result))
+            out = pathlib.Path(tmp) / "report"
+            code, _, stderr = run_report(suite_dir, out)
+            self.assertEqual(code, 0, stderr)
+            md = (out / "report.md").read_text()
+            self.assertIn("MOORE, 5 demos, k = 1: module usage (share |w_k,i| / sum |w_k|", md)
+            self.assertIn("![](zoo_routing.png)", md)
+            with (out / "zoo_routing.csv").open() as f:
+                rows = list(csv.DictReader(f))
+            self.assertEqual({r["method"] for r in rows}, {"maps", "moore"})
+            self.assertEqual(len([r for r in rows if r["method"] == "moore"]), 2 * 4)
+        # The plain fixture has MAPS alone: no zoo figure.
+        with tempfile.TemporaryDirectory() as tmp:
+            code, _, stderr = run_report(FIXTURE, pathlib.Path(tmp) / "report")
+            self.assertEqual(code, 0, stderr)
+            self.assertFalse((pathlib.Path(tmp) / "report" / "zoo_routing.png").exists())
+
+
 class Statistics(unittest.TestCase):
     def test_ci95_uses_the_t_distribution(self):
         self.assertTrue(math.isnan(suite_stats.ci95([1.0])))
