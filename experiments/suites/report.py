@@ -7,8 +7,9 @@ writes to OUT
 - results.csv: one row per finished cell and task;
 - report.md: the protocol, the counts of finished / missing / failed cells, the main results, per set the score
   table (per-task mean +- 95% CI over seeds), paired differences from MAPS, MAPS's module usage and routing; the
-  comparison with Single BC (Fig. 3), ablations (Fig. 4) and the module-count sweep (Fig. 5) where those cells exist,
-  and the figures;
+  comparison with Single BC (Fig. 3), the paper's claims with a verdict each (claims.py), ablations (Fig. 4), the
+  module-count sweep (Fig. 5), every variant against its base method and the paper's checkpoint rule beside the
+  best-validation one, where those cells exist, and the figures;
 - the figures (fig2_scores.png, fig2_tasks_<set>.png, fig3_vs_single_bc.png, fig4_ablations.png,
   fig5_modules_heatmap.png, fig6_module_usage.png, validation.png), each with its numbers in a CSV beside it.
 Prints the main results table and, last, "report: OUT/report.md". Exit code 2: no suite.json, no finished cells,
@@ -22,6 +23,7 @@ import pathlib
 import sys
 import traceback
 
+import claims
 import suite_results
 import tables
 from suite_results import SuiteError, load_suite, score_name, success_scored
@@ -101,6 +103,8 @@ def report_lines(suite, draw):
                  " both ran, the 95% CI of the difference excludes 0 (never with one seed).", ""]
                 + tables.fig3_table(fig3) + embed(draw("fig3_vs_single_bc")))
     lines += section("Fig. 3: against Single BC", body, "No Single BC cells to compare with in this suite.")
+    lines += section("The paper's claims", claims.claims_table(cells, tables.table),
+                     "No MAPS cells: none of the paper's claims can be checked.")
 
     task_figures = {f.file: f for f in draw("fig2_tasks")}
     for set_name in suite.sets():
@@ -128,6 +132,12 @@ def report_lines(suite, draw):
                                                 " the number of modules M (from the config):", ""])
     lines += section("Fig. 5: number of modules", sweep + embed(draw("fig5_modules_heatmap")) if sweep else [],
                      "No module-count cells in this suite (MAPS at another M than the base one).")
+    variants = per_set(suite, tables.variant_table, [])
+    lines += section("Variants against their base (the paper's protocol, controls, ablations, module counts)",
+                     variants, "No variant cells beside their base method's in this suite.")
+    rule = per_set(suite, tables.checkpoint_rule_table, [])
+    lines += section("The paper's checkpoint rule", rule,
+                     "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
                      "No MAPS cells with module usage in this suite.")
     zoo = draw("zoo_routing")

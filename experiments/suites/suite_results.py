@@ -60,6 +60,9 @@ class Cell:
     episodes: int
     wall_seconds: float
     tasks: list
+    # The paper's checkpoint rule: the best mean score over the kept checkpoints and best.ckpt (train.keep_every and
+    # `maps eval --checkpoints`); None where the cell kept no checkpoints.
+    best_over_checkpoints: float = None
 
     @property
     def label(self):
@@ -168,11 +171,13 @@ def read_cell(path):
                                 return_unclipped_cost=float(t.get("return_mean_unclipped_cost", float("nan")))))
     if not tasks:
         raise ValueError("no tasks in eval")
+    best_over = ev.get("best_over_checkpoints")
+    best_over = None if best_over is None else float(best_over["mean_score"])
     return Cell(path.parent, str(ident["name"]), str(ident.get("grid", "")), str(ident["set"]), str(ident["method"]),
                 str(ident.get("variant", "base")), int(ident["demos"]), int(ident["subsample"]), int(ident["seed"]),
                 config, int(train["steps"]), int(ev.get("best_step", train.get("best_step"))),
                 int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
-                float(result.get("wall_seconds", float("nan"))), tasks)
+                float(result.get("wall_seconds", float("nan"))), tasks, best_over)
 
 
 def read_error(path):

@@ -221,3 +221,48 @@ def sweep_table(cells):
         rows.append(row)
     return table(["M"] + [f"{d} demos" for d in counts], rows)
 
+
+
+def variant_table(cells):
+    """Every variant against its own method's base cells at the same demos and k, paired by seed: the paper's protocol
+    options (the departures), the controls, the ablations and the module counts alike; Holm over the table's rows."""
+    by_key = groups(cells)
+    rows = []
+    for key, runs in by_key.items():
+        method = runs[0].method
+        base = by_key.get(key._replace(label=method))
+        if key.label == method or not base:
+            continue
+        diffs = paired(runs, base, lambda c: c.mean_score)
+        if diffs:
+            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt([c.mean_score for c in base]),
+                         fmt([c.mean_score for c in runs]), fmt(diffs, signed=True), paired_p(diffs)])
+    if not rows:
+        return []
+    adjusted = holm([row[-1] for row in rows])
+    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    return (["Each variant against the same method without it (its base cells at the same demos, k and seeds): mean"
+             " score over tasks, mean +- 95% CI over the seeds both ran; difference = variant - base; p: paired t"
+             f" test; Holm over the {sum(1 for a in adjusted if a == a)} rows:", ""]
+            + table(["variant", "demos", "k", "pairs", "base", "variant", "difference", "p", "p (Holm)"], rows))
+
+
+def checkpoint_rule_table(cells):
+    """The paper's checkpoint rule (the best test score over the kept checkpoints) beside the best-validation one, in
+    the same runs: how optimistic the paper's rule is."""
+    rows = []
+    for key, runs in groups(cells).items():
+        kept = [c for c in runs if c.best_over_checkpoints is not None]
+        if not kept:
+            continue
+        every = sorted({c.config.get("train", {}).get("keep_every", "?") for c in kept}, key=str)
+        rows.append([key.label, key.demos, key.subsample, len(kept), ", ".join(map(str, every)),
+                     fmt([c.mean_score for c in kept]), fmt([c.best_over_checkpoints for c in kept]),
+                     fmt([c.best_over_checkpoints - c.mean_score for c in kept], signed=True)])
+    if not rows:
+        return []
+    return (["The same runs judged two ways: at the best-validation checkpoint (the headline rule) and by the best"
+             " test score over every kept checkpoint and best.ckpt (the paper's rule, `maps eval --checkpoints`);"
+             " mean score over tasks, mean +- 95% CI over seeds:", ""]
+            + table(["method", "demos", "k", "seeds", "kept every", "best validation", "best over checkpoints",
+                     "paper's rule - best validation"], rows))

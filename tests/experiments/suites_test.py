@@ -241,6 +241,27 @@ class Report(unittest.TestCase):
         with (self.out / "fig5_modules_heatmap.csv").open() as f:
             self.assertEqual(len(list(csv.DictReader(f))), 4)
 
+    def test_variants_against_their_own_base(self):
+        variants = between(self.md, "## Variants against their base", "## The paper's checkpoint rule")
+        # no_explore at 5 demos: 0.3 - 0.7 and 0.3 - 0.6 against MAPS's own seeds.
+        self.assertEqual(row_of(variants, ["maps (no_explore)", "5"])[3:7],
+                         ["2", "0.65 +- 0.64", "0.30 +- 0.00", "-0.35 +- 0.64"])
+        self.assertEqual(len(rows_of(variants, ["maps (m5)"])), 2)
+        # Base methods are not variants of anything.
+        self.assertEqual(rows_of(variants, ["maps"]) + rows_of(variants, ["mt_bc"]), [])
+        self.assertIn("No cells kept checkpoints", between(self.md, "## The paper's checkpoint rule", "## Fig. 6"))
+
+    def test_the_papers_claims_have_verdicts(self):
+        found = between(self.md, "## The paper's claims", "## Set gravity")
+        # Fig. 3's numbers (test_fig3_shares_against_single_bc): 7 of 8 better is not "more than 90%".
+        row = rows_of(found, ["3", "MAPS performs better than Single BC more than 90% of the time"])[0]
+        self.assertIn("better in 7 of 8 settings (88%", row[4])
+        self.assertEqual(row[5], "**partly**")
+        # One of the four ablations ran: the explore claim waits for the others.
+        row = rows_of(found, ["7", "removing exploration costs the most success on MT10"])[0]
+        self.assertEqual(row[5], "**not measured**")
+        self.assertIn("Rules: (1) holds:", found)
+
     def test_captions_say_n_and_the_score(self):
         self.assertIn("n = 1-2 seeds per point, 10 episodes per task, 1000 training steps", self.md)
         self.assertIn("success rate", between(self.md, "![](fig2_scores.png)", "##"))
@@ -299,6 +320,29 @@ class ZooRouting(unittest.TestCase):
             code, _, stderr = run_report(FIXTURE, pathlib.Path(tmp) / "report")
             self.assertEqual(code, 0, stderr)
             self.assertFalse((pathlib.Path(tmp) / "report" / "zoo_routing.png").exists())
+
+
+class CheckpointRule(unittest.TestCase):
+    """The fixture with MT10's MAPS at 5 demos evaluated at every kept checkpoint too (best over them: 0.8 in both
+    seeds, against best-validation scores of 0.7 and 0.6): the paper's rule beside the headline one."""
+
+    def test_the_papers_rule_is_reported_beside_the_best_validation_one(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            suite_dir = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite_dir)
+            for seed in (0, 1):
+                path = suite_dir / "cells" / "mt10" / f"maps_d5_s{seed}" / "result.json"
+                result = json.loads(path.read_text())
+                result["config"]["train"]["keep_every"] = 500
+                result["eval"]["best_over_checkpoints"] = {"step": 500, "mean_score": 0.8, "file": "step_500.ckpt"}
+                path.write_text(json.dumps(result))
+            out = pathlib.Path(tmp) / "report"
+            code, _, stderr = run_report(suite_dir, out)
+            self.assertEqual(code, 0, stderr)
+            rule = between((out / "report.md").read_text(), "## The paper's checkpoint rule", "## Fig. 6")
+            self.assertEqual(row_of(rule, ["maps", "5"]), ["maps", "5", "1", "2", "500", "0.65 +- 0.64",
+                                                           "0.80 +- 0.00", "+0.15 +- 0.64"])
+            self.assertEqual(rows_of(rule, ["maps", "10"]), [])
 
 
 class Statistics(unittest.TestCase):
