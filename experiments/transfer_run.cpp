@@ -11,6 +11,7 @@
 #include "experiments/run_folder.h"
 #include "experiments/train_run.h"
 #include "experiments/usage_error.h"
+#include "maps/data/demo_dataset.h"
 #include "maps/training/run_config.h"
 
 namespace maps::experiments {
@@ -25,15 +26,11 @@ std::vector<std::string> freeze_prefixes(const std::string& freeze) {
 }
 
 // The tasks a run trained on: its data.tasks (or all of the file's) less its data.holdout.
-std::vector<std::string> trained_tasks(const core::RunConfig& config, const std::vector<std::string>& file_tasks) {
+std::vector<std::string> trained_tasks(const core::RunConfig& config, const envs::DemoFile& file) {
+  const std::vector<bool> keep = core::kept_tasks(file.task_names, file.task_set, config.data);
   std::vector<std::string> tasks;
-  for (const auto& task : file_tasks) {
-    const bool listed = config.data.tasks.empty() ||
-                        std::find(config.data.tasks.begin(), config.data.tasks.end(), task) != config.data.tasks.end();
-    const bool held_out =
-        std::find(config.data.holdout.begin(), config.data.holdout.end(), task) != config.data.holdout.end();
-    if (listed && !held_out) tasks.push_back(task);
-  }
+  for (std::size_t k = 0; k < keep.size(); ++k)
+    if (keep[k]) tasks.push_back(file.task_names[k]);
   return tasks;
 }
 
@@ -62,7 +59,7 @@ int run_transfer(const TransferOptions& options) {
     throw std::invalid_argument("--task " + options.task + " is not a task of " + source.data_file + " (" + known +
                                 ")");
   }
-  const std::vector<std::string> seen = trained_tasks(source, file.task_names);
+  const std::vector<std::string> seen = trained_tasks(source, file);
   if (std::find(seen.begin(), seen.end(), options.task) != seen.end())
     throw std::invalid_argument("--run " + options.run + " was trained on " + options.task +
                                 ": transfer needs a run that never saw the task (train one with "

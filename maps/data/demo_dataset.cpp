@@ -31,7 +31,28 @@ void append_rows(const envs::Demonstration& demo, std::int64_t offset, std::int6
   }
 }
 
+// The position of task `name` in the file's tasks; `key` names the config key that asked for it.
+int task_index(const std::vector<std::string>& file_tasks, const std::string& task_set, const std::string& name,
+               const std::string& key) {
+  const auto found = std::find(file_tasks.begin(), file_tasks.end(), name);
+  if (found == file_tasks.end()) {
+    std::string known;
+    for (const auto& task : file_tasks) known += (known.empty() ? "" : ", ") + task;
+    throw std::invalid_argument("data." + key + ": '" + name + "' is not a task of the demo file's set " + task_set +
+                                " (" + known + ")");
+  }
+  return static_cast<int>(found - file_tasks.begin());
+}
+
 }  // namespace
+
+std::vector<bool> kept_tasks(const std::vector<std::string>& file_tasks, const std::string& task_set,
+                             const DataConfig& config) {
+  std::vector<bool> keep(file_tasks.size(), config.tasks.empty());
+  for (const auto& name : config.tasks) keep[task_index(file_tasks, task_set, name, "tasks")] = true;
+  for (const auto& name : config.holdout) keep[task_index(file_tasks, task_set, name, "holdout")] = false;
+  return keep;
+}
 
 DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
     : task_set_(file.task_set), config_(config) {
@@ -42,24 +63,12 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
   if (file.demos.empty()) throw std::invalid_argument("data: the demo file holds no demonstrations");
   action_size_ = file.demos.front().actions.cols();
   const int file_tasks = static_cast<int>(file.task_names.size());
-  auto index_of = [&](const std::string& name, const std::string& key) {
-    const auto found = std::find(file.task_names.begin(), file.task_names.end(), name);
-    if (found == file.task_names.end()) {
-      std::string known;
-      for (const auto& task : file.task_names) known += (known.empty() ? "" : ", ") + task;
-      throw std::invalid_argument("data." + key + ": '" + name + "' is not a task of the demo file's set " +
-                                  file.task_set + " (" + known + ")");
-    }
-    return static_cast<int>(found - file.task_names.begin());
-  };
-  std::vector<bool> keep(static_cast<std::size_t>(file_tasks), config.tasks.empty());
-  for (const auto& name : config.tasks) keep[index_of(name, "tasks")] = true;
-  for (const auto& name : config.holdout) keep[index_of(name, "holdout")] = false;
+  const std::vector<bool> keep = kept_tasks(file.task_names, file.task_set, config);
   std::vector<int> demos_of(static_cast<std::size_t>(file_tasks), config.demos_per_task);
   for (const auto& [name, count] : config.task_demos) {
     if (count < 0)
       throw std::invalid_argument("data.task_demos." + name + ": must be >= 0, got " + std::to_string(count));
-    demos_of[index_of(name, "task_demos")] = count;
+    demos_of[task_index(file.task_names, file.task_set, name, "task_demos")] = count;
   }
   if (std::find(keep.begin(), keep.end(), true) == keep.end())
     throw std::invalid_argument("data: data.tasks and data.holdout leave no task to train on");

@@ -31,6 +31,11 @@ struct DataConfig {
   std::vector<std::pair<std::string, int>> task_demos;
 };
 
+// Which of a demo file's tasks (in the file's order) a run of `config` trains on: data.tasks (all when empty) less
+// data.holdout. Throws std::invalid_argument naming a task the file's set lacks.
+std::vector<bool> kept_tasks(const std::vector<std::string>& file_tasks, const std::string& task_set,
+                             const DataConfig& config);
+
 class DemoDataset {
  public:
   // Throws std::invalid_argument naming what is wrong: a task with fewer training demos than asked for, a

@@ -57,6 +57,22 @@ void read(const Json& json, const std::string& where, const char* key, T& out) {
   out = value.get<T>();
 }
 
+// An object of name: number (data.task_demos, train.lr_scale, maps.selector_losses), by name, each number
+// accepted by `valid`; `shape` and `expected` say what the object and each number must be.
+template <typename T, typename Valid>
+std::vector<std::pair<std::string, T>> read_named_numbers(const Json& object, const std::string& where,
+                                                          const std::string& shape, const std::string& expected,
+                                                          Valid valid) {
+  if (!object.is_object()) throw std::invalid_argument("config " + where + ": expected an object of " + shape);
+  std::vector<std::pair<std::string, T>> out;
+  for (const auto& [name, value] : object.items()) {
+    if (!valid(value))
+      throw std::invalid_argument("config " + where + "." + name + ": expected " + expected + ", got " + value.dump());
+    out.emplace_back(name, value.template get<T>());
+  }
+  return out;
+}
+
 // Far above any model the paper or this library trains (MAPS at M = 20: about 0.8M); a bigger request is a typo
 // (a size of 12E8) that would otherwise fail deep inside an allocation.
 constexpr double kMaxParameters = 1e8;
@@ -134,17 +150,11 @@ RunConfig parse_run_config(const Json& json) {
   read(data, "data", "subsample", c.data.subsample);
   read(data, "data", "tasks", c.data.tasks);
   read(data, "data", "holdout", c.data.holdout);
-  if (data.contains("task_demos")) {
-    const Json& counts = data["task_demos"];
-    if (!counts.is_object())
-      throw std::invalid_argument("config data.task_demos: expected an object of task name: demonstrations");
-    for (const auto& [name, count] : counts.items()) {
-      if (!count.is_number_integer() || count.get<std::int64_t>() < 0 || count.get<std::int64_t>() > 1000000)
-        throw std::invalid_argument("config data.task_demos." + name + ": expected an integer >= 0, got " +
-                                    count.dump());
-      c.data.task_demos.emplace_back(name, count.get<int>());
-    }
-  }
+  if (data.contains("task_demos"))
+    c.data.task_demos = read_named_numbers<int>(
+        data["task_demos"], "data.task_demos", "task name: demonstrations", "an integer >= 0", [](const Json& count) {
+          return count.is_number_integer() && count.get<std::int64_t>() >= 0 && count.get<std::int64_t>() <= 1000000;
+        });
   c.data.seed = c.seed;
   if (json.contains("train")) {
     const Json& t = json["train"];
@@ -160,17 +170,12 @@ RunConfig parse_run_config(const Json& json) {
     read(t, "train", "keep_every", c.train.keep_every);
     read(t, "train", "bc_loss", c.train.bc_loss);
     read(t, "train", "freeze", c.train.freeze);
-    if (t.contains("lr_scale")) {
-      const Json& scales = t["lr_scale"];
-      if (!scales.is_object())
-        throw std::invalid_argument("config train.lr_scale: expected an object of parameter-name prefix: factor");
-      for (const auto& [prefix, factor] : scales.items()) {
-        if (!factor.is_number() || !(factor.get<double>() >= 0.0) || !std::isfinite(factor.get<double>()))
-          throw std::invalid_argument("config train.lr_scale." + prefix + ": expected a finite number >= 0, got " +
-                                      factor.dump());
-        c.train.lr_scale.emplace_back(prefix, factor.get<double>());
-      }
-    }
+    if (t.contains("lr_scale"))
+      c.train.lr_scale = read_named_numbers<double>(t["lr_scale"], "train.lr_scale", "parameter-name prefix: factor",
+                                                    "a finite number >= 0", [](const Json& factor) {
+                                                      return factor.is_number() && factor.get<double>() >= 0.0 &&
+                                                             std::isfinite(factor.get<double>());
+                                                    });
     if (c.train.bc_loss != "mean" && c.train.bc_loss != "sampled")
       throw std::invalid_argument("config train.bc_loss: expected \"mean\" or \"sampled\", got \"" + c.train.bc_loss +
                                   "\"");
@@ -208,17 +213,10 @@ RunConfig parse_run_config(const Json& json) {
     if (c.maps.selector != "learned" && c.maps.selector != "uniform")
       throw std::invalid_argument("config maps.selector: expected \"learned\" or \"uniform\", got \"" +
                                   c.maps.selector + "\"");
-    if (m.contains("selector_losses")) {
-      const Json& losses = m["selector_losses"];
-      if (!losses.is_object())
-        throw std::invalid_argument("config maps.selector_losses: expected an object of name: weight");
-      c.maps.selector_losses.clear();
-      for (const auto& [name, weight] : losses.items()) {
-        if (!weight.is_number())
-          throw std::invalid_argument("config maps.selector_losses." + name + ": expected a number");
-        c.maps.selector_losses.emplace_back(name, weight.get<double>());
-      }
-    }
+    if (m.contains("selector_losses"))
+      c.maps.selector_losses =
+          read_named_numbers<double>(m["selector_losses"], "maps.selector_losses", "name: weight", "a number",
+                                     [](const Json& weight) { return weight.is_number(); });
   }
   if (json.contains("maml")) {
     const Json& m = json["maml"];
