@@ -3,6 +3,7 @@
 // Umbrella header of the autograd layer.
 #include "autograd/dtype.h"
 #include "autograd/engine.h"
+#include "autograd/float_environment.h"
 #include "autograd/generator.h"
 #include "autograd/grad_mode.h"
 #include "autograd/gradcheck.h"

@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "autograd/float_environment.h"
+
 namespace maps::ag {
 namespace {
 
@@ -39,8 +41,11 @@ void parallel_for_ranges(std::int64_t count, std::int64_t ranges,
   }
   std::exception_ptr error;
   std::mutex error_mutex;
+  // The threads compute as the caller does (flushing denormals or not: the mode is per thread).
+  const unsigned denormal_bits = detail::denormal_bits();
 #pragma omp parallel num_threads(static_cast <int>(ranges))
   {
+    detail::set_denormal_bits(denormal_bits);
     // OpenMP may start fewer threads than asked for: then a thread takes several ranges.
     const std::int64_t used = omp_get_num_threads();
     for (std::int64_t r = omp_get_thread_num(); r < ranges; r += used) {

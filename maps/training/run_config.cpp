@@ -160,7 +160,7 @@ RunConfig parse_run_config(const Json& json) {
     const Json& t = json["train"];
     check_keys(t, "train",
                {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
-                "validation_states_per_task", "keep_every", "bc_loss", "freeze", "lr_scale"});
+                "validation_states_per_task", "keep_every", "bc_loss", "freeze", "lr_scale", "flush_denormal"});
     read(t, "train", "steps", c.train.steps);
     read(t, "train", "learning_rate", c.train.learning_rate);
     read(t, "train", "states_per_task", c.train.states_per_task);
@@ -170,6 +170,7 @@ RunConfig parse_run_config(const Json& json) {
     read(t, "train", "keep_every", c.train.keep_every);
     read(t, "train", "bc_loss", c.train.bc_loss);
     read(t, "train", "freeze", c.train.freeze);
+    read(t, "train", "flush_denormal", c.train.flush_denormal);
     if (t.contains("lr_scale"))
       c.train.lr_scale = read_named_numbers<double>(t["lr_scale"], "train.lr_scale", "parameter-name prefix: factor",
                                                     "a finite number >= 0", [](const Json& factor) {
@@ -298,7 +299,8 @@ Json to_json(const RunConfig& c) {
              {"keep_every", c.train.keep_every},
              {"bc_loss", c.train.bc_loss},
              {"freeze", c.train.freeze},
-             {"lr_scale", lr_scale}}},
+             {"lr_scale", lr_scale},
+             {"flush_denormal", c.train.flush_denormal}}},
            {"maps",
             {{"modules", c.maps.modules},
              {"module_hidden", c.maps.module_hidden},

@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "autograd/float_environment.h"
 #include "envs/portable_random.h"
 #include "nn/optim/adam.h"
 #include "nn/serialize.h"
@@ -183,6 +184,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   if (config.keep_every < 0)
     throw std::invalid_argument("train: keep_every must be >= 0 (0: keep no step checkpoints)");
   fs::create_directories(run_dir);
+  const ag::FlushDenormalGuard flush(config.flush_denormal);
   const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
   const std::string best_path = (fs::path(run_dir) / "best.ckpt").string();
   const std::string curve_path = (fs::path(run_dir) / "curve.csv").string();

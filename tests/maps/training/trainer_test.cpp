@@ -106,6 +106,44 @@ TEST(Trainer, AResumedRunEndsExactlyWhereAnUninterruptedOneDoes) {
   EXPECT_EQ(rows, 3);
 }
 
+TEST(Trainer, TrainsInTheDenormalModeItsConfigSaysAndRestoresTheCallers) {
+  if (!ag::flush_denormal_supported()) GTEST_SKIP() << "this CPU cannot flush denormals";
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  const bool callers = ag::set_flush_denormal(false);
+  for (const bool flush : {true, false}) {
+    // A policy that records the mode its loss is computed in.
+    struct Recording : MAPSPolicy {
+      using MAPSPolicy::MAPSPolicy;
+      LossTerms loss(const Batch& batch) override {
+        modes.push_back(ag::flush_denormal());
+        return MAPSPolicy::loss(batch);
+      }
+      std::vector<bool> modes;
+    };
+    ag::Generator gen(3);
+    MAPSConfig maps_config;
+    maps_config.modules = 2;
+    maps_config.module_hidden = {8};
+    maps_config.selector_hidden = {4};
+    Recording policy(PolicyShape{3, 2, 2}, maps_config, gen);
+    TrainConfig config = small_config();
+    config.steps = 5;
+    config.flush_denormal = flush;
+    train_policy(policy, data, config, fresh_dir(flush ? "flush" : "ieee").string(), nullptr);
+    ASSERT_EQ(policy.modes.size(), 5u);
+    for (const bool mode : policy.modes) EXPECT_EQ(mode, flush);
+    EXPECT_FALSE(ag::flush_denormal());
+  }
+  ag::set_flush_denormal(callers);
+  nlohmann::json request = nlohmann::json::parse(R"({"method": "mt_bc", "data": {"file": "x.h5"}})");
+  EXPECT_TRUE(parse_run_config(request).train.flush_denormal);
+  request["train"]["flush_denormal"] = false;
+  EXPECT_FALSE(parse_run_config(request).train.flush_denormal);
+  EXPECT_FALSE(to_json(parse_run_config(request))["train"]["flush_denormal"].get<bool>());
+  request["train"]["flush_denormal"] = 0;
+  EXPECT_THAT(error_of([&] { parse_run_config(request); }), HasSubstr("train.flush_denormal: wrong type (0)"));
+}
+
 TEST(Trainer, ANonFiniteLossStopsWithTheStepAndTheTermAndKeepsTheLastCheckpoint) {
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   auto policy = small_maps(3);
