@@ -125,7 +125,10 @@ LossTerms PaCo::loss(const Batch& batch) {
       Batch healthy;
       healthy.actions = ag::index_select(batch.actions, kept);
       healthy.noise_seed = batch.noise_seed;
-      bc = bc_loss(ag::index_select(prediction, kept), healthy);
+      // The masked rows' loss is 0 and the mean still runs over the whole batch, as the public code zeroes the
+      // masked samples' loss: a masked step is not scaled up.
+      bc = bc_loss(ag::index_select(prediction, kept), healthy) *
+           (static_cast<double>(kept.size()) / static_cast<double>(batch.tasks.size()));
     }
   }
   return LossTerms{

@@ -29,8 +29,8 @@ ag::Tensor cv_squared(const ag::Tensor& v) {
 TopKMoE::TopKMoE(PolicyShape shape, const TopKMoEConfig& config, ag::Generator& gen)
     : Policy("TopKMoE", shape), config_(config) {
   detail::check_construction("TopKMoE", shape, {config.width}, /*need_hidden=*/true);
-  if (config.experts < 1 || config.layers < 1 || config.top_k < 1 || config.top_k > config.experts)
-    throw std::invalid_argument("TopKMoE: expected experts >= 1, layers >= 1 and 1 <= top_k <= experts, got " +
+  if (config.experts < 2 || config.layers < 1 || config.top_k < 2 || config.top_k > config.experts)
+    throw std::invalid_argument("TopKMoE: expected experts >= 2, layers >= 1 and 2 <= top_k <= experts, got " +
                                 std::to_string(config.experts) + ", " + std::to_string(config.layers) + " and " +
                                 std::to_string(config.top_k) + " (top_k_moe.top_k <= top_k_moe.experts)");
   const std::int64_t in = shape.observation_size + shape.num_tasks;
@@ -44,6 +44,11 @@ TopKMoE::TopKMoE(PolicyShape shape, const TopKMoEConfig& config, ag::Generator& 
   noise_weight_ = register_parameter("noise_weight", ag::zeros({in, config.experts}, ag::Dtype::Float32));
 }
 
+ag::Tensor TopKMoE::gate_noise(std::int64_t rows, std::int64_t experts, std::uint64_t noise_seed, ag::Dtype dtype) {
+  ag::Generator gen(noise_seed ^ 0x6761746eULL);  // "gatn"
+  return ag::randn({rows, experts}, gen, dtype);
+}
+
 TopKMoE::Gate TopKMoE::gate(const ag::Tensor& inputs, const std::uint64_t* noise_seed) {
   const std::int64_t n = inputs.size(0), E = config_.experts, k = config_.top_k;
   const ag::Tensor clean = ag::matmul(inputs, parameter_at(gate_weight_));  // [n, E]
@@ -51,8 +56,7 @@ TopKMoE::Gate TopKMoE::gate(const ag::Tensor& inputs, const std::uint64_t* noise
   ag::Tensor sigma, logits = clean;
   if (noisy) {
     sigma = ag::softplus(ag::matmul(inputs, parameter_at(noise_weight_))) + 0.01;
-    ag::Generator gen(*noise_seed ^ 0x6761746eULL);
-    logits = clean + ag::randn({n, E}, gen, clean.dtype()) * sigma;
+    logits = clean + gate_noise(n, E, *noise_seed, clean.dtype()) * sigma;
   }
   // Each row's experts by logit, best first (ties to the lower index: a stable sort).
   const std::vector<double> values = logits.to_vector();
@@ -113,6 +117,7 @@ ag::Tensor TopKMoE::mixture(const ag::Tensor& inputs, const Gate& g) {
 
 ag::Tensor TopKMoE::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("TopKMoE::act", shape(), observations, tasks);
+  if (observations.size(0) == 0) return ag::zeros({0, shape().action_size}, observations.dtype());
   const ag::Tensor inputs = ag::concat({observations, ag::one_hot(tasks, shape().num_tasks, observations.dtype())}, 1);
   return mixture(inputs, gate(inputs, nullptr));
 }
@@ -165,7 +170,10 @@ PolicyMethod top_k_moe_method() {
       "Sparsely-gated MoE: noisy top-k gating on [state, task] over expert MLPs, importance and load losses";
   method.defaults = {{"experts", 4}, {"top_k", 2}, {"layers", 3}, {"width", 0}, {"balance", 0.01}, {"noise", true}};
   method.check = [](const nlohmann::json& own) {
-    for (const char* key : {"experts", "top_k", "layers"}) check_option_range(own, "top_k_moe", key, 1, 64);
+    check_option_range(own, "top_k_moe", "layers", 1, 64);
+    // One chosen expert has softmax weight 1 whatever its logit: the gate would get no gradient from the BC loss.
+    for (const char* key : {"experts", "top_k"})
+      check_option_range(own, "top_k_moe", key, 2, 64, " (with top_k = 1 the gate learns nothing from the BC loss)");
     if (option_int(own, "top_k") > option_int(own, "experts"))
       throw std::invalid_argument("config top_k_moe.top_k: expected at most top_k_moe.experts (" +
                                   own.at("experts").dump() + "), got " + own.at("top_k").dump());

@@ -9,10 +9,11 @@
 // A sparsely-gated mixture of experts (Shazeer et al., ICLR 2017; docs/zoo.md) as a behaviour-cloning policy. On
 // x = [s, one_hot(k)], the gate's logits H(x) = x W_g + eps * (softplus(x W_noise) + 0.01), eps ~ N(0, 1) in training
 // only; G(x) = softmax over the top k of H(x) (the others 0); the action sum_i G_i(x) E_i(x), where only the chosen
-// experts run (each on the rows that chose it). Experts are MLPs x -> width^layers -> A (ReLU). Without a balancing
-// loss such gates collapse onto one expert, so the loss adds balance * (CV^2(importance) + CV^2(load)): importance
+// experts run (each on the rows that chose it). Experts are MLPs x -> width^layers -> A (ReLU). Such gates can
+// collapse onto a few experts (Shazeer et al.), so the loss adds balance * (CV^2(importance) + CV^2(load)): importance
 // the batch's sum of G per expert, load the batch's sum of each expert's smooth probability of staying in the top k
-// under fresh noise.
+// under fresh noise. top_k is at least 2: with one expert chosen its softmax weight is 1 whatever the logits, and the
+// gate would learn nothing from the BC loss (Shazeer et al. need k > 1 for the gate's gradient).
 // Parameters: "experts.<i>.layers.<l>", "gate_weight" [S + K, E], "noise_weight" [S + K, E] (both start at 0).
 namespace maps::core {
 
@@ -37,6 +38,10 @@ class TopKMoE : public Policy {
   std::int64_t routed_modules() const override { return config_.experts; }
 
   const TopKMoEConfig& config() const { return config_; }
+
+  // The standard normal draws eps [rows, experts] of the noisy gate for a batch with this noise seed (so that a
+  // test can recompute the gate, its importance and its load by hand).
+  static ag::Tensor gate_noise(std::int64_t rows, std::int64_t experts, std::uint64_t noise_seed, ag::Dtype dtype);
 
  protected:
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<TopKMoE>(*this); }

@@ -193,6 +193,25 @@ TEST(UnaryOps, SaturatingOpsStayFiniteAtExtremes) {
   }
 }
 
+// softplus is computed stably: log1p(exp(x)) overflows past x = 88 in float32; the op gives x there, and its
+// gradient, sigmoid(x), stays in [0, 1].
+TEST(UnaryOps, SoftplusIsStableAtExtremes) {
+  for (Dtype dtype : kBothDtypes) {
+    SCOPED_TRACE(ag::to_string(dtype));
+    Tensor x = tensor({-1000, -100, 100, 1000}, {4}, dtype, true);
+    const Tensor y = ag::softplus(x);
+    const std::vector<double> values = y.to_vector();
+    EXPECT_GE(values[0], 0.0);
+    EXPECT_LE(values[0], 1e-300);
+    EXPECT_GE(values[1], 0.0);
+    EXPECT_LE(values[1], 1e-40);
+    EXPECT_EQ(values[2], 100.0);
+    EXPECT_EQ(values[3], 1000.0);
+    ag::sum(y).backward();
+    expect_values(x.grad(), {4}, {0, 0, 1, 1}, 1e-6);
+  }
+}
+
 TEST(UnaryOps, CompositeGradgradcheck) {
   auto f = [](const std::vector<Tensor>& in) {
     const Tensor& x = in[0];

@@ -59,10 +59,9 @@ class BenchStep(unittest.TestCase):
             self.assertGreater(result["parameters"], 0, method)
             if method == "maps":
                 # The counter sees every product the step runs; the analytic count is what the step needs. They
-                # agree but for products a kernel runs beyond that (none today beyond a few percent).
+                # agree but for products a kernel runs beyond that (none today beyond a few percent). The other
+                # methods have no analytic count: their GFLOP/step is the counter's.
                 self.assertAlmostEqual(result["gemm_gflop_counted"] / result["gflop_per_step"], 1.0, delta=0.05)
-            else:
-                self.assertEqual(result["gemm_gflop_counted"], result["gflop_per_step"])
         done = run("bench", "step", "--method", "nope", "--seconds", "0.05")
         self.assertNotEqual(done.returncode, 0)
         self.assertIn("'nope'", done.stderr)
