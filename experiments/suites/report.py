@@ -144,6 +144,7 @@ def report_lines(suite, draw):
     if zoo:
         lines += section("Routing of every method (the zoo)", embed(zoo), "")
     lines += section("Validation curves", embed(draw("validation")), "No validation curves (curve.csv) in this suite.")
+    lines += section("Compute", tables.compute_table(cells), "")
     if draw.failed:
         lines += section("Figures that failed", [f"- {message}" for message in draw.failed], "")
     return lines

@@ -266,3 +266,16 @@ def checkpoint_rule_table(cells):
              " mean score over tasks, mean +- 95% CI over seeds:", ""]
             + table(["method", "demos", "k", "seeds", "kept every", "best validation", "best over checkpoints",
                      "paper's rule - best validation"], rows))
+
+
+def compute_table(cells):
+    """CPU time per grid and method: the finished cells' wall seconds (each cell runs on one thread), summed."""
+    by = {}
+    for c in cells:
+        by.setdefault((c.grid or "-", c.set, c.label), []).append(c.wall_seconds)
+    rows = [[grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}", f"{sum(seconds) / len(seconds) / 60:.1f}"]
+            for (grid, set_name, label), seconds in sorted(by.items())]
+    total = sum(c.wall_seconds for c in cells if c.wall_seconds == c.wall_seconds)
+    return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell"], rows)
+            + ["", f"In all: {total / 3600:.1f} CPU-hours over {len(cells)} finished cells (training, validation and"
+                   " evaluation; one thread each)."])

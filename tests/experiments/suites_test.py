@@ -262,6 +262,15 @@ class Report(unittest.TestCase):
         self.assertEqual(row[5], "**not measured**")
         self.assertIn("Rules: (1) holds:", found)
 
+    def test_compute_sums_the_cells_wall_time(self):
+        seconds = [json.loads(p.read_text())["wall_seconds"] for p in FIXTURE.glob("cells/*/*/result.json")]
+        compute = self.md[self.md.index("## Compute"):]
+        self.assertIn(f"In all: {sum(seconds) / 3600:.1f} CPU-hours over {len(seconds)} finished cells", compute)
+        row = row_of(compute, ["ablation", "mt10", "maps (no_explore)"])
+        ablation = [json.loads(p.read_text())["wall_seconds"] for p in FIXTURE.glob("cells/mt10/maps-no_explore*/result.json")]
+        self.assertEqual(row[3:], [str(len(ablation)), f"{sum(ablation) / 3600:.2f}",
+                                   f"{sum(ablation) / len(ablation) / 60:.1f}"])
+
     def test_captions_say_n_and_the_score(self):
         self.assertIn("n = 1-2 seeds per point, 10 episodes per task, 1000 training steps", self.md)
         self.assertIn("success rate", between(self.md, "![](fig2_scores.png)", "##"))
