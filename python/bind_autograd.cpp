@@ -228,6 +228,17 @@ void bind_autograd(py::module_& m) {
   m.def("set_grad_enabled", &ag::GradMode::set_enabled, py::arg("enabled"));
   m.def("set_num_threads", &ag::set_num_threads, py::arg("threads"), "Threads the ops split their work over");
   m.def("num_threads", &ag::num_threads);
+  m.def(
+      "set_flush_denormal",
+      [](bool on) {
+        if (!ag::flush_denormal_supported()) return false;
+        ag::set_flush_denormal(on);
+        return true;
+      },
+      py::arg("mode"),
+      "Flush denormal floats to zero on this thread (and the ops' threads) from now on, like "
+      "torch.set_flush_denormal; returns whether the CPU supports it. maps train does it by default "
+      "(train.flush_denormal).");
 }
 
 }  // namespace maps::python

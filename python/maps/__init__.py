@@ -43,6 +43,7 @@ from ._maps import (  # noqa: F401  (re-exported)
     num_threads,
     read_demo_file,
     relu,
+    set_flush_denormal,
     set_grad_enabled,
     set_num_threads,
     sigmoid,

@@ -313,6 +313,16 @@ class Autograd(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "Tensor"):
             maps.gradcheck(lambda x: 3.0, [a])
 
+    def test_flush_denormal_flushes_products_below_the_smallest_normal(self):
+        tiny = maps.tensor(np.array([1e-20], dtype=np.float32))
+        self.assertGreater(float((tiny * tiny).numpy()[0]), 0.0)  # 1e-40: a float32 denormal
+        self.assertTrue(maps.set_flush_denormal(True))
+        try:
+            self.assertEqual(float((tiny * tiny).numpy()[0]), 0.0)
+        finally:
+            maps.set_flush_denormal(False)
+        self.assertGreater(float((tiny * tiny).numpy()[0]), 0.0)
+
     def test_second_order_and_no_grad(self):
         x = maps.tensor([0.4, -0.3], requires_grad=True)
         (g,) = maps.grad(maps.sum(x ** 3), [x], create_graph=True)
