@@ -10,7 +10,7 @@ means a Holm-adjusted p below 0.05 within the family the claim names."""
 import math
 from dataclasses import dataclass
 
-from suite_results import ablation_groups, groups
+from suite_results import ablation_groups, groups, module_sweep_cells
 from suite_stats import holm, mean, paired, paired_p, usage_distances, vs_single_bc
 
 BASELINES = ["single_bc", "mt_bc", "mt_mh_bc", "maml"]
@@ -256,9 +256,8 @@ def module_claims(cells):
     """Fig. 5: M = 5 comparable to M = 10 on MT10; more modules than tasks beneficial only on Gravity."""
     found = []
     by_m = {}
-    for c in cells:
-        if c.method == "maps" and c.modules is not None and c.variant in ("base", "m5", "m20", "") and \
-                (c.label == "maps" or c.variant.startswith("m")):
+    for set_name in {c.set for c in cells}:
+        for c in module_sweep_cells([c for c in cells if c.set == set_name]):
             by_m.setdefault((c.set, c.modules), []).append(c)
 
     def pooled(set_name, m_a, m_b):

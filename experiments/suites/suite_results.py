@@ -298,12 +298,36 @@ def ablation_groups(cells):
     return dict(sorted(groups(base + ablations).items(), key=rank))
 
 
+# Keys a module-count variant may differ in from the base MAPS cell of its seed and count: M itself, the identity of
+# the run, and how it was computed (train.flush_denormal: denormals flushed or not, the same result).
+SWEEP_FREE_KEYS = [("maps", "modules"), ("seed",), ("data", "demos_per_task"), ("train", "flush_denormal")]
+
+
+def without_keys(config, keys):
+    """A copy of a run config without the given (dotted, as tuples) keys."""
+    out = json.loads(json.dumps(config))
+    for key in keys:
+        node = out
+        for part in key[:-1]:
+            node = node.get(part, {}) if isinstance(node, dict) else {}
+        if isinstance(node, dict):
+            node.pop(key[-1], None)
+    return out
+
+
 def module_sweep_cells(cells):
-    """MAPS cells with the base selector losses, at any M (the base cells included); [] when only one M ran."""
+    """The base MAPS cells and the cells that differ from them in M alone (the m5 / m20 variants), [] when only one M
+    ran. Other variants at the base M (a uniform selector, the paper's inputs, a rerun with denormals flushed) are
+    not points of the sweep, nor is a variant that changes M and something else."""
     ref = maps_reference(cells)
     if ref is None:
         return []
-    sweep = [c for c in cells if c.method == "maps" and c.selector_losses == ref[1]]
+    base = [c for c in cells if c.label == "maps" and c.modules == ref[0] and c.selector_losses == ref[1]]
+    if not base:
+        return []
+    shapes = [without_keys(c.config, SWEEP_FREE_KEYS) for c in base]
+    sweep = base + [c for c in cells if c.method == "maps" and c.label != "maps" and c.modules != ref[0]
+                    and any(same_where_both_say(without_keys(c.config, SWEEP_FREE_KEYS), s) for s in shapes)]
     return sweep if len({c.modules for c in sweep}) > 1 else []
 
 

@@ -234,15 +234,18 @@ def variant_table(cells):
         if key.label == method or not base:
             continue
         diffs = paired(runs, base, lambda c: c.mean_score)
+        seeds = {c.seed for c in runs} & {c.seed for c in base}
         if diffs:
-            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt([c.mean_score for c in base]),
-                         fmt([c.mean_score for c in runs]), fmt(diffs, signed=True), paired_p(diffs)])
+            rows.append([key.label, key.demos, key.subsample, len(diffs),
+                         fmt([c.mean_score for c in base if c.seed in seeds]),
+                         fmt([c.mean_score for c in runs if c.seed in seeds]), fmt(diffs, signed=True),
+                         paired_p(diffs)])
     if not rows:
         return []
     adjusted = holm([row[-1] for row in rows])
     rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
     return (["Each variant against the same method without it (its base cells at the same demos, k and seeds): mean"
-             " score over tasks, mean +- 95% CI over the seeds both ran; difference = variant - base; p: paired t"
+             " score over tasks, mean +- 95% CI over the seeds both ran (base and variant alike); difference = variant - base; p: paired t"
              f" test; Holm over the {sum(1 for a in adjusted if a == a)} rows:", ""]
             + table(["variant", "demos", "k", "pairs", "base", "variant", "difference", "p", "p (Holm)"], rows))
 

@@ -354,6 +354,33 @@ class CheckpointRule(unittest.TestCase):
             self.assertEqual(rows_of(rule, ["maps", "10"]), [])
 
 
+class SweepCells(unittest.TestCase):
+    """Fig. 5's points: base MAPS and the variants that change M alone; other MAPS variants at the base M (uniform
+    selector, the paper's inputs, a rerun with denormals flushed) and variants that change M and more are not."""
+
+    def test_only_module_count_variants_join_the_sweep(self):
+        import suite_results
+
+        def cell(variant, modules, seed, **changes):
+            config = {"method": "maps", "seed": seed, "data": {"demos_per_task": 5},
+                      "train": {"steps": 100}, "maps": {"modules": modules, "selector": "learned",
+                                                        "selector_losses": {"share": 1, "explore": 0.5}}}
+            for section, values in changes.items():
+                config[section].update(values)
+            task = suite_results.TaskResult("mt10/reach", 0.5, 0.5, 0.5, 0.5)
+            return suite_results.Cell(pathlib.Path("."), f"mt10/{variant}_{seed}", "g", "mt10", "maps", variant, 5, 1,
+                                      seed, config, 100, 50, 10, 1.0, [task])
+
+        cells = [cell("base", 10, 0), cell("base", 10, 1), cell("m5", 5, 0, train={"flush_denormal": True}),
+                 cell("m20", 20, 1), cell("uniform", 10, 0, maps={"selector": "uniform"}),
+                 cell("flush", 10, 0, train={"flush_denormal": True}),
+                 cell("m5_uniform", 5, 1, maps={"selector": "uniform"})]
+        sweep = suite_results.module_sweep_cells(cells)
+        self.assertEqual(sorted((c.variant, c.seed) for c in sweep),
+                         [("base", 0), ("base", 1), ("m20", 1), ("m5", 0)])
+        self.assertEqual(suite_results.module_sweep_cells(cells[:2] + cells[4:6]), [])
+
+
 class Statistics(unittest.TestCase):
     def test_ci95_uses_the_t_distribution(self):
         self.assertTrue(math.isnan(suite_stats.ci95([1.0])))
