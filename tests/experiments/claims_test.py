@@ -122,6 +122,12 @@ class Ablations(unittest.TestCase):
         found = claims.claims(ablations({"share": -0.05, "explore": -0.3, "smooth": -0.01}))
         self.assertEqual(find(found, "removing exploration").verdict, claims.NOT_MEASURED)
 
+    def test_a_usage_claim_needs_a_change_of_at_least_0_05(self):
+        self.assertEqual(claims.directional([0.02, 0.021, 0.019, 0.02], +1), claims.PARTLY)  # significant, tiny
+        self.assertEqual(claims.directional([0.1, 0.11, 0.09, 0.1], +1), claims.HOLDS)
+        self.assertEqual(claims.directional([-0.1, -0.11, -0.09], -1), claims.HOLDS)
+        self.assertEqual(claims.directional([-0.1, -0.11, -0.09], +1), claims.NO)
+
     def test_without_explore_one_module_for_every_task(self):
         one = [[0.9] + [0.1 / 9] * 9, [0.85] + [0.15 / 9] * 9]
         cells = [cell("mt10", "maps", 2, seed, [0.5, 0.5], variant="no_explore", zeroed=("explore",), usage=one)
