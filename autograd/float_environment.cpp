@@ -36,10 +36,7 @@ bool flush_denormal() { return kFlushBits != 0u && (read_bits() & kFlushBits) ==
 
 bool set_flush_denormal(bool on) {
   const bool previous = flush_denormal();
-  if (kFlushBits != 0u) {
-    const unsigned bits = read_bits();
-    write_bits(on ? (bits | kFlushBits) : (bits & ~kFlushBits));
-  }
+  detail::set_denormal_bits(on ? kFlushBits : 0u);
   return previous;
 }
 
