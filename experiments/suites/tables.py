@@ -98,24 +98,39 @@ def score_table(cells):
 
 
 def paired_table(cells):
+    """Every method other than MAPS against MAPS, paired by seed. A variant ("mt_bc (paper_protocol)") is paired with
+    MAPS under the same variant when that ran, else with base MAPS (a control such as the wide MT-BC); MAPS's own
+    variants are in variant_table. Holm adjusts within a family: the comparisons made under one variant."""
     by_key = groups(cells)
-    rows = []
+    rows, families = [], []
     for key, runs in by_key.items():
-        maps = by_key.get(key._replace(label="maps"))
-        if key.label == "maps" or not maps:
+        method, _, variant = key.label.partition(" ")
+        if method == "maps":
             continue
-        diffs = paired(runs, maps, lambda c: c.mean_score)
+        same = f"maps {variant}" if variant else "maps"
+        against = same if by_key.get(key._replace(label=same)) else "maps"
+        variant = variant.strip("()")
+        maps = by_key.get(key._replace(label=against))
+        diffs = paired(runs, maps, lambda c: c.mean_score) if maps else []
         if diffs:
-            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True), paired_p(diffs)])
+            rows.append([key.label, against, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True),
+                         paired_p(diffs)])
+            families.append(variant)
     if not rows:
         return []
-    adjusted = holm([row[-1] for row in rows])
+    adjusted = [float("nan")] * len(rows)
+    for family in dict.fromkeys(families):
+        members = [i for i, f in enumerate(families) if f == family]
+        for i, a in zip(members, holm([rows[i][-1] for i in members])):
+            adjusted[i] = a
+    sizes = {f: sum(1 for i, g in enumerate(families) if g == f and adjusted[i] == adjusted[i]) for f in families}
+    family_text = "; ".join(f"{'the base methods' if not f else f}: {n}" for f, n in sizes.items() if n) or "none"
     rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
-    family = sum(1 for a in adjusted if a == a)
     return (["Paired difference of the mean score over tasks, method - MAPS, over the seeds both ran (mean +- 95% CI;"
-             " p: paired t test; Holm: p adjusted for the " + str(family) + " comparisons of this table; a difference"
+             " p: paired t test; a variant is paired with MAPS under the same variant where that ran, else with base"
+             " MAPS; Holm: p adjusted within the comparisons of one variant (" + family_text + "); a difference"
              " holds where the Holm p is below 0.05):", ""]
-            + table(["method", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
+            + table(["method", "against", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
 
 # Display names of the methods that route (their usage is a share per module, summing to 1 over a task's states).

@@ -43,6 +43,8 @@ gravity single_bc base - 10 1 0.8 0.5
 gravity mt_bc base - 5 0 0.6 0.4
 gravity mt_bc base - 5 1 0.5 0.3
 gravity mt_bc base - 10 0 0.7 0.8
+gravity mt_bc w430 - 5 0 0.7 0.5
+gravity mt_bc w430 - 5 1 0.6 0.4
 mt10 maps base 10 5 0 0.8 0.6
 mt10 maps base 10 5 1 0.6 0.6
 mt10 maps base 10 10 0 1.0 0.8
@@ -55,6 +57,8 @@ mt10 maps no_explore 10 5 0 0.4 0.2
 mt10 maps no_explore 10 5 1 0.3 0.3
 mt10 maps no_explore 10 10 0 0.6 0.4
 mt10 maps no_explore 10 10 1 0.5 0.5
+mt10 maps paper_protocol 10 5 0 0.6 0.4
+mt10 maps paper_protocol 10 5 1 0.5 0.5
 mt10 single_bc base - 5 0 0.6 0.4
 mt10 single_bc base - 5 1 0.7 0.5
 mt10 single_bc base - 10 0 0.9 0.9
@@ -62,6 +66,8 @@ mt10 single_bc base - 10 1 0.8 0.8
 mt10 mt_bc base - 5 0 0.5 0.5
 mt10 mt_bc base - 5 1 0.4 0.2
 mt10 mt_bc base - 10 0 0.9 0.7
+mt10 mt_bc paper_protocol - 5 0 0.4 0.4
+mt10 mt_bc paper_protocol - 5 1 0.5 0.5
 """
 TASKS = {"gravity": ["gravity/0.5", "gravity/1.0"], "mt10": ["mt10/reach", "mt10/push"]}
 EXPERT_RETURN = {"gravity/0.5": 5000.0, "gravity/1.0": 4000.0}
@@ -74,7 +80,8 @@ def expected_results():
         set_name, method, variant, modules, demos, seed, *scores = line.split()
         subsample = "10" if set_name == "gravity" else "1"
         folder = f"{method}{'' if variant == 'base' else '-' + variant}_d{demos}_s{seed}"
-        grid = {"base": "comparison", "no_explore": "ablation", "m5": "modules"}[variant]
+        grid = {"base": "comparison", "no_explore": "ablation", "m5": "modules", "w430": "controls",
+                "paper_protocol": "paper_protocol"}[variant]
         for task, score in zip(TASKS[set_name], map(float, scores)):
             success, ret = (score, 500.0 + 4000.0 * score) if set_name == "mt10" else (0.0, score * EXPERT_RETURN[task])
             rows.append({"set": set_name, "method": method, "variant": variant,
@@ -173,7 +180,7 @@ class Report(unittest.TestCase):
         self.assertIn("10 evaluation episodes per task; seeds 0, 1", self.md)
         self.assertIn("checkpoint = the step of the best validation BC loss", self.md)
         self.assertIn("at any step of its 150 steps", self.md)
-        self.assertIn("Cells: 30 finished, 1 missing (not run or not finished), 1 failed, 0 damaged, of 32 in"
+        self.assertIn("Cells: 36 finished, 1 missing (not run or not finished), 1 failed, 0 damaged, of 38 in"
                       " suite.json.", self.md)
         self.assertIn("- `gravity/mt_bc_d10_s1` (train): maps: error: loss is nan at step 250", self.md)
         self.assertIn("Missing cells: `mt10/mt_bc_d10_s1`", self.md)
@@ -194,14 +201,24 @@ class Report(unittest.TestCase):
     def test_paired_differences_from_maps_use_the_same_seeds(self):
         gravity = between(self.md, "## Set gravity", "## Set mt10")
         paired = between(gravity, "### Paired differences", "###")
-        # Single BC at 5 demos: 0.4 - 0.7 and 0.5 - 0.5: mean -0.15, CI 12.706 * 0.2121 / sqrt(2) = 1.91.
-        self.assertEqual(row_of(paired, ["single_bc", "5"])[3:], ["2", "-0.15 +- 1.91", "0.500", "0.749"])
-        self.assertEqual(row_of(paired, ["mt_bc", "5"])[3:], ["2", "-0.15 +- 0.64", "0.205", "0.614"])
-        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.05 +- nan", "-", "-"])
+        # Single BC at 5 demos: 0.4 - 0.7 and 0.5 - 0.5: mean -0.15, CI 12.706 * 0.2121 / sqrt(2) = 1.91. Holm over
+        # the base methods' three comparisons with a p (Single BC at 10: p 0.374; MT-BC at 10 has one pair).
+        self.assertEqual(row_of(paired, ["single_bc", "maps", "5"])[4:], ["2", "-0.15 +- 1.91", "0.500", "0.749"])
+        self.assertEqual(row_of(paired, ["mt_bc", "maps", "5"])[4:], ["2", "-0.15 +- 0.64", "0.205", "0.614"])
+        self.assertEqual(row_of(paired, ["mt_bc", "maps", "10"])[4:], ["1", "-0.05 +- nan", "-", "-"])
+        # A control with no MAPS under its variant is paired with base MAPS, in a Holm family of its own:
+        # 0.6 - 0.7 and 0.5 - 0.5.
+        self.assertEqual(row_of(paired, ["mt_bc (w430)", "maps", "5"])[4:], ["2", "-0.05 +- 0.64", "0.500", "0.500"])
         mt10 = between(self.md, "## Set mt10", "## Fig. 4")
         paired = between(mt10, "### Paired differences", "###")
-        self.assertEqual(row_of(paired, ["maps (no_explore)", "5"])[3:], ["2", "-0.35 +- 0.64", "0.090", "0.542"])
-        self.assertEqual(row_of(paired, ["mt_bc", "10"])[3:], ["1", "-0.10 +- nan", "-", "-"])
+        self.assertEqual(row_of(paired, ["mt_bc", "maps", "10"])[4:], ["1", "-0.10 +- nan", "-", "-"])
+        # MT-BC under the paper's protocol against MAPS under it (0.4 - 0.5, 0.5 - 0.5), not against base MAPS;
+        # MAPS's own variants are not here (they are in "Variants against their base").
+        self.assertEqual(row_of(paired, ["mt_bc (paper_protocol)", "maps (paper_protocol)", "5"])[4:],
+                         ["2", "-0.05 +- 0.64", "0.500", "0.500"])
+        self.assertEqual(rows_of(paired, ["maps (no_explore)"]), [])
+        self.assertEqual(rows_of(paired, ["maps (paper_protocol)"]), [])
+        self.assertIn("the base methods: 3; w430: 1", gravity)
 
     def test_routing_is_computed_per_seed(self):
         routing = between(self.md, "MAPS, 5 demos, k = 10", "MAPS, 10 demos, k = 10")
@@ -416,14 +433,14 @@ class Errors(unittest.TestCase):
             self.assertNotIn("Traceback", stderr)
             self.assertIn(str(truncated), stderr)
             md = (suite / "report" / "report.md").read_text()
-            self.assertIn("27 finished, 1 missing (not run or not finished), 1 failed, 3 damaged", md)
+            self.assertIn("33 finished, 1 missing (not run or not finished), 1 failed, 3 damaged", md)
             self.assertIn(f"- `{truncated}`: JSONDecodeError", md)
             self.assertIn(f"- `{no_eval}`: KeyError", md)
             self.assertIn(f"- `{stale}`: trained with another run config", md)
             self.assertEqual(row_of(stdout, ["mt10", "single_bc", "5"])[4:], ["1", "0.50 +- nan"])
             with (suite / "report" / "results.csv").open() as f:
                 cells = {row["cell"] for row in csv.DictReader(f)}
-            self.assertEqual(len(cells), 27)
+            self.assertEqual(len(cells), 33)
             self.assertFalse({"mt10/single_bc_d5_s1", "gravity/maps_d10_s1", "mt10/maps-m5_d5_s0"} & cells)
 
     def test_a_folder_without_suite_json_says_so(self):
@@ -443,7 +460,7 @@ class Errors(unittest.TestCase):
             code, stdout, stderr = run_report(suite)
             self.assertEqual(code, 2)
             self.assertIn(f"{suite}: no finished cells", stderr)
-            self.assertIn("32 planned, 1 failed", stderr)
+            self.assertIn("38 planned, 1 failed", stderr)
             self.assertFalse((suite / "report").exists())
 
     def test_a_missing_matplotlib_says_what_to_install(self):
