@@ -152,7 +152,11 @@ int run_eval(const EvalRunOptions& options) {
   for (const auto& t : result.tasks) {
     std::printf("| %s | %.3f +- %.3f | %.1f +- %.1f | %.2f |\n", t.task.c_str(), t.score, t.score_ci95(), t.return_mean,
                 t.return_std, t.success_rate);
+    int demos = config.data.demos_per_task;  // the task's own count where data.task_demos sets one (transfer)
+    for (const auto& [name, count] : config.data.task_demos)
+      if (name == t.task) demos = count;
     nlohmann::json entry{{"task", t.task},
+                         {"demos", demos},
                          {"episodes", t.episodes},
                          {"score", t.score},
                          {"score_ci95", t.score_ci95()},
@@ -172,7 +176,7 @@ int run_eval(const EvalRunOptions& options) {
   std::printf("mean score %.3f (%.1f s)\n", result.mean_score, result.seconds);
   nlohmann::json record{{"method", config.method},
                         {"seed", config.seed},
-                        {"demos_per_task", config.data.demos_per_task},
+                        {"demos_per_task", config.data.demos_per_task},  // tasks[].demos: each task's own
                         {"subsample", config.data.subsample},
                         {"best_step", best.at("step")},
                         {"episodes", eval.episodes},

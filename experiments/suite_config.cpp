@@ -168,6 +168,10 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
       if (!scale.is_number() || !(scale.get<double>() >= 0.0))
         throw std::invalid_argument(at + ".module_lr_scale: expected a number >= 0, got " + scale.dump());
       axis.module_lr_scale = scale.get<double>();
+      if (axis.module_lr_scale != 1.0 &&
+          std::find(axis.freeze.begin(), axis.freeze.end(), "modules") != axis.freeze.end())
+        throw std::invalid_argument(at + ".module_lr_scale: the modules are frozen (freeze " + joined(axis.freeze) +
+                                    "); drop \"modules\" from freeze to fine-tune them");
     }
   }
   return axis;
@@ -285,13 +289,14 @@ Suite parse_suite(const Json& json, const std::string& where) {
                                                 source_folder +
                                                 ", which no earlier grid makes (a grid with method maps, holdout [\"" +
                                                 task + "\"], demos [" + std::to_string(axis.others_demos) + "])");
-                  request = suite.cells[source->second].request;
-                  request["data"]["tasks"] = {task};
-                  request["data"]["holdout"] = Json::array();
-                  request["data"]["task_demos"] = {{task, demos}};
-                  request["train"]["freeze"] = axis.freeze;
-                  request["train"]["lr_scale"] = Json::object();
-                  if (axis.module_lr_scale != 1.0) request["train"]["lr_scale"]["modules"] = axis.module_lr_scale;
+                  if (!suite.cells[source->second].request["init"].value("run", "").empty())
+                    throw std::invalid_argument(at + ": cell " + cell.name + " transfers from " + set_name + "/" +
+                                                source_folder +
+                                                ", which starts from another run (init.run): its modules may have "
+                                                "seen " +
+                                                task);
+                  request = core::transfer_request(suite.cells[source->second].request, task, demos, axis.freeze,
+                                                   axis.module_lr_scale);
                   request["init"] = {{"run", "../" + source_folder}, {"checkpoint", "best.ckpt"}};
                 } else {
                   request = merge_json(defaults, set.config);
@@ -306,6 +311,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
                     request["data"]["demos_per_task"] = axis.others_demos;
                     request["data"]["task_demos"] = {{task, demos}};
                     request["eval"]["tasks"] = {task};
+                    request["train"]["validation_tasks"] = {task};
                     if (method == "single_bc") request["data"]["tasks"] = {task};
                   }
                 }

@@ -110,6 +110,25 @@ class Cell:
             return [], []
         return steps, losses
 
+    def training_seconds_to(self, step):
+        """Seconds of training until `step`, summed over curve.csv's validation windows (each row: the steps since
+        the row before at its steps_per_second, which times training and validation), so a resumed run counts every
+        attempt's training and no evaluation. None when the curve is missing, unreadable or ends before `step`."""
+        seconds, previous = 0.0, 0
+        try:
+            with (self.folder / "curve.csv").open() as f:
+                for row in csv.DictReader(f):
+                    at, speed = int(row["step"]), float(row["steps_per_second"])
+                    if at > step:
+                        break
+                    if speed <= 0:
+                        return None
+                    seconds += (at - previous) / speed
+                    previous = at
+        except (OSError, KeyError, ValueError, TypeError):
+            return None
+        return seconds if previous == step else None
+
 
 @dataclass
 class Suite:

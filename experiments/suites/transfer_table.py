@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """Issue 17's results from a suite folder of experiments/suites/transfer.json (or any suite with holdout and
 new_task grids): per (set, new task, method, demonstrations of the new task) the new task's score, mean +- 95% t
-interval over seeds; paired differences of transfer from each other method; the training cost (best-validation step,
-wall seconds); and which modules the new task picks next to those its named neighbour used in the source run.
+interval over seeds; paired differences of transfer from each other method; the training cost (the best-validation
+step and the training seconds to reach it, from curve.csv; transfer's source run beside); and which modules the new
+task picks: its most used ones next to its named neighbour's in the source run, and how far its usage is (total
+variation) from the neighbour's and from every other trained task's.
 
     python3 experiments/suites/transfer_table.py results/transfer --out results/transfer/report
 
@@ -15,7 +17,7 @@ import sys
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from suite_results import SuiteError, load_suite, order, METHOD_ORDER  # noqa: E402
-from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p  # noqa: E402
+from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
 
 # The trained task each new task is nearest to (its neighbour in the set's parameter, or its counterpart).
 NEIGHBOUR = {"gravity/0.5": "gravity/0.75", "gravity/1.5": "gravity/1.25", "modified/big_foot": "modified/original",
@@ -46,10 +48,15 @@ def top_modules(usage, count=3):
     return ", ".join(f"m{m} ({usage[m]:.2f})" for m in ranked)
 
 
-def overlap(a, b, count=3):
-    top_a = set(sorted(range(len(a)), key=lambda m: -a[m])[:count])
-    top_b = set(sorted(range(len(b)), key=lambda m: -b[m])[:count])
-    return len(top_a & top_b)
+def short(task):
+    return task.rsplit("/", 1)[-1]
+
+
+def mean_of(values):
+    """Mean of the values that are known, and how many there were; "-" when none."""
+    known = [v for v in values if v is not None]
+    return (f"{mean(known):.0f}" + ("" if len(known) == len(values) else f" ({len(known)} of {len(values)})")
+            if known else "-")
 
 
 def main():
@@ -111,28 +118,47 @@ def main():
             if diffs:
                 lines.append(f"| {NAMES.get(method, method)} | {d} | {len(diffs)} | {fmt(diffs, signed=True)} | "
                              f"{fmt_p(p)} | {fmt_p(p_holm)} |")
-        lines += ["", "Training cost (the best-validation step; wall seconds of the cell, training and evaluation):",
-                  "", "| method | demos | best step | wall seconds |", "|---|---|---|---|"]
+        lines += ["", "Training cost, mean over seeds: the best-validation step, the seconds of training to reach it and "
+                      "of the whole training (curve.csv's speed per validation window, every attempt of a resumed "
+                      "run, validation included, evaluation not), one thread:", "",
+                  "| method | demos | best step | seconds to the best step | training seconds |", "|---|---|---|---|---|"]
         for method in methods:
             for d in counts:
                 cells = rows.get((set_name, task, method, d), [])
                 if cells:
                     lines.append(f"| {NAMES.get(method, method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
-                                 f"{mean([c.wall_seconds for c in cells]):.0f} |")
+                                 f"{mean_of([c.training_seconds_to(c.best_step) for c in cells])} | "
+                                 f"{mean_of([c.training_seconds_to(c.steps) for c in cells])} |")
+        held = [c for (s, t, _), c in sources.items() if (s, t) == (set_name, task)]
+        if held:
+            lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
+                          f"at {held[0].demos} demonstrations): best step {mean([c.best_step for c in held]):.0f}, "
+                          f"{mean_of([c.training_seconds_to(c.best_step) for c in held])} seconds to it, "
+                          f"{mean_of([c.training_seconds_to(c.steps) for c in held])} of training; one such run per "
+                          "seed serves every count of the new task."]
         neighbour = NEIGHBOUR.get(task)
         usage_lines = []
         for d in counts:
             for cell in rows.get((set_name, task, "transfer", d), []):
                 mine = next((t.usage for t in cell.tasks if t.task == task), None)
                 source = sources.get((set_name, task, cell.seed))
-                theirs = next((t.usage for t in source.tasks if t.task == neighbour), None) if source else None
-                if mine and theirs:
-                    usage_lines.append(f"| {d} | {cell.seed} | {top_modules(mine)} | {top_modules(theirs)} | "
-                                       f"{overlap(mine, theirs)} of 3 |")
+                trained = {t.task: t.usage for t in source.tasks if t.usage} if source else {}
+                if not mine or neighbour not in trained:
+                    continue
+                distance = {t: total_variation(mine, u) for t, u in trained.items()}
+                nearest = min(distance, key=distance.get)
+                others = [v for t, v in distance.items() if t != neighbour]
+                usage_lines.append(
+                    f"| {d} | {cell.seed} | {top_modules(mine)} | {top_modules(trained[neighbour])} | "
+                    f"{distance[neighbour]:.2f} | " + (f"{min(others):.2f}-{max(others):.2f}" if others else "-") +
+                    f" | {short(nearest)} ({distance[nearest]:.2f}) |")
         if usage_lines:
-            lines += ["", f"Modules: the new task's most used modules after transfer, and those {neighbour} used in "
-                          "the source run (the same modules: the numbering is the source run's):", "",
-                      "| demos | seed | new task | neighbour in the source run | shared |", "|---|---|---|---|---|"]
+            lines += ["", f"Modules: the new task's most used modules after transfer and those {neighbour} used in the "
+                          "source run (the same modules: the numbering is the source run's); the total-variation "
+                          "distance of the new task's usage from the neighbour's and from the other trained tasks' "
+                          "(0: the same mixture; 1: no module in common); the trained task whose usage is nearest:",
+                      "", "| demos | seed | new task | neighbour in the source run | TV to the neighbour | TV to the "
+                          "others | nearest trained task (TV) |", "|---|---|---|---|---|---|---|"]
             lines += usage_lines
         lines.append("")
     (out / "transfer.md").write_text("\n".join(lines) + "\n")

@@ -12,6 +12,13 @@ namespace {
 using envs::draw_below;
 using envs::splitmix64;
 
+// FNV-1a: a task name's stream, the same on every platform and build.
+std::uint64_t name_hash(const std::string& name) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char c : name) h = (h ^ c) * 0x100000001b3ULL;
+  return h;
+}
+
 // Rows of a demo kept for training or validation, with each row's predecessor in time (row t - 1 of the demo,
 // row 0 paired with itself). The predecessor is the real previous state even when subsampling skips it: the
 // smoothness loss compares consecutive states, and it reads only observations, never action labels.
@@ -79,12 +86,16 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
 
   // Every task of the file is drawn, kept or not, in the file's order: a task's draw depends only on the seed and
   // the counts, not on which other tasks a run keeps.
-  std::mt19937_64 rng(splitmix64(config.seed ^ 0x6d6170732d646174ULL));  // a stream of its own: "maps-dat"
+  if (config.draws != "sequential" && config.draws != "per_task")
+    throw std::invalid_argument("data.draws: expected \"sequential\" or \"per_task\", got \"" + config.draws + "\"");
+  const std::uint64_t data_stream = splitmix64(config.seed ^ 0x6d6170732d646174ULL);  // a stream of its own: "maps-dat"
+  std::mt19937_64 rng(data_stream);
   Eigen::MatrixXd all_train_obs(0, file.demos.front().obs.cols());
   for (int k = 0; k < file_tasks; ++k) {
     const bool kept = keep[k];
     std::vector<int>& pool = train[k];
     auto wanted = demos_of[k] == 0 ? pool.size() : static_cast<std::size_t>(demos_of[k]);
+    if (config.draws == "per_task") rng.seed(splitmix64(data_stream ^ name_hash(file.task_names[k])));
     if (kept && (pool.size() < wanted || pool.empty()))
       throw std::invalid_argument("data: task " + file.task_names[k] + " has " + std::to_string(pool.size()) +
                                   " training demos (mask/train), " + std::to_string(wanted) + " requested");
@@ -176,9 +187,21 @@ Batch DemoDataset::task_validation_batch(int task, ag::Dtype dtype) const {
   return make_batch(picks, dtype, true, 0);
 }
 
-Batch DemoDataset::validation_batch(ag::Dtype dtype, std::int64_t max_per_task) const {
+Batch DemoDataset::validation_batch(ag::Dtype dtype, std::int64_t max_per_task,
+                                    const std::vector<std::string>& tasks) const {
+  std::vector<bool> chosen(static_cast<std::size_t>(num_tasks()), tasks.empty());
+  for (const auto& name : tasks) {
+    const auto found = std::find(task_names_.begin(), task_names_.end(), name);
+    if (found == task_names_.end()) {
+      std::string known;
+      for (const auto& task : task_names_) known += (known.empty() ? "" : ", ") + task;
+      throw std::invalid_argument("train.validation_tasks: '" + name + "' is not a task of this run (" + known + ")");
+    }
+    chosen[static_cast<std::size_t>(found - task_names_.begin())] = true;
+  }
   std::vector<std::pair<int, std::int64_t>> picks;
   for (int k = 0; k < num_tasks(); ++k) {
+    if (!chosen[static_cast<std::size_t>(k)]) continue;
     const std::int64_t rows = tasks_[k].valid_obs.rows();
     const std::int64_t count = max_per_task > 0 ? std::min(rows, max_per_task) : rows;
     for (std::int64_t i = 0; i < count; ++i) picks.emplace_back(k, i * rows / count);

@@ -29,6 +29,11 @@ struct DataConfig {
   std::vector<std::string> holdout;
   // Training demonstrations of particular tasks, in place of demos_per_task for them (a new task's few demos).
   std::vector<std::pair<std::string, int>> task_demos;
+  // How the demos and offsets are drawn. "sequential": one stream through the file's tasks in order, so a task's
+  // draw also depends on the counts of the tasks before it (every run made before the option). "per_task": each
+  // task a stream of its own from the seed and its name, so its draw depends on the seed and its own count only
+  // (transfer's comparison: the other tasks get the same demos whatever the new task's count).
+  std::string draws = "sequential";
 };
 
 // Which of a demo file's tasks (in the file's order) a run of `config` trains on: data.tasks (all when empty) less
@@ -41,7 +46,8 @@ class DemoDataset {
   // Throws std::invalid_argument naming what is wrong: a task with fewer training demos than asked for, a
   // subsample factor < 1, a demo shorter than the factor leaves nothing of, a task name not in the file, no task
   // left. The demos of every task of the file are drawn in the file's order whatever is kept, so a task's draw is
-  // the same in a run of all tasks, a leave-one-out run and a run of that task alone (same seed and counts).
+  // the same in a run of all tasks, a leave-one-out run and a run of that task alone (same seed and counts; with
+  // draws "per_task", same seed and own count).
   DemoDataset(const envs::DemoFile& file, const DataConfig& config);
 
   int num_tasks() const { return static_cast<int>(task_names_.size()); }
@@ -69,8 +75,10 @@ class DemoDataset {
   // Every state of the task's validation demos (all of them, every state: subsampling is for training only).
   Batch task_validation_batch(int task, ag::Dtype dtype) const;
   // All tasks' validation states, task-major (per_task = 0: tasks may differ in count). With max_per_task > 0, at
-  // most that many states per task, evenly spaced through the task's validation states (a fixed subset).
-  Batch validation_batch(ag::Dtype dtype, std::int64_t max_per_task = 0) const;
+  // most that many states per task, evenly spaced through the task's validation states (a fixed subset). With
+  // `tasks` (names), only those tasks' states; a name the dataset lacks is an error.
+  Batch validation_batch(ag::Dtype dtype, std::int64_t max_per_task = 0,
+                         const std::vector<std::string>& tasks = {}) const;
 
  private:
   struct TaskData {

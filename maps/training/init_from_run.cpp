@@ -29,12 +29,13 @@ void initialize_from(Policy& target, const std::vector<std::string>& target_task
       throw std::invalid_argument("initialize_from: the source " + source.type_name() + " has no parameter " + name);
     const ag::Tensor& src = found->tensor;
     ag::Tensor dst = tensor;
-    if (src.shape() == dst.shape()) {
+    const bool task_input = dst.dim() == 2 && src.dim() == 2 && dst.size(0) == src.size(0) && dst.size(1) == S + K_to &&
+                            src.size(1) == S + K_from;
+    // A [state, task] layer is mapped by task name even when its shape is the same (other tasks, or another order).
+    if (src.shape() == dst.shape() && (!task_input || target_tasks == source_tasks)) {
       dst.copy_(src.to(dst.dtype()));
       continue;
     }
-    const bool task_input = dst.dim() == 2 && src.dim() == 2 && dst.size(0) == src.size(0) && dst.size(1) == S + K_to &&
-                            src.size(1) == S + K_from;
     if (!task_input)
       throw std::invalid_argument("initialize_from: parameter " + name + " is " + shape_text(src) +
                                   " in the source and " + shape_text(dst) +

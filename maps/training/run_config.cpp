@@ -143,13 +143,17 @@ RunConfig parse_run_config(const Json& json) {
   read(json, "", "seed", c.seed);
   if (!json.contains("data")) throw std::invalid_argument("config: \"data\": {\"file\": ...} is required");
   const Json& data = json["data"];
-  check_keys(data, "data", {"file", "demos_per_task", "subsample", "tasks", "holdout", "task_demos"});
+  check_keys(data, "data", {"file", "demos_per_task", "subsample", "tasks", "holdout", "task_demos", "draws"});
   read(data, "data", "file", c.data_file);
   if (c.data_file.empty()) throw std::invalid_argument("config data.file: required");
   read(data, "data", "demos_per_task", c.data.demos_per_task);
   read(data, "data", "subsample", c.data.subsample);
   read(data, "data", "tasks", c.data.tasks);
   read(data, "data", "holdout", c.data.holdout);
+  read(data, "data", "draws", c.data.draws);
+  if (c.data.draws != "sequential" && c.data.draws != "per_task")
+    throw std::invalid_argument("config data.draws: expected \"sequential\" or \"per_task\", got \"" + c.data.draws +
+                                "\"");
   if (data.contains("task_demos"))
     c.data.task_demos = read_named_numbers<int>(
         data["task_demos"], "data.task_demos", "task name: demonstrations", "an integer >= 0", [](const Json& count) {
@@ -160,7 +164,8 @@ RunConfig parse_run_config(const Json& json) {
     const Json& t = json["train"];
     check_keys(t, "train",
                {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
-                "validation_states_per_task", "keep_every", "bc_loss", "freeze", "lr_scale", "flush_denormal"});
+                "validation_states_per_task", "keep_every", "bc_loss", "freeze", "lr_scale", "flush_denormal",
+                "validation_tasks"});
     read(t, "train", "steps", c.train.steps);
     read(t, "train", "learning_rate", c.train.learning_rate);
     read(t, "train", "states_per_task", c.train.states_per_task);
@@ -171,6 +176,7 @@ RunConfig parse_run_config(const Json& json) {
     read(t, "train", "bc_loss", c.train.bc_loss);
     read(t, "train", "freeze", c.train.freeze);
     read(t, "train", "flush_denormal", c.train.flush_denormal);
+    read(t, "train", "validation_tasks", c.train.validation_tasks);
     if (t.contains("lr_scale"))
       c.train.lr_scale = read_named_numbers<double>(t["lr_scale"], "train.lr_scale", "parameter-name prefix: factor",
                                                     "a finite number >= 0", [](const Json& factor) {
@@ -273,6 +279,20 @@ RunConfig parse_run_config(const Json& json) {
   return c;
 }
 
+Json transfer_request(Json request, const std::string& task, int demos, const std::vector<std::string>& freeze,
+                      double module_lr_scale) {
+  request["data"]["tasks"] = {task};
+  request["data"]["holdout"] = Json::array();
+  request["data"]["task_demos"] = {{task, demos}};
+  request["train"]["freeze"] = freeze;
+  request["train"]["lr_scale"] = Json::object();
+  if (module_lr_scale != 1.0) request["train"]["lr_scale"]["modules"] = module_lr_scale;
+  request["train"]["validation_tasks"] = Json::array();
+  request["eval"]["tasks"] = Json::array();
+  request["maps"]["selector_losses"]["explore"] = 0.0;
+  return request;
+}
+
 Json to_json(const RunConfig& c) {
   Json losses = Json::object();
   for (const auto& [name, weight] : c.maps.selector_losses) losses[name] = weight;
@@ -288,7 +308,8 @@ Json to_json(const RunConfig& c) {
              {"subsample", c.data.subsample},
              {"tasks", c.data.tasks},
              {"holdout", c.data.holdout},
-             {"task_demos", task_demos}}},
+             {"task_demos", task_demos},
+             {"draws", c.data.draws}}},
            {"train",
             {{"steps", c.train.steps},
              {"learning_rate", c.train.learning_rate},
@@ -300,7 +321,8 @@ Json to_json(const RunConfig& c) {
              {"bc_loss", c.train.bc_loss},
              {"freeze", c.train.freeze},
              {"lr_scale", lr_scale},
-             {"flush_denormal", c.train.flush_denormal}}},
+             {"flush_denormal", c.train.flush_denormal},
+             {"validation_tasks", c.train.validation_tasks}}},
            {"maps",
             {{"modules", c.maps.modules},
              {"module_hidden", c.maps.module_hidden},

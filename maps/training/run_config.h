@@ -19,10 +19,12 @@
 //
 //   {"method": "maps",                       // a name of policy_registry.h (maps, single_bc, mt_bc, ...)
 //    "seed": 0,                              // data draw, initialisation and batches all derive from it
-//    "data": {"file": "data/gravity.h5", "demos_per_task": 5, "subsample": 20},
+//    "data": {"file": "data/gravity.h5", "demos_per_task": 5, "subsample": 20,
+//             "draws": "sequential"},                   // or "per_task" (DataConfig::draws)
 //    "train": {"steps": 30000, "learning_rate": 3e-4, "states_per_task": 128, "validate_every": 1000,
 //              "checkpoint_every": 1000, "validation_states_per_task": 2000, "keep_every": 0,
-//              "bc_loss": "mean"},                      // or "sampled" (the paper's code; not for maml)
+//              "bc_loss": "mean",                       // or "sampled" (the paper's code; not for maml)
+//              "validation_tasks": []},                 // judge checkpoints on these tasks only (empty: all)
 //    "maps": {"modules": 10, "activation": "tanh", "selector": "learned",   // or "uniform" (scores 1/M)
 //             "selector_losses": {"share": 1, "explore": 0.5, "sparse": 0.001, "smooth": 1}},
 //    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10,
@@ -58,6 +60,14 @@ struct RunConfig {
 RunConfig parse_run_config(const nlohmann::json& json);
 // Every field, defaults included: what a run folder records.
 nlohmann::json to_json(const RunConfig& config);
+
+// The run config that teaches `task` from `demos` of its demonstrations to a MAPS run that never saw it (`maps
+// transfer` and the suite's transfer cells; the caller sets "init"): the task alone, the given parameter prefixes
+// frozen, the modules' learning rate scaled (1: not), judged and evaluated on the task. The explore term is
+// switched off: it asks a batch to use every module equally, which over the source's many tasks balanced them
+// and over one task's states alone would push the new task onto modules that other tasks own.
+nlohmann::json transfer_request(nlohmann::json source_request, const std::string& task, int demos,
+                                const std::vector<std::string>& freeze, double module_lr_scale);
 
 // The method's policy for the data's shapes, initialised from the run's seed.
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape);

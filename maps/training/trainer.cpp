@@ -211,7 +211,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   } else {
     std::ofstream(curve_path, std::ios::trunc);  // a fresh run starts a fresh curve
   }
-  const Batch validation = data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task);
+  const Batch validation =
+      data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task, config.validation_tasks);
   const std::int64_t per_task = policy.batch_per_task(config.states_per_task);
 
   std::vector<std::string> term_names;

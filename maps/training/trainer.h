@@ -40,6 +40,9 @@ struct TrainConfig {
   // Training (steps and validation) flushes denormal floats to zero (autograd/float_environment.h): 3-6x faster
   // once MAPS's selector sharpens. false: IEEE denormals, as runs made before the option existed.
   bool flush_denormal = true;
+  // The best checkpoint is judged on these tasks' validation states only (empty: every task's). Transfer's
+  // comparison: a multi-task run taught a new task is judged on the new task, as a run of that task alone is.
+  std::vector<std::string> validation_tasks;
 };
 
 struct TrainSummary {

@@ -35,11 +35,17 @@ class Transfer(unittest.TestCase):
         self.assertEqual(request["data"]["tasks"], ["mt10/reach"])
         self.assertEqual(request["data"]["task_demos"], {"mt10/reach": 2})
         self.assertEqual(request["train"]["freeze"], ["modules"])
+        # One task's batches: the explore term would spread the new task over every module, so it is off; the
+        # other terms keep the source's weights.
+        source = json.loads((work() / "without_reach" / "config.json").read_text())
+        self.assertEqual(request["maps"]["selector_losses"],
+                         dict(source["maps"]["selector_losses"], explore=0.0))
         self.assertEqual(pathlib.Path(request["init"]["run"]), (work() / "without_reach").resolve())
         run("eval", "--run", folder)
         evaluation = json.loads((folder / "eval.json").read_text())
         self.assertEqual([t["task"] for t in evaluation["tasks"]], ["mt10/reach"])
         self.assertEqual(len(evaluation["tasks"][0]["module_usage"]), 4)
+        self.assertEqual(evaluation["tasks"][0]["demos"], 2)  # the new task's count, not the source's
         # Resuming the finished transfer changes nothing and does not start from the source again.
         again = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "reach",
                     "--steps", "40")
@@ -65,6 +71,10 @@ class Transfer(unittest.TestCase):
         run("train", "--config", self.config, "--out", "baseline", "--set", "method=mt_bc",
             "--set", 'data.holdout=["mt10/reach"]')
         refused(1, "mt_bc run", "baseline")
+        # A source that itself started from another run may have seen the task through it.
+        run("train", "--config", self.config, "--out", "started_from", "--set", 'data.holdout=["mt10/reach"]',
+            "--set", f"init.run={work() / 'without_reach'}", "--set", "train.steps=1")
+        refused(1, "started from another run", "started_from")
 
     def test_a_suite_runs_transfer_cells_after_their_sources(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
@@ -81,12 +91,25 @@ class Transfer(unittest.TestCase):
         self.assertIn("starting from", (cells / "transfer-new-reach_d1_s0" / "train.log").read_text())
         baseline = json.loads((cells / "mt_bc-new-reach_d2_s0" / "request.json").read_text())
         self.assertEqual((baseline["data"]["demos_per_task"], baseline["data"]["task_demos"]), (2, {"mt10/reach": 2}))
+        # Judged on the new task, as the transfer and Single BC runs are; every cell draws each task's demos from a
+        # stream of its own (the fixture's data.draws), so the other tasks' demos are the source's.
+        self.assertEqual(baseline["train"]["validation_tasks"], ["mt10/reach"])
+        self.assertEqual(request["train"]["validation_tasks"], [])
+        source = json.loads((cells / "maps-without-reach_d2_s0" / "result.json").read_text())
+        trained = json.loads((cells / "mt_bc-new-reach_d1_s0" / "result.json").read_text())
+        others = {t: s for t, s in trained["train"]["training_demo_seeds"].items() if t != "mt10/reach"}
+        self.assertEqual(others, source["train"]["training_demo_seeds"])
         table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
                                 work() / "suite"], capture_output=True, text=True)
         self.assertEqual(table.returncode, 0, table.stderr)
         report = (work() / "suite" / "report" / "transfer.md").read_text()
         self.assertIn("## mt10/reach", report)
         self.assertRegex(report, r"\| MAPS transfer \| [0-9.]+ \+- nan \(1\) \| [0-9.]+ \+- nan \(1\) \|")
+        # The cost from the curves: seconds to the best step and of training, numbers for every cell; the source
+        # run's beside.
+        self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| \d+ \| \d+ \|")
+        self.assertRegex(report, r"MAPS transfer starts from a run without reach \(1 seeds, the other tasks at 2 "
+                                 r"demonstrations\): best step \d+, \d+ seconds to it, \d+ of training")
         self.assertTrue((work() / "suite" / "report" / "transfer_scores.png").stat().st_size > 10000)
         for cell in ("transfer-new-reach_d2_s0", "mt_bc-new-reach_d2_s0"):
             result = json.loads((cells / cell / "result.json").read_text())

@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 #include "tests/maps/data/synthetic_demos.h"
@@ -74,12 +75,18 @@ TEST(DemoDataset, BadRequestsAreNamed) {
               ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("subsample")));
 }
 
+// 3 of the 6 training demos of synthetic_demo_file(9)'s tasks, every 5th state.
+DataConfig three_demos_every_fifth_state() {
+  DataConfig config;
+  config.demos_per_task = 3;
+  config.subsample = 5;
+  config.seed = 11;
+  return config;
+}
+
 TEST(DemoDataset, KeptTasksDrawTheSameDemosWhateverElseIsKept) {
   const envs::DemoFile file = synthetic_demo_file(9);  // 6 train, 3 valid per task
-  DataConfig all;
-  all.demos_per_task = 3;
-  all.subsample = 5;
-  all.seed = 11;
+  DataConfig all = three_demos_every_fifth_state();
   all.task_demos = {{"synthetic/b", 2}};
   const DemoDataset full(file, all);
   DataConfig only_b = all, without_b = all;
@@ -99,6 +106,57 @@ TEST(DemoDataset, KeptTasksDrawTheSameDemosWhateverElseIsKept) {
   EXPECT_EQ(batch.tasks, std::vector<std::int64_t>(4, 0));  // task ids among the kept tasks
 }
 
+TEST(DemoDataset, PerTaskDrawsDependOnTheTasksOwnCountOnly) {
+  const envs::DemoFile file = synthetic_demo_file(9);
+  DataConfig base = three_demos_every_fifth_state();
+  DataConfig fewer_a = base;
+  fewer_a.task_demos = {{"synthetic/a", 1}};  // the task before b in the file draws less
+  // One stream through the tasks: b's demos or offsets move with a's count.
+  const DemoDataset seq(file, base), seq_fewer(file, fewer_a);
+  bool moved = seq.training_demo_seeds()[1] != seq_fewer.training_demo_seeds()[1];
+  std::mt19937_64 r1(5), r2(5);
+  moved = moved || seq.task_training_batch(1, 64, r1, ag::Dtype::Float64).observations.to_vector() !=
+                       seq_fewer.task_training_batch(1, 64, r2, ag::Dtype::Float64).observations.to_vector();
+  EXPECT_TRUE(moved) << "the sequential draw of b no longer depends on a's count: the test lost its point";
+  // A stream per task: b's demos and offsets (its raw training states) are the same whatever a's count.
+  base.draws = fewer_a.draws = "per_task";
+  const DemoDataset per(file, base), per_fewer(file, fewer_a);
+  EXPECT_EQ(per.training_demo_seeds()[1], per_fewer.training_demo_seeds()[1]);
+  EXPECT_EQ(per_fewer.training_demo_seeds()[0].size(), 1u);
+  const auto raw_states = [](const DemoDataset& data, int task) {
+    std::mt19937_64 rng(5);
+    const Batch batch = data.task_training_batch(task, 64, rng, ag::Dtype::Float64);
+    Eigen::MatrixXd m = batch.observations.matrix<double>();
+    for (Eigen::Index j = 0; j < m.cols(); ++j)  // undo the standardisation, which a's states change
+      m.col(j) = m.col(j).array() * data.standardizer().std[j] + data.standardizer().mean[j];
+    return m;
+  };
+  EXPECT_TRUE(raw_states(per, 1).isApprox(raw_states(per_fewer, 1), 1e-12));
+  // A's first demo under both counts: nested draws (the fewer are the first of the shuffle).
+  DataConfig one_a = base;
+  one_a.task_demos = {{"synthetic/a", 1}};
+  const auto& three = per.training_demo_seeds()[0];
+  const std::uint64_t first = DemoDataset(file, one_a).training_demo_seeds()[0][0];
+  EXPECT_NE(std::find(three.begin(), three.end(), first), three.end());
+  base.draws = "by_name";
+  EXPECT_THAT([&] { DemoDataset(file, base); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("data.draws: expected")));
+}
+
+TEST(DemoDataset, ValidationBatchOfChosenTasks) {
+  const envs::DemoFile file = synthetic_demo_file();
+  const DemoDataset data(file, DataConfig{});
+  const Batch all = data.validation_batch(ag::Dtype::Float64, 7);
+  const Batch b = data.validation_batch(ag::Dtype::Float64, 7, {"synthetic/b"});
+  ASSERT_EQ(b.size(), 7);
+  EXPECT_EQ(b.tasks, std::vector<std::int64_t>(7, 1));
+  const ag::RowMatrixD b_rows = ag::to_eigen_double(b.observations), all_rows = ag::to_eigen_double(all.observations);
+  EXPECT_EQ(b_rows, all_rows.middleRows(7, 7)) << "not b's rows of the all-task batch";
+  EXPECT_THAT([&] { data.validation_batch(ag::Dtype::Float64, 7, {"synthetic/c"}); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("train.validation_tasks: 'synthetic/c' is not a task of this run")));
+}
+
 TEST(DemoDataset, UnknownOrNoTasksAreNamed) {
   const envs::DemoFile file = synthetic_demo_file();
   DataConfig config;
@@ -110,8 +168,8 @@ TEST(DemoDataset, UnknownOrNoTasksAreNamed) {
               ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("leave no task")));
   config.holdout = {};
   config.task_demos = {{"synthetic/a", 9}};
-  EXPECT_THAT([&] { DemoDataset(file, config); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("synthetic/a has 4 training demos (mask/train), 9 requested")));
+  EXPECT_THAT([&] { DemoDataset(file, config); }, ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr(
+                                                      "synthetic/a has 4 training demos (mask/train), 9 requested")));
 }
 
 }  // namespace

@@ -79,6 +79,26 @@ TEST(Trainer, LearnsKeepsTheBestCheckpointAndWritesTheCurve) {
   EXPECT_EQ(best.at("standardizer").at("mean").size(), 3u);
 }
 
+TEST(Trainer, JudgesCheckpointsOnTheValidationTasksItIsGiven) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  TrainConfig config = small_config();
+  config.steps = 60;
+  config.learning_rate = 3e-3;
+  config.validation_tasks = {"synthetic/b"};
+  auto policy = small_maps(1);
+  const fs::path dir = fresh_dir("validation_tasks");
+  const TrainSummary summary = train_policy(*policy, data, config, dir.string(), nullptr);
+  // The recorded best loss is b's alone, not the two tasks' mean.
+  const Batch b = data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task, {"synthetic/b"});
+  const Batch both = data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task);
+  EXPECT_NEAR(mean_action_error(*policy, b), summary.best_validation_loss, 1e-6);
+  EXPECT_GT(std::abs(mean_action_error(*policy, both) - summary.best_validation_loss), 1e-6);
+  config.validation_tasks = {"synthetic/z"};
+  auto other = small_maps(1);
+  EXPECT_THAT(error_of([&] { train_policy(*other, data, config, fresh_dir("bad_validation").string(), nullptr); }),
+              HasSubstr("train.validation_tasks: 'synthetic/z' is not a task of this run"));
+}
+
 TEST(Trainer, AResumedRunEndsExactlyWhereAnUninterruptedOneDoes) {
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   auto straight = small_maps(2);
@@ -261,6 +281,45 @@ TEST(RunConfig, IntegersMustBeIntegersAndModelsMustFitInMemory) {
 
 // A run folder written before "baselines" existed resolves to the same config as today's request for the same run,
 // so it resumes (experiments/train_run.cpp compares resolved configs).
+TEST(RunConfig, DrawsAndValidationTasksAreReadAndChecked) {
+  nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
+  const RunConfig plain = parse_run_config(request);
+  EXPECT_EQ(plain.data.draws, "sequential");
+  EXPECT_TRUE(plain.train.validation_tasks.empty());
+  request["data"]["draws"] = "per_task";
+  request["train"]["validation_tasks"] = {"gravity/0.5"};
+  const nlohmann::json written = to_json(parse_run_config(request));
+  EXPECT_EQ(written["data"]["draws"], "per_task");
+  EXPECT_EQ(written["train"]["validation_tasks"], nlohmann::json::array({"gravity/0.5"}));
+  request["data"]["draws"] = "random";
+  EXPECT_THAT(error_of([&] { parse_run_config(request); }),
+              HasSubstr("data.draws: expected \"sequential\" or \"per_task\", got \"random\""));
+}
+
+TEST(RunConfig, TransferRequestTeachesOneTaskWithoutTheExploreTerm) {
+  nlohmann::json source = to_json(parse_run_config(nlohmann::json::parse(
+      R"({"method": "maps", "data": {"file": "x.h5", "demos_per_task": 10, "holdout": ["g/a"]},
+          "train": {"validation_tasks": ["g/b"]}, "eval": {"tasks": ["g/b"]}})")));
+  const nlohmann::json request = transfer_request(source, "g/a", 2, {"modules"}, 1.0);
+  const RunConfig c = parse_run_config(request);
+  EXPECT_EQ(c.data.tasks, std::vector<std::string>{"g/a"});
+  EXPECT_TRUE(c.data.holdout.empty());
+  EXPECT_EQ(c.data.task_demos, (std::vector<std::pair<std::string, int>>{{"g/a", 2}}));
+  EXPECT_EQ(c.train.freeze, std::vector<std::string>{"modules"});
+  EXPECT_TRUE(c.train.lr_scale.empty());
+  EXPECT_TRUE(c.train.validation_tasks.empty());  // the new task is the run's only one
+  EXPECT_TRUE(c.eval_tasks.empty());
+  const auto source_losses = parse_run_config(source).maps.selector_losses;
+  ASSERT_EQ(c.maps.selector_losses.size(), source_losses.size());
+  for (std::size_t i = 0; i < source_losses.size(); ++i) {
+    const auto& [name, weight] = c.maps.selector_losses[i];
+    EXPECT_EQ(name, source_losses[i].first);
+    EXPECT_EQ(weight, name == "explore" ? 0.0 : source_losses[i].second) << name;
+  }
+  const RunConfig tuned = parse_run_config(transfer_request(source, "g/a", 2, {}, 0.1));
+  EXPECT_EQ(tuned.train.lr_scale, (std::vector<std::pair<std::string, double>>{{"modules", 0.1}}));
+}
+
 TEST(RunConfig, AConfigWithoutANewerKeyResolvesAsItsDefault) {
   const nlohmann::json request = nlohmann::json::parse(
       R"({"method": "mt_bc", "seed": 2, "data": {"file": "x.h5", "demos_per_task": 5, "subsample": 10}})");

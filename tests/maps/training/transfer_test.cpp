@@ -51,6 +51,22 @@ TEST(InitializeFrom, CopiesEveryParameterAndMapsTheSelectorsTaskColumnsByName) {
   EXPECT_TRUE(to.col(3).isApprox(0.5 * (from.col(3) + from.col(4)), 1e-6));  // a: the mean of the known tasks
 }
 
+TEST(InitializeFrom, MapsTaskColumnsByNameWhenTheCountIsTheSame) {
+  const auto source = maps_for(2, 1);  // trained on b and c
+  const ag::RowMatrixD from = matrix(*source, "selector.layers.0.weight");
+  const auto swapped = maps_for(2, 2);
+  initialize_from(*swapped, {"t/c", "t/b"}, *source, {"t/b", "t/c"});
+  const ag::RowMatrixD to = matrix(*swapped, "selector.layers.0.weight");
+  EXPECT_EQ(to.leftCols(3), from.leftCols(3));
+  EXPECT_EQ(to.col(3), from.col(4));  // c
+  EXPECT_EQ(to.col(4), from.col(3));  // b
+  const auto other = maps_for(2, 3);
+  initialize_from(*other, {"t/a", "t/b"}, *source, {"t/b", "t/c"});
+  const ag::RowMatrixD mixed = matrix(*other, "selector.layers.0.weight");
+  EXPECT_TRUE(mixed.col(3).isApprox(0.5 * (from.col(3) + from.col(4)), 1e-6));  // a: new
+  EXPECT_EQ(mixed.col(4), from.col(3));                                         // b
+}
+
 TEST(InitializeFrom, ParametersThatDifferOtherwiseAreNamed) {
   ag::Generator gen(3);
   const auto source = std::make_shared<MTMHBC>(PolicyShape{3, 2, 2}, gen, std::vector<std::int64_t>{8});
