@@ -63,6 +63,8 @@ class Cell:
     # The paper's checkpoint rule: the best mean score over the kept checkpoints and best.ckpt (train.keep_every and
     # `maps eval --checkpoints`); None where the cell kept no checkpoints.
     best_over_checkpoints: float = None
+    # The same evaluation of the last kept checkpoint (step == steps): a rule without selection, for comparison.
+    last_checkpoint: float = None
 
     @property
     def label(self):
@@ -192,11 +194,12 @@ def read_cell(path):
         raise ValueError("no tasks in eval")
     best_over = ev.get("best_over_checkpoints")
     best_over = None if best_over is None else float(best_over["mean_score"])
+    last = [float(c["mean_score"]) for c in ev.get("checkpoints", []) if int(c.get("step", -1)) == int(train["steps"])]
     return Cell(path.parent, str(ident["name"]), str(ident.get("grid", "")), str(ident["set"]), str(ident["method"]),
                 str(ident.get("variant", "base")), int(ident["demos"]), int(ident["subsample"]), int(ident["seed"]),
                 config, int(train["steps"]), int(ev.get("best_step", train.get("best_step"))),
                 int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
-                float(result.get("wall_seconds", float("nan"))), tasks, best_over)
+                float(result.get("wall_seconds", float("nan"))), tasks, best_over, last[0] if last else None)
 
 
 def read_error(path):
