@@ -114,6 +114,9 @@ int run_suite_status(const SuiteStatusOptions& options) {
       throw std::runtime_error(options.dirs[i] + " is a folder of another suite than " + options.dirs.front() +
                                " (their suite.json cells differ)");
   std::map<std::string, int> counts;
+  // Per grid, in the suite's order: a long study is followed grid by grid.
+  std::vector<std::string> grids;
+  std::map<std::string, std::map<std::string, int>> by_grid;
   Json cells = Json::array();
   std::vector<std::string> lines;
   for (const auto& cell : suite.cells) {
@@ -123,6 +126,8 @@ int run_suite_status(const SuiteStatusOptions& options) {
       if (rank_of(here.state) > rank_of(best.state) || (best.detail.empty() && here.state == best.state)) best = here;
     }
     counts[best.state] += 1;
+    if (!by_grid.count(cell.grid)) grids.push_back(cell.grid);
+    by_grid[cell.grid][best.state] += 1;
     Json entry = cell.identity();
     entry["state"] = best.state;
     entry["detail"] = best.detail;
@@ -137,6 +142,15 @@ int run_suite_status(const SuiteStatusOptions& options) {
     return 0;
   }
   for (const auto& line : lines) std::printf("%s\n", line.c_str());
+  if (grids.size() > 1) {
+    std::printf("| grid | cells | done | running | failed | started | left |\n|---|---|---|---|---|---|---|\n");
+    for (const auto& grid : grids) {
+      std::map<std::string, int>& n = by_grid[grid];
+      std::printf("| %s | %d | %d | %d | %d | %d | %d |\n", grid.empty() ? "-" : grid.c_str(),
+                  n["done"] + n["running"] + n["failed"] + n["started"] + n["left"], n["done"], n["running"],
+                  n["failed"], n["started"], n["left"]);
+    }
+  }
   std::printf("%s: %zu cells: %d done, %d running, %d failed, %d started (resumable), %d left\n", where.c_str(),
               suite.cells.size(), counts["done"], counts["running"], counts["failed"], counts["started"],
               counts["left"]);

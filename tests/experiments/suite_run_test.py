@@ -157,6 +157,16 @@ class SuiteTest(unittest.TestCase):
 
     # --- running ----------------------------------------------------------------------------------------------
 
+    def test_status_counts_each_grid(self):
+        fixture = ROOT / "tests" / "experiments" / "fixtures" / "suite-small"
+        status = maps("suite", "status", fixture).stdout
+        # In the suite's order; the failed cell and the unfinished one are the comparison grid's.
+        grids = [line.split("|")[1].strip() for line in status.splitlines() if line.startswith("| ") and
+                 not line.startswith("| grid")]
+        self.assertEqual(grids, ["comparison", "controls", "ablation", "modules", "paper_protocol"])
+        self.assertIn("| comparison | 24 | 22 | 0 | 1 | 0 | 1 |", status)
+        self.assertIn("| ablation | 4 | 4 | 0 | 0 | 0 | 0 |", status)
+
     def test_a_rerun_of_a_finished_suite_does_nothing(self):
         proc = maps("suite", "run", TINY, "--out", self.reference)
         self.assertIn("9 finished before, 0 to run", proc.stdout)
