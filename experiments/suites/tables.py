@@ -287,7 +287,32 @@ def checkpoint_rule_table(cells):
              " paper's rule, `maps eval --checkpoints`; optimistic: the maximum of noisy scores); mean score over"
              " tasks, mean +- 95% CI over seeds:", ""]
             + table(["method", "demos", "k", "seeds", "kept every", "best validation", "last checkpoint",
-                     "best over checkpoints", "paper's rule - best validation"], rows))
+                     "best over checkpoints", "paper's rule - best validation"], rows)
+            + checkpoint_rule_pairs(cells))
+
+
+def checkpoint_rule_pairs(cells):
+    """Each method against MAPS under the same variant, at each checkpoint rule: does the comparison depend on it?"""
+    by_key = groups(cells)
+    rules = [("best validation", lambda c: c.mean_score), ("last checkpoint", lambda c: c.last_checkpoint),
+             ("best over checkpoints", lambda c: c.best_over_checkpoints)]
+    rows = []
+    for key, runs in by_key.items():
+        method, _, variant = key.label.partition(" ")
+        maps = by_key.get(key._replace(label=f"maps {variant}".strip()))
+        kept = [c for c in runs if c.best_over_checkpoints is not None]
+        if method == "maps" or not maps or not kept:
+            continue
+        cols = []
+        for _, value in rules:
+            diffs = paired(kept, [c for c in maps if c.best_over_checkpoints is not None], value)
+            cols.append(f"{fmt(diffs, signed=True)} ({len(diffs)}), p {fmt_p(paired_p(diffs))}" if diffs else "-")
+        rows.append([key.label, key.demos, key.subsample] + cols)
+    if not rows:
+        return []
+    return (["", "Method - MAPS (under the same variant), paired over seeds, at each rule (mean +- 95% CI (pairs), p:"
+             " paired t test, uncorrected):", ""]
+            + table(["method", "demos", "k"] + [name for name, _ in rules], rows))
 
 
 def compute_table(cells):

@@ -366,10 +366,23 @@ class CheckpointRule(unittest.TestCase):
                                                  {"step": 1000, "mean_score": [0.5, 0.7][seed],
                                                   "file": "step_1000.ckpt"}]
                 path.write_text(json.dumps(result))
+            for seed, last, best in ((0, 0.6, 0.7), (1, 0.6, 0.6)):  # Single BC, kept likewise
+                path = suite_dir / "cells" / "mt10" / f"single_bc_d5_s{seed}" / "result.json"
+                result = json.loads(path.read_text())
+                result["config"]["train"]["keep_every"] = 500
+                result["eval"]["best_over_checkpoints"] = {"step": 500, "mean_score": best, "file": "step_500.ckpt"}
+                result["eval"]["checkpoints"] = [{"step": 1000, "mean_score": last, "file": "step_1000.ckpt"}]
+                path.write_text(json.dumps(result))
             out = pathlib.Path(tmp) / "report"
             code, _, stderr = run_report(suite_dir, out)
             self.assertEqual(code, 0, stderr)
             rule = between((out / "report.md").read_text(), "## The paper's checkpoint rule", "## Fig. 6")
+            # Single BC - MAPS at each rule: best validation 0.5 - 0.7, 0.6 - 0.6; last 0.6 - 0.5, 0.6 - 0.7; best
+            # over checkpoints 0.7 - 0.8, 0.6 - 0.8.
+            pairs = between(rule, "Method - MAPS", "## Fig. 6")
+            self.assertEqual(row_of(pairs, ["single_bc", "5"]), ["single_bc", "5", "1", "-0.10 +- 1.27 (2), p 0.500",
+                                                                  "+0.00 +- 1.27 (2), p 1.000",
+                                                                  "-0.15 +- 0.64 (2), p 0.205"])
             # The last checkpoint (step 1000 = steps): 0.5 and 0.7.
             self.assertEqual(row_of(rule, ["maps", "5"]), ["maps", "5", "1", "2", "500", "0.65 +- 0.64",
                                                            "0.60 +- 1.27", "0.80 +- 0.00", "+0.15 +- 0.64"])
