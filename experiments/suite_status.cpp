@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <set>
 #include <stdexcept>
 
 #include "envs/source_folders.h"
@@ -113,6 +114,15 @@ int run_suite_status(const SuiteStatusOptions& options) {
         read_json_file((fs::path(options.dirs.front()) / "suite.json").string()).value("cells", Json()))
       throw std::runtime_error(options.dirs[i] + " is a folder of another suite than " + options.dirs.front() +
                                " (their suite.json cells differ)");
+  // Cells the folder lists but its config (as last run) no longer makes are "dropped" unless they started running,
+  // failed or finished: they will not run, so they are neither left nor in the estimate. A config that no longer parses
+  // drops nothing.
+  std::set<std::string> current;
+  try {
+    for (const auto& cell : parse_suite(suite.source, "suite.json config").cells) current.insert(cell.name);
+  } catch (const std::exception&) {
+    for (const auto& cell : suite.cells) current.insert(cell.name);
+  }
   std::map<std::string, int> counts;
   // Per grid, in the suite's order: a long study is followed grid by grid.
   std::vector<std::string> grids;
@@ -125,6 +135,8 @@ int run_suite_status(const SuiteStatusOptions& options) {
       const CellState here = state_in(dir, cell);
       if (rank_of(here.state) > rank_of(best.state) || (best.detail.empty() && here.state == best.state)) best = here;
     }
+    if ((best.state == "left" || best.state == "started") && !current.count(cell.name))
+      best = {"dropped", "no longer in the suite's config"};
     counts[best.state] += 1;
     if (!by_grid.count(cell.grid)) grids.push_back(cell.grid);
     by_grid[cell.grid][best.state] += 1;
@@ -143,29 +155,33 @@ int run_suite_status(const SuiteStatusOptions& options) {
   }
   for (const auto& line : lines) std::printf("%s\n", line.c_str());
   if (grids.size() > 1) {
-    std::printf("| grid | cells | done | running | failed | started | left |\n|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| grid | cells | done | running | failed | started | left | dropped |\n"
+        "|---|---|---|---|---|---|---|---|\n");
     for (const auto& grid : grids) {
       std::map<std::string, int>& n = by_grid[grid];
-      std::printf("| %s | %d | %d | %d | %d | %d | %d |\n", grid.empty() ? "-" : grid.c_str(),
-                  n["done"] + n["running"] + n["failed"] + n["started"] + n["left"], n["done"], n["running"],
-                  n["failed"], n["started"], n["left"]);
+      std::printf("| %s | %d | %d | %d | %d | %d | %d | %d |\n", grid.empty() ? "-" : grid.c_str(),
+                  n["done"] + n["running"] + n["failed"] + n["started"] + n["left"] + n["dropped"], n["done"],
+                  n["running"], n["failed"], n["started"], n["left"], n["dropped"]);
     }
   }
-  std::printf("%s: %zu cells: %d done, %d running, %d failed, %d started (resumable), %d left\n", where.c_str(),
+  std::printf("%s: %zu cells: %d done, %d running, %d failed, %d started (resumable), %d left", where.c_str(),
               suite.cells.size(), counts["done"], counts["running"], counts["failed"], counts["started"],
               counts["left"]);
+  if (counts["dropped"] > 0) std::printf(", %d dropped (no longer in the config)", counts["dropped"]);
+  std::printf("\n");
   if (const auto costs = try_load_costs("", true)) {
     double left = 0.0;
     bool known = true;
     for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-      if (cells[i]["state"] == "done") continue;
+      if (cells[i]["state"] == "done" || cells[i]["state"] == "dropped") continue;
       try {
         left += costs->cell_seconds(suite.cells[i]);
       } catch (const std::exception&) {
         known = false;
       }
     }
-    if (known && counts["done"] < static_cast<int>(suite.cells.size()))
+    if (known && counts["done"] + counts["dropped"] < static_cast<int>(suite.cells.size()))
       std::printf("estimated CPU time left: %s (one thread per cell)\n", format_duration(left).c_str());
   }
   return 0;
