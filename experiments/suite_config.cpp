@@ -289,14 +289,13 @@ Suite parse_suite(const Json& json, const std::string& where) {
                                                 source_folder +
                                                 ", which no earlier grid makes (a grid with method maps, holdout [\"" +
                                                 task + "\"], demos [" + std::to_string(axis.others_demos) + "])");
-                  if (!suite.cells[source->second].request["init"].value("run", "").empty())
+                  try {
+                    request = core::transfer_request(suite.cells[source->second].request, task, demos, axis.freeze,
+                                                     axis.module_lr_scale);
+                  } catch (const std::invalid_argument& e) {
                     throw std::invalid_argument(at + ": cell " + cell.name + " transfers from " + set_name + "/" +
-                                                source_folder +
-                                                ", which starts from another run (init.run): its modules may have "
-                                                "seen " +
-                                                task);
-                  request = core::transfer_request(suite.cells[source->second].request, task, demos, axis.freeze,
-                                                   axis.module_lr_scale);
+                                                source_folder + ": " + e.what());
+                  }
                   request["init"] = {{"run", "../" + source_folder}, {"checkpoint", "best.ckpt"}};
                 } else {
                   request = merge_json(defaults, set.config);

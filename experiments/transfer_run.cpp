@@ -50,10 +50,6 @@ int run_transfer(const TransferOptions& options) {
   if (source.method != "maps")
     throw std::invalid_argument("--run " + options.run + " is a " + source.method +
                                 " run; transfer reuses the modules of a MAPS run");
-  if (!source.init_run.empty())
-    throw std::invalid_argument("--run " + options.run + " started from another run (init.run " + source.init_run +
-                                "), whose modules may have seen " + options.task +
-                                ": transfer from a run trained from scratch");
   if (!fs::exists(source_dir / "best.ckpt"))
     throw std::invalid_argument("--run " + options.run + " has no best.ckpt: train it first");
   const envs::DemoFile file = envs::read_demo_file(source.data_file);
@@ -70,8 +66,13 @@ int run_transfer(const TransferOptions& options) {
                                 "--set 'data.holdout=[\"" +
                                 options.task + "\"]')");
 
-  nlohmann::json config = core::transfer_request(core::to_json(source), options.task, options.demos, freeze,
-                                                 modules_frozen ? 1.0 : options.module_lr_scale);
+  nlohmann::json config;
+  try {
+    config =
+        core::transfer_request(core::to_json(source), options.task, options.demos, freeze, options.module_lr_scale);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("--run " + options.run + ": " + e.what());
+  }
   if (options.seed) config["seed"] = *options.seed;
   if (options.steps) config["train"]["steps"] = *options.steps;
   config["init"] = {{"run", source_dir.string()}, {"checkpoint", "best.ckpt"}};

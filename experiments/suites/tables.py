@@ -303,9 +303,10 @@ def checkpoint_rule_pairs(cells):
         kept = [c for c in runs if c.best_over_checkpoints is not None]
         if method == "maps" or not maps or not kept:
             continue
+        maps_kept = [c for c in maps if c.best_over_checkpoints is not None]
         cols = []
         for _, value in rules:
-            diffs = paired(kept, [c for c in maps if c.best_over_checkpoints is not None], value)
+            diffs = paired(kept, maps_kept, value)
             cols.append(f"{fmt(diffs, signed=True)} ({len(diffs)}), p {fmt_p(paired_p(diffs))}" if diffs else "-")
         rows.append([key.label, key.demos, key.subsample] + cols)
     if not rows:

@@ -39,19 +39,29 @@ void append_rows(const envs::Demonstration& demo, std::int64_t offset, std::int6
 }
 
 // The position of task `name` in the file's tasks; `key` names the config key that asked for it.
+// The position of `name` among `tasks`; an error naming the config key, what the tasks are of, and the tasks.
+int find_task(const std::vector<std::string>& tasks, const std::string& name, const std::string& key,
+              const std::string& tasks_of) {
+  const auto found = std::find(tasks.begin(), tasks.end(), name);
+  if (found == tasks.end()) {
+    std::string known;
+    for (const auto& task : tasks) known += (known.empty() ? "" : ", ") + task;
+    throw std::invalid_argument(key + ": '" + name + "' is not a task of " + tasks_of + " (" + known + ")");
+  }
+  return static_cast<int>(found - tasks.begin());
+}
+
 int task_index(const std::vector<std::string>& file_tasks, const std::string& task_set, const std::string& name,
                const std::string& key) {
-  const auto found = std::find(file_tasks.begin(), file_tasks.end(), name);
-  if (found == file_tasks.end()) {
-    std::string known;
-    for (const auto& task : file_tasks) known += (known.empty() ? "" : ", ") + task;
-    throw std::invalid_argument("data." + key + ": '" + name + "' is not a task of the demo file's set " + task_set +
-                                " (" + known + ")");
-  }
-  return static_cast<int>(found - file_tasks.begin());
+  return find_task(file_tasks, name, "data." + key, "the demo file's set " + task_set);
 }
 
 }  // namespace
+
+void check_draws(const std::string& draws) {
+  if (draws != "sequential" && draws != "per_task")
+    throw std::invalid_argument("data.draws: expected \"sequential\" or \"per_task\", got \"" + draws + "\"");
+}
 
 std::vector<bool> kept_tasks(const std::vector<std::string>& file_tasks, const std::string& task_set,
                              const DataConfig& config) {
@@ -86,8 +96,7 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
 
   // Every task of the file is drawn, kept or not, in the file's order: a task's draw depends only on the seed and
   // the counts, not on which other tasks a run keeps.
-  if (config.draws != "sequential" && config.draws != "per_task")
-    throw std::invalid_argument("data.draws: expected \"sequential\" or \"per_task\", got \"" + config.draws + "\"");
+  check_draws(config.draws);
   const std::uint64_t data_stream = splitmix64(config.seed ^ 0x6d6170732d646174ULL);  // a stream of its own: "maps-dat"
   std::mt19937_64 rng(data_stream);
   Eigen::MatrixXd all_train_obs(0, file.demos.front().obs.cols());
@@ -190,15 +199,8 @@ Batch DemoDataset::task_validation_batch(int task, ag::Dtype dtype) const {
 Batch DemoDataset::validation_batch(ag::Dtype dtype, std::int64_t max_per_task,
                                     const std::vector<std::string>& tasks) const {
   std::vector<bool> chosen(static_cast<std::size_t>(num_tasks()), tasks.empty());
-  for (const auto& name : tasks) {
-    const auto found = std::find(task_names_.begin(), task_names_.end(), name);
-    if (found == task_names_.end()) {
-      std::string known;
-      for (const auto& task : task_names_) known += (known.empty() ? "" : ", ") + task;
-      throw std::invalid_argument("train.validation_tasks: '" + name + "' is not a task of this run (" + known + ")");
-    }
-    chosen[static_cast<std::size_t>(found - task_names_.begin())] = true;
-  }
+  for (const auto& name : tasks)
+    chosen[static_cast<std::size_t>(find_task(task_names_, name, "train.validation_tasks", "this run"))] = true;
   std::vector<std::pair<int, std::int64_t>> picks;
   for (int k = 0; k < num_tasks(); ++k) {
     if (!chosen[static_cast<std::size_t>(k)]) continue;

@@ -36,6 +36,9 @@ struct DataConfig {
   std::string draws = "sequential";
 };
 
+// data.draws must be "sequential" or "per_task": an error naming it otherwise.
+void check_draws(const std::string& draws);
+
 // Which of a demo file's tasks (in the file's order) a run of `config` trains on: data.tasks (all when empty) less
 // data.holdout. Throws std::invalid_argument naming a task the file's set lacks.
 std::vector<bool> kept_tasks(const std::vector<std::string>& file_tasks, const std::string& task_set,

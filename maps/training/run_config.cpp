@@ -151,9 +151,7 @@ RunConfig parse_run_config(const Json& json) {
   read(data, "data", "tasks", c.data.tasks);
   read(data, "data", "holdout", c.data.holdout);
   read(data, "data", "draws", c.data.draws);
-  if (c.data.draws != "sequential" && c.data.draws != "per_task")
-    throw std::invalid_argument("config data.draws: expected \"sequential\" or \"per_task\", got \"" + c.data.draws +
-                                "\"");
+  check_draws(c.data.draws);
   if (data.contains("task_demos"))
     c.data.task_demos = read_named_numbers<int>(
         data["task_demos"], "data.task_demos", "task name: demonstrations", "an integer >= 0", [](const Json& count) {
@@ -281,6 +279,10 @@ RunConfig parse_run_config(const Json& json) {
 
 Json transfer_request(Json request, const std::string& task, int demos, const std::vector<std::string>& freeze,
                       double module_lr_scale) {
+  if (const std::string init = request["init"].value("run", ""); !init.empty())
+    throw std::invalid_argument("the source started from another run (init.run " + init +
+                                "), whose modules may have seen " + task +
+                                ": transfer from a run trained from scratch");
   request["data"]["tasks"] = {task};
   request["data"]["holdout"] = Json::array();
   request["data"]["task_demos"] = {{task, demos}};

@@ -63,7 +63,8 @@ nlohmann::json to_json(const RunConfig& config);
 
 // The run config that teaches `task` from `demos` of its demonstrations to a MAPS run that never saw it (`maps
 // transfer` and the suite's transfer cells; the caller sets "init"): the task alone, the given parameter prefixes
-// frozen, the modules' learning rate scaled (1: not), judged and evaluated on the task. The explore term is
+// frozen, the modules' learning rate scaled (1: not), judged and evaluated on the task. A source that itself
+// started from another run (init.run) is refused: its modules may have seen the task. The explore term is
 // switched off: it asks a batch to use every module equally, which over the source's many tasks balanced them
 // and over one task's states alone would push the new task onto modules that other tasks own.
 nlohmann::json transfer_request(nlohmann::json source_request, const std::string& task, int demos,

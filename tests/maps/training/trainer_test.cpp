@@ -318,6 +318,9 @@ TEST(RunConfig, TransferRequestTeachesOneTaskWithoutTheExploreTerm) {
   }
   const RunConfig tuned = parse_run_config(transfer_request(source, "g/a", 2, {}, 0.1));
   EXPECT_EQ(tuned.train.lr_scale, (std::vector<std::pair<std::string, double>>{{"modules", 0.1}}));
+  source["init"]["run"] = "runs/started-from-another";
+  EXPECT_THAT(error_of([&] { transfer_request(source, "g/a", 2, {"modules"}, 1.0); }),
+              HasSubstr("the source started from another run (init.run runs/started-from-another)"));
 }
 
 TEST(RunConfig, AConfigWithoutANewerKeyResolvesAsItsDefault) {
