@@ -432,6 +432,44 @@ class Statistics(unittest.TestCase):
         self.assertEqual(suite_stats.significance([0.3]), 0)
 
 
+class SyncDoc(unittest.TestCase):
+    """sync_doc.py: a page's marked blocks take report.md's sections, the discussion around them stays, and a
+    block naming a missing section or left open is an error that names it."""
+    REPORT = "# Suite report: x\n\n## Cells\n\n| a |\n|---|\n| 1 |\n\n## The paper's claims\n\n| # | claim |\n|---|---|\n| 1 | new |\n\nRules: new.\n"
+
+    def test_replaces_only_the_marked_block(self):
+        import sync_doc
+        page = ("intro\n<!-- report.md: The paper's claims -->\n| 1 | old |\n<!-- /report.md -->\n"
+                "discussion after\n")
+        text, refreshed = sync_doc.sync(self.REPORT, page)
+        self.assertEqual(refreshed, ["The paper's claims"])
+        self.assertEqual(text, "intro\n<!-- report.md: The paper's claims -->\n| # | claim |\n|---|---|\n"
+                               "| 1 | new |\n\nRules: new.\n<!-- /report.md -->\ndiscussion after\n")
+        self.assertEqual(sync_doc.sync(self.REPORT, text)[0], text)  # idempotent
+
+    def test_missing_section_and_open_block_are_errors(self):
+        import sync_doc
+        with self.assertRaisesRegex(ValueError, "block 'Fig. 9' has no section '## Fig. 9'"):
+            sync_doc.sync(self.REPORT, "<!-- report.md: Fig. 9 -->\nx\n<!-- /report.md -->\n")
+        with self.assertRaisesRegex(ValueError, "opens 1 report.md blocks but closes 0"):
+            sync_doc.sync(self.REPORT, "<!-- report.md: Cells -->\nx\n")
+
+    def test_command_line_rewrites_the_page(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            report, page = pathlib.Path(tmp, "report.md"), pathlib.Path(tmp, "page.md")
+            report.write_text(self.REPORT)
+            page.write_text("<!-- report.md: Cells -->\nold\n<!-- /report.md -->\n")
+            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
+                                  capture_output=True, text=True)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            self.assertIn("| 1 |", page.read_text())
+            page.write_text("no blocks\n")
+            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
+                                  capture_output=True, text=True)
+            self.assertNotEqual(done.returncode, 0)
+            self.assertIn("has no '<!-- report.md: TITLE -->' blocks", done.stderr)
+
+
 class Errors(unittest.TestCase):
     def test_a_damaged_result_is_named_and_skipped(self):
         with tempfile.TemporaryDirectory() as tmp:

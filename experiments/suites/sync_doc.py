@@ -1,0 +1,81 @@
+"""Refresh the generated blocks of a hand-written results page from a suite's report.md.
+
+A block in the page is delimited by two HTML comments, invisible in the rendered page:
+
+    <!-- report.md: The paper's claims -->
+    ...replaced by the body of report.md's section "## The paper's claims"...
+    <!-- /report.md -->
+
+Everything outside the blocks (the discussion) is left as written. A block whose section is missing from
+report.md is an error, so a renamed section cannot leave a stale table behind silently.
+
+    python3 experiments/suites/sync_doc.py results/study/report/report.md docs/results.md
+"""
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+BLOCK = re.compile(r"(<!-- report\.md: (?P<title>[^>]*?) -->\n)(?P<body>.*?)(<!-- /report\.md -->)", re.S)
+
+
+def sections(report_text):
+    """Map each '## title' of report.md to its body: the lines up to the next '## ' heading, stripped of
+    leading and trailing blank lines."""
+    found = {}
+    title, body = None, []
+    for line in report_text.splitlines():
+        if line.startswith("## "):
+            if title is not None:
+                found[title] = body
+            title, body = line[3:].strip(), []
+        elif title is not None:
+            body.append(line)
+    if title is not None:
+        found[title] = body
+    return {name: "\n".join(lines).strip("\n") for name, lines in found.items()}
+
+
+def sync(report_text, doc_text):
+    """Return (new doc text, titles of the blocks refreshed). Raises ValueError naming a block whose section
+    report.md lacks, or a page with an opening marker that is never closed."""
+    available = sections(report_text)
+    refreshed = []
+
+    def replace(match):
+        title = match.group("title").strip()
+        if title not in available:
+            raise ValueError(f"the page's block '{title}' has no section '## {title}' in report.md "
+                             f"(its sections: {', '.join(sorted(available)) or 'none'})")
+        refreshed.append(title)
+        return f"{match.group(1)}{available[title]}\n{match.group(4)}"
+
+    result = BLOCK.sub(replace, doc_text)
+    opened = doc_text.count("<!-- report.md: ")
+    if opened != len(refreshed):
+        raise ValueError(f"the page opens {opened} report.md blocks but closes {len(refreshed)} "
+                         "(each '<!-- report.md: TITLE -->' needs a '<!-- /report.md -->' after it)")
+    return result, refreshed
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("report", type=Path, help="a suite's report.md (maps report DIR writes DIR/report/report.md)")
+    parser.add_argument("doc", type=Path, help="the page whose blocks to refresh, rewritten in place")
+    args = parser.parse_args(argv)
+    for path in (args.report, args.doc):
+        if not path.is_file():
+            parser.error(f"{path}: no such file")
+    try:
+        text, refreshed = sync(args.report.read_text(), args.doc.read_text())
+    except ValueError as error:
+        sys.exit(f"sync_doc.py: {args.doc}: {error}")
+    if not refreshed:
+        sys.exit(f"sync_doc.py: {args.doc} has no '<!-- report.md: TITLE -->' blocks")
+    args.doc.write_text(text)
+    print(f"{args.doc}: refreshed {', '.join(refreshed)} from {args.report}")
+
+
+if __name__ == "__main__":
+    main()
