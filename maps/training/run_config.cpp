@@ -163,7 +163,7 @@ RunConfig parse_run_config(const Json& json) {
     check_keys(t, "train",
                {"steps", "learning_rate", "states_per_task", "validate_every", "checkpoint_every",
                 "validation_states_per_task", "keep_every", "bc_loss", "freeze", "lr_scale", "flush_denormal",
-                "validation_tasks"});
+                "validation_tasks", "optimizer", "adam_eps"});
     read(t, "train", "steps", c.train.steps);
     read(t, "train", "learning_rate", c.train.learning_rate);
     read(t, "train", "states_per_task", c.train.states_per_task);
@@ -175,6 +175,13 @@ RunConfig parse_run_config(const Json& json) {
     read(t, "train", "freeze", c.train.freeze);
     read(t, "train", "flush_denormal", c.train.flush_denormal);
     read(t, "train", "validation_tasks", c.train.validation_tasks);
+    read(t, "train", "optimizer", c.train.optimizer);
+    read(t, "train", "adam_eps", c.train.adam_eps);
+    if (c.train.optimizer != "joint" && c.train.optimizer != "alternating")
+      throw std::invalid_argument("config train.optimizer: expected \"joint\" or \"alternating\", got \"" +
+                                  c.train.optimizer + "\"");
+    if (!(c.train.adam_eps > 0.0) || !std::isfinite(c.train.adam_eps))
+      throw std::invalid_argument("config train.adam_eps: expected a finite number > 0, got " + t["adam_eps"].dump());
     if (t.contains("lr_scale"))
       c.train.lr_scale = read_named_numbers<double>(t["lr_scale"], "train.lr_scale", "parameter-name prefix: factor",
                                                     "a finite number >= 0", [](const Json& factor) {
@@ -324,7 +331,9 @@ Json to_json(const RunConfig& c) {
              {"freeze", c.train.freeze},
              {"lr_scale", lr_scale},
              {"flush_denormal", c.train.flush_denormal},
-             {"validation_tasks", c.train.validation_tasks}}},
+             {"validation_tasks", c.train.validation_tasks},
+             {"optimizer", c.train.optimizer},
+             {"adam_eps", c.train.adam_eps}}},
            {"maps",
             {{"modules", c.maps.modules},
              {"module_hidden", c.maps.module_hidden},

@@ -131,6 +131,7 @@ bool starts_with(const std::string& name, const std::string& prefix) { return na
 struct TrainedParameters {
   std::vector<ag::Tensor> tensors;
   std::vector<double> lr_scales;
+  std::vector<bool> selector;  // the name starts with "selector" (train.optimizer "alternating" steps these first)
 };
 TrainedParameters trained_parameters(Policy& policy, const TrainConfig& config) {
   const nn::NamedTensors named = policy.named_parameters();
@@ -153,6 +154,7 @@ TrainedParameters trained_parameters(Policy& policy, const TrainConfig& config) 
       continue;
     }
     trained.tensors.push_back(p.tensor);
+    trained.selector.push_back(starts_with(p.name, "selector"));
     double scale = 1.0;
     for (const auto& [prefix, factor] : config.lr_scale)
       if (starts_with(p.name, prefix)) {
@@ -162,10 +164,64 @@ TrainedParameters trained_parameters(Policy& policy, const TrainConfig& config) 
     trained.lr_scales.push_back(scale);
   }
   if (trained.tensors.empty()) throw std::invalid_argument("train.freeze: every parameter is frozen, nothing to train");
+  if (config.optimizer == "alternating") {
+    const auto selectors = std::count(trained.selector.begin(), trained.selector.end(), true);
+    if (selectors == 0 || selectors == static_cast<std::ptrdiff_t>(trained.selector.size()))
+      throw std::invalid_argument(
+          "train.optimizer \"alternating\" steps the selector's parameters, then the others, but this " +
+          policy.type_name() + " trains " + (selectors == 0 ? "no parameter named selector..." : "only the selector") +
+          "; use \"joint\"");
+  }
   return trained;
 }
 
 }  // namespace
+
+namespace {
+
+// One pass of an alternating step: only one side's parameters (the selector's or the others) require gradients
+// while the loss is built and differentiated, so backward spends nothing on the other side's weights; Adam then
+// steps the parameters that got a gradient (it skips those without). A non-finite loss steps nothing.
+LossTerms one_side_pass(Policy& policy, const Batch& batch, const std::vector<ag::Tensor>& params,
+                        const std::vector<bool>& selector, optim::Adam& adam, bool selector_side) {
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    ag::Tensor p = params[i];
+    p.requires_grad_(selector[i] == selector_side);
+  }
+  LossTerms terms = policy.loss(batch);
+  adam.zero_grad();
+  if (std::isfinite(terms.total.item())) {
+    terms.total.backward();
+    adam.step();
+  }
+  for (ag::Tensor p : params) p.requires_grad_(true);
+  return terms;
+}
+
+}  // namespace
+
+LossTerms optimizer_step(Policy& policy, Batch& batch, const std::vector<ag::Tensor>& params,
+                         const std::vector<bool>& selector, optim::Adam& adam, const std::string& optimizer) {
+  if (optimizer == "joint") {
+    LossTerms terms = policy.loss(batch);
+    if (!std::isfinite(terms.total.item())) return terms;
+    adam.zero_grad();
+    terms.total.backward();
+    adam.step();
+    return terms;
+  }
+  if (optimizer != "alternating")
+    throw std::invalid_argument("train.optimizer: expected \"joint\" or \"alternating\", got \"" + optimizer + "\"");
+  if (selector.size() != params.size())
+    throw std::invalid_argument("optimizer_step: " + std::to_string(selector.size()) + " selector flags for " +
+                                std::to_string(params.size()) + " parameters");
+  LossTerms first = one_side_pass(policy, batch, params, selector, adam, true);
+  if (!std::isfinite(first.total.item())) return first;
+  batch.noise_seed = envs::splitmix64(batch.noise_seed ^ 0x7365636f6e64ULL);  // "second": a fresh noise draw
+  LossTerms second = one_side_pass(policy, batch, params, selector, adam, false);
+  // A loss that only the stepped selector made non-finite is reported as this step's.
+  return std::isfinite(second.total.item()) ? first : second;
+}
 
 std::int64_t trained_steps(const std::string& run_dir) {
   const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
@@ -192,7 +248,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   policy.train();
   policy.set_observation_statistics(data.standardizer().mean, data.standardizer().std);
   const TrainedParameters trained = trained_parameters(policy, config);
-  optim::Adam adam(trained.tensors, {.lr = config.learning_rate});
+  optim::Adam adam(trained.tensors, {.lr = config.learning_rate, .eps = config.adam_eps});
   for (std::size_t i = 0; i < trained.lr_scales.size(); ++i) adam.set_lr_scale(i, trained.lr_scales[i]);
   std::mt19937_64 rng(envs::splitmix64(config.seed ^ 0x6261746368657321ULL));  // "batches!"
   // A function of the seed and the step, so a resumed run draws the same noise without saving a generator.
@@ -224,7 +280,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   while (progress.step < config.steps) {
     Batch batch = data.sample(per_task, rng, ag::Dtype::Float32);
     batch.noise_seed = envs::splitmix64(noise_stream ^ static_cast<std::uint64_t>(progress.step));
-    const LossTerms terms = policy.loss(batch);
+    const LossTerms terms = optimizer_step(policy, batch, trained.tensors, trained.selector, adam, config.optimizer);
     const double total = terms.total.item();
     if (!std::isfinite(total)) {
       std::string culprit = "total";
@@ -235,9 +291,6 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
                                (fs::exists(last_path) ? last_path + " holds the last good checkpoint"
                                                       : std::string("no checkpoint was written yet")));
     }
-    adam.zero_grad();
-    terms.total.backward();
-    adam.step();
     policy.after_step();
     ++progress.step;
     if (term_names.empty()) {

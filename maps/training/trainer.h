@@ -8,6 +8,7 @@
 
 #include "maps/data/demo_dataset.h"
 #include "maps/policies/policy.h"
+#include "nn/optim/adam.h"
 
 // Training any Policy on a DemoDataset with Adam, with validation, the best-validation checkpoint, a progress
 // line, a stop on a non-finite loss, and resumption.
@@ -40,6 +41,12 @@ struct TrainConfig {
   // Training (steps and validation) flushes denormal floats to zero (autograd/float_environment.h): 3-6x faster
   // once MAPS's selector sharpens. false: IEEE denormals, as runs made before the option existed.
   bool flush_denormal = true;
+  // "joint": one Adam step on every parameter per batch. "alternating": the paper's code's (train.py): on each batch
+  // the selector's parameters take their step first, then the loss is computed again with the stepped selector
+  // (a fresh sampled-BC noise draw) and every other parameter takes its step; one Adam state serves both. A policy
+  // without parameters named "selector..." (the baselines, a uniform selector) cannot alternate.
+  std::string optimizer = "joint";
+  double adam_eps = 1e-8;  // torch's default; the paper's code 1e-5
   // The best checkpoint is judged on these tasks' validation states only (empty: every task's). Transfer's
   // comparison: a multi-task run taught a new task is judged on the new task, as a run of that task alone is.
   std::vector<std::string> validation_tasks;
@@ -52,6 +59,14 @@ struct TrainSummary {
   double seconds = 0.0;  // this process's training time
   bool resumed = false;
 };
+
+// One optimiser step of train_policy on `batch` (train.optimizer). "joint": the loss is differentiated once and
+// `adam` steps every parameter. "alternating" (the paper's code): the parameters flagged in `selector` step first,
+// then the loss is computed again with the stepped selector (batch.noise_seed advanced: a fresh sampled-BC draw)
+// and the others step. Returns the loss before any update (a non-finite one steps nothing); `adam` must hold
+// `params`, in order.
+LossTerms optimizer_step(Policy& policy, Batch& batch, const std::vector<ag::Tensor>& params,
+                         const std::vector<bool>& selector, optim::Adam& adam, const std::string& optimizer);
 
 // The steps run_dir/last.ckpt has trained (0 when there is none yet).
 std::int64_t trained_steps(const std::string& run_dir);

@@ -3,10 +3,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <random>
 
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/mt_bc.h"
@@ -186,6 +188,122 @@ TEST(Trainer, ANonFiniteLossStopsWithTheStepAndTheTermAndKeepsTheLastCheckpoint)
   const TrainSummary summary = train_policy(*fresh, data, config, dir.string(), nullptr);
   EXPECT_TRUE(summary.resumed);
   EXPECT_TRUE(std::isfinite(summary.best_validation_loss));
+}
+
+// Parameter i of a policy: whether it is the selector's (its name starts with "selector").
+std::vector<bool> selector_flags(const Policy& policy) {
+  std::vector<bool> flags;
+  for (const auto& p : policy.named_parameters()) flags.push_back(p.name.rfind("selector", 0) == 0);
+  return flags;
+}
+
+std::vector<ag::Tensor> side(const Policy& policy, bool selector_side) {
+  std::vector<ag::Tensor> out;
+  const auto flags = selector_flags(policy);
+  const auto params = policy.parameters();
+  for (std::size_t i = 0; i < params.size(); ++i)
+    if (flags[i] == selector_side) out.push_back(params[i]);
+  return out;
+}
+
+TEST(Trainer, AlternatingStepsTheSelectorThenTheRestOnTheLossAfterTheSelectorsStep) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  std::mt19937_64 rng(3);
+  Batch batch = data.sample(16, rng, ag::Dtype::Float32);
+  auto alternating = small_maps(4), by_hand = small_maps(4), joint = small_maps(4);
+  for (auto* policy : {alternating.get(), by_hand.get(), joint.get()})
+    policy->set_observation_statistics(data.standardizer().mean, data.standardizer().std);
+  const auto flags = selector_flags(*alternating);
+  ASSERT_GT(std::count(flags.begin(), flags.end(), true), 0);
+  ASSERT_GT(std::count(flags.begin(), flags.end(), false), 0);
+  const optim::AdamOptions options{.lr = 1e-2, .eps = 1e-5};
+
+  optim::Adam adam(alternating->parameters(), options);
+  Batch a = batch;
+  const double before =
+      optimizer_step(*alternating, a, alternating->parameters(), flags, adam, "alternating").total.item();
+  // By hand, two Adams: the selector's on the loss, then the others' on the loss recomputed after it.
+  optim::Adam selector_adam(side(*by_hand, true), options), rest_adam(side(*by_hand, false), options);
+  LossTerms first = by_hand->loss(batch);
+  EXPECT_EQ(first.total.item(), before);
+  first.total.backward();
+  selector_adam.step();
+  rest_adam.zero_grad();
+  LossTerms second = by_hand->loss(batch);
+  selector_adam.zero_grad();
+  rest_adam.zero_grad();
+  second.total.backward();
+  rest_adam.step();
+  const auto got = alternating->named_parameters(), want = by_hand->named_parameters();
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const auto g = got[i].tensor.to_vector(), w = want[i].tensor.to_vector();
+    ASSERT_EQ(g.size(), w.size());
+    for (std::size_t j = 0; j < g.size(); ++j) ASSERT_NEAR(g[j], w[j], 1e-6) << got[i].name << "[" << j << "]";
+  }
+  // Every parameter requires its gradient again afterwards.
+  for (const auto& p : alternating->parameters()) EXPECT_TRUE(p.requires_grad());
+  // A joint step differs in the modules and head (their gradient is taken before the selector moved).
+  optim::Adam joint_adam(joint->parameters(), options);
+  Batch j = batch;
+  optimizer_step(*joint, j, joint->parameters(), flags, joint_adam, "joint");
+  const auto stepped = side(*alternating, false), jointly = side(*joint, false);
+  double largest = 0.0;
+  for (std::size_t i = 0; i < stepped.size(); ++i) {
+    const auto x = stepped[i].to_vector(), y = jointly[i].to_vector();
+    for (std::size_t k = 0; k < x.size(); ++k) largest = std::max(largest, std::abs(x[k] - y[k]));
+  }
+  EXPECT_GT(largest, 1e-7);
+}
+
+TEST(Trainer, AlternatingTrainsResumesExactlyAndNeedsASelector) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  TrainConfig config = small_config();
+  config.optimizer = "alternating";
+  config.adam_eps = 1e-5;
+  config.learning_rate = 3e-3;
+  auto straight = small_maps(2);
+  const Batch validation = data.validation_batch(ag::Dtype::Float32);
+  const double untrained = mean_action_error(*straight, validation);
+  const fs::path a = fresh_dir("alternating_straight"), b = fresh_dir("alternating_resumed");
+  const TrainSummary full = train_policy(*straight, data, config, a.string(), nullptr);
+  EXPECT_LT(full.best_validation_loss, untrained);
+  TrainConfig partial = config;
+  partial.steps = 40;
+  auto first = small_maps(2);
+  train_policy(*first, data, partial, b.string(), nullptr);
+  auto second = small_maps(7);
+  train_policy(*second, data, config, b.string(), nullptr);
+  EXPECT_EQ(parameters_of(*straight), parameters_of(*second));
+
+  ag::Generator gen(1);
+  auto mt_bc = std::make_shared<MTBC>(PolicyShape{3, 2, 2}, gen, std::vector<std::int64_t>{8});
+  EXPECT_THAT(error_of([&] { train_policy(*mt_bc, data, config, fresh_dir("alternating_mt_bc").string(), nullptr); }),
+              HasSubstr("train.optimizer \"alternating\" steps the selector's parameters, then the others"));
+  MAPSConfig uniform_config;
+  uniform_config.modules = 3;
+  uniform_config.module_hidden = {16};
+  uniform_config.selector = "uniform";
+  auto uniform = std::make_shared<MAPSPolicy>(PolicyShape{3, 2, 2}, uniform_config, gen);
+  EXPECT_THAT(
+      error_of([&] { train_policy(*uniform, data, config, fresh_dir("alternating_uniform").string(), nullptr); }),
+      HasSubstr("trains no parameter named selector...; use \"joint\""));
+}
+
+TEST(RunConfig, OptimizerAndAdamEpsAreReadAndChecked) {
+  nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
+  EXPECT_EQ(parse_run_config(request).train.optimizer, "joint");
+  EXPECT_EQ(parse_run_config(request).train.adam_eps, 1e-8);
+  request["train"] = {{"optimizer", "alternating"}, {"adam_eps", 1e-5}};
+  const RunConfig config = parse_run_config(request);
+  EXPECT_EQ(config.train.optimizer, "alternating");
+  EXPECT_EQ(config.train.adam_eps, 1e-5);
+  EXPECT_EQ(to_json(config)["train"]["optimizer"], "alternating");
+  request["train"] = {{"optimizer", "two_adams"}};
+  EXPECT_THAT(error_of([&] { parse_run_config(request); }),
+              HasSubstr("config train.optimizer: expected \"joint\" or \"alternating\", got \"two_adams\""));
+  request["train"] = {{"adam_eps", 0}};
+  EXPECT_THAT(error_of([&] { parse_run_config(request); }),
+              HasSubstr("config train.adam_eps: expected a finite number > 0, got 0"));
 }
 
 TEST(RunConfig, ParsesDefaultsAndRejectsUnknownKeys) {
