@@ -11,15 +11,12 @@ import math
 from dataclasses import dataclass
 
 from suite_results import ablation_groups, groups, module_sweep_cells
-from suite_stats import holm, mean, paired, paired_p, usage_distances, vs_single_bc
+from suite_stats import USED_FACTOR, division, holm, mean, paired, paired_p, usage_distances, vs_single_bc
 
 BASELINES = ["single_bc", "mt_bc", "mt_mh_bc", "maml"]
 COMPARED = ["maps"] + BASELINES
 NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML"}
 ALPHA = 0.05
-# A task uses a module when the module's share of the task's selector scores is at least USED_FACTOR / M (1.5x the
-# uniform share): uniform mixing then counts as using none, and a module that carries a task visibly counts.
-USED_FACTOR = 1.5
 # The paper's example (Fig. 6): window-open and drawer-close share their modules; drawer-open shares one of them
 # and has a task-specific one.
 EXAMPLE = ("mt10/window-open", "mt10/drawer-close", "mt10/drawer-open")
@@ -304,23 +301,6 @@ def module_claims(cells):
                         "holds: significantly better with the most modules than with M = number of tasks on Gravity"
                         " and not on MT10; partly: not on MT10 and not significantly on Gravity"))
     return found
-
-
-def used_modules(task, modules):
-    return {j for j, u in enumerate(task.usage) if u >= USED_FACTOR / modules}
-
-
-def division(cell):
-    """(shared modules, task-specific modules, tasks using both kinds) of one MAPS run's evaluation usage."""
-    used = {t.task: used_modules(t, len(t.usage)) for t in cell.tasks}
-    users = {}
-    for task, mods in used.items():
-        for j in mods:
-            users.setdefault(j, set()).add(task)
-    shared = {j for j, u in users.items() if len(u) > 1}
-    specific = {j for j, u in users.items() if len(u) == 1}
-    both = sum(1 for mods in used.values() if mods & shared and mods & specific)
-    return shared, specific, both, used
 
 
 def division_claims(cells):

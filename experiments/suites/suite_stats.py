@@ -11,6 +11,9 @@ from suite_results import groups, task_names, task_score
 
 # Fig. 3's "much better": the method's mean score above this factor times Single BC's.
 MUCH_BETTER = 1.1
+# A task uses a module when the module's share of the task's selector scores is at least USED_FACTOR / M (1.5x the
+# uniform share): uniform mixing then counts as using none, and a module that carries a task visibly counts.
+USED_FACTOR = 1.5
 
 
 def t95(degrees_of_freedom):
@@ -182,3 +185,21 @@ def describe_n(cells):
     steps = "/".join(str(s) for s in sorted({c.steps for c in cells}))
     return (f"n = {span(seeds)} seed{'s' if seeds[-1] > 1 else ''} per point, {episodes} episodes per task,"
             f" {steps} training steps")
+
+
+def used_modules(task, modules):
+    return {j for j, u in enumerate(task.usage) if u >= USED_FACTOR / modules}
+
+
+def division(cell):
+    """(shared modules, task-specific modules, tasks using both kinds, each task's used modules) of one run's
+    evaluation usage: a module used by two or more tasks is shared, by one task specific."""
+    used = {t.task: used_modules(t, len(t.usage)) for t in cell.tasks}
+    users = {}
+    for task, mods in used.items():
+        for j in mods:
+            users.setdefault(j, set()).add(task)
+    shared = {j for j, u in users.items() if len(u) > 1}
+    specific = {j for j, u in users.items() if len(u) == 1}
+    both = sum(1 for mods in used.values() if mods & shared and mods & specific)
+    return shared, specific, both, used

@@ -4,8 +4,8 @@ and routing, Fig. 3's comparison with Single BC, the ablations and the module-co
 import math
 
 from suite_results import ablation_groups, groups, module_sweep_cells, score_name, short_task, task_names, task_score
-from suite_stats import (MUCH_BETTER, fmt, fmt_p, holm, mean, mean_entropy, paired, paired_p, routing, span,
-                         top_share, usage_distances)
+from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, mean, mean_entropy, paired, paired_p,
+                         routing, span, top_share, usage_distances)
 
 
 MISSING_SHOWN = 40
@@ -167,7 +167,21 @@ def usage_tables(cells):
                 for task, (tv, entropy, top) in routing(runs, tasks).items()]
         lines += table(["task", "usage distance from the tasks' mean usage (TV)", "per-state entropy (nats)",
                         "per-state top score"], rows)
+        lines += ["", f"Task division per seed (a task uses a module whose share of its usage is >= {USED_FACTOR:g}/"
+                  f"{modules}; shared: used by two or more tasks, specific: by one):", ""]
+        lines += table(["seed", "shared modules", "specific modules", "unused modules", "tasks using both kinds",
+                        "modules per task"], division_rows(runs, modules))
     return lines
+
+
+def division_rows(runs, modules):
+    rows = []
+    for c in sorted(runs, key=lambda c: c.seed):
+        shared, specific, both, used = division(c)
+        per_task = [len(mods) for mods in used.values()]
+        rows.append([c.seed, len(shared), len(specific), modules - len(shared) - len(specific),
+                     f"{both} of {len(used)}", f"{min(per_task)}-{max(per_task)}"])
+    return rows
 
 
 def span_float(values):

@@ -337,6 +337,12 @@ class ZooRouting(unittest.TestCase):
             md = (out / "report.md").read_text()
             self.assertIn("MOORE, 5 demos, k = 1: module usage (share |w_k,i| / sum |w_k|", md)
             self.assertIn("![](zoo_routing.png)", md)
+            # The same task-division measure as MAPS's: each task uses one module of its own (share 0.7 >= 1.5/4).
+            moore_part = md[md.index("MOORE, 5 demos"):]
+            division = moore_part[moore_part.index("Task division per seed (a task uses a module whose share of its"
+                                                   " usage is >= 1.5/4"):]
+            division = division[:division.index("\n\n", division.index("| seed"))]
+            self.assertEqual(row_of(division, ["0"]), ["0", "0", "2", "2", "0 of 2", "1-1"])
             with (out / "zoo_routing.csv").open() as f:
                 rows = list(csv.DictReader(f))
             self.assertEqual({r["method"] for r in rows}, {"maps", "moore"})
