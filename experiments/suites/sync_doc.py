@@ -1,6 +1,6 @@
 """Refresh the generated blocks of a hand-written results page from a suite's report.md.
 
-A block in the page is delimited by two HTML comments, invisible in the rendered page:
+A block in the page is delimited by two HTML comments, each on a line of its own, invisible in the rendered page:
 
     <!-- report.md: The paper's claims -->
     ...replaced by the body of report.md's section "## The paper's claims"...
@@ -17,7 +17,9 @@ import re
 import sys
 from pathlib import Path
 
-BLOCK = re.compile(r"(<!-- report\.md: (?P<title>[^>]*?) -->\n)(?P<body>.*?)(<!-- /report\.md -->)", re.S)
+# Markers count only on lines of their own, so a page can mention them in its text.
+BLOCK = re.compile(r"^(<!-- report\.md: (?P<title>[^>\n]*?) -->\n)(?P<body>.*?)^(<!-- /report\.md -->)$", re.S | re.M)
+OPENER = re.compile(r"^<!-- report\.md: ", re.M)
 
 
 def sections(report_text):
@@ -52,7 +54,7 @@ def sync(report_text, doc_text):
         return f"{match.group(1)}{available[title]}\n{match.group(4)}"
 
     result = BLOCK.sub(replace, doc_text)
-    opened = doc_text.count("<!-- report.md: ")
+    opened = len(OPENER.findall(doc_text))
     if opened != len(refreshed):
         raise ValueError(f"the page opens {opened} report.md blocks but closes {len(refreshed)} "
                          "(each '<!-- report.md: TITLE -->' needs a '<!-- /report.md -->' after it)")

@@ -452,6 +452,9 @@ class SyncDoc(unittest.TestCase):
         self.assertEqual(text, "intro\n<!-- report.md: The paper's claims -->\n| # | claim |\n|---|---|\n"
                                "| 1 | new |\n\nRules: new.\n<!-- /report.md -->\ndiscussion after\n")
         self.assertEqual(sync_doc.sync(self.REPORT, text)[0], text)  # idempotent
+        # A marker mentioned inside a line of text is not a block.
+        mention = "Blocks look like `<!-- report.md: SECTION -->`.\n" + page
+        self.assertEqual(sync_doc.sync(self.REPORT, mention)[1], ["The paper's claims"])
 
     def test_missing_section_and_open_block_are_errors(self):
         import sync_doc
