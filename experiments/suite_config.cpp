@@ -1,6 +1,7 @@
 #include "experiments/suite_config.h"
 
 #include <algorithm>
+#include <optional>
 #include <regex>
 #include <set>
 #include <stdexcept>
@@ -132,6 +133,9 @@ struct TaskAxis {
   int others_demos = 0;
   std::vector<std::string> freeze{"modules"};
   double module_lr_scale = 1.0;
+  // The variant of the holdout cell a transfer cell starts from (unset: the transfer cell's own variant). A grid of
+  // fine-tuned transfer names its cells with a variant of its own and starts from the base holdout runs.
+  std::optional<std::string> source_variant;
 };
 
 TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, const std::vector<std::string>& methods,
@@ -142,8 +146,11 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
   const bool transfer = std::count(methods.begin(), methods.end(), "transfer") > 0;
   if (transfer && !fresh)
     throw std::invalid_argument(at + ": method transfer needs \"new_task\" (the tasks to teach) and \"others_demos\"");
-  for (const char* key : {"others_demos", "freeze", "module_lr_scale"})
+  for (const char* key : {"others_demos", "freeze", "module_lr_scale", "source_variant"})
     if (grid.contains(key) && !fresh) throw std::invalid_argument(at + "." + key + ": only with \"new_task\"");
+  if (grid.contains("source_variant") && !transfer)
+    throw std::invalid_argument(at +
+                                ".source_variant: only with method transfer (it names the runs transfer starts from)");
   if (!holdout && !fresh) return axis;
   axis.kind = holdout ? TaskAxis::Kind::kHoldout : TaskAxis::Kind::kNew;
   const std::string key = holdout ? "holdout" : "new_task";
@@ -162,6 +169,13 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
       const Json& freeze = grid["freeze"];
       if (!freeze.is_array()) throw std::invalid_argument(at + ".freeze: expected an array of parameter prefixes");
       axis.freeze = freeze.empty() ? std::vector<std::string>{} : names_of(freeze, at + ".freeze");
+    }
+    if (grid.contains("source_variant")) {
+      const Json& source = grid["source_variant"];
+      if (!source.is_string() || source.get<std::string>().empty())
+        throw std::invalid_argument(
+            at + ".source_variant: expected a variant name (\"base\" or one under \"variants\"), got " + source.dump());
+      axis.source_variant = source.get<std::string>();
     }
     if (grid.contains("module_lr_scale")) {
       const Json& scale = grid["module_lr_scale"];
@@ -227,7 +241,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
     const Json& grid = grids[g];
     check_keys(grid, at,
                {"name", "sets", "methods", "variants", "demos", "seeds", "holdout", "new_task", "others_demos",
-                "freeze", "module_lr_scale"});
+                "freeze", "module_lr_scale", "source_variant"});
     const Json& name_json = required(grid, at, "name");
     if (!name_json.is_string() || !is_plain_name(name_json.get<std::string>()))
       throw std::invalid_argument(at + ".name: expected a name of lower-case letters, digits and _, got " +
@@ -250,6 +264,9 @@ Suite parse_suite(const Json& json, const std::string& where) {
         throw std::invalid_argument(at + ".variants: '" + v + "' is not defined under \"variants\"");
     const auto seeds = integers_of<std::uint64_t>(required(grid, at, "seeds"), at + ".seeds", 0);
     const TaskAxis axis = task_axis(grid, set_names, methods, at);
+    if (axis.source_variant && *axis.source_variant != "base" && !variants.count(*axis.source_variant))
+      throw std::invalid_argument(at + ".source_variant: '" + *axis.source_variant +
+                                  "' is not defined under \"variants\"");
 
     for (const std::uint64_t seed : seeds)
       for (const auto& set_name : set_names) {
@@ -280,7 +297,8 @@ Suite parse_suite(const Json& json, const std::string& where) {
                 if (method == "transfer") {
                   // The MAPS cell that never saw the task, at the other tasks' count: its request, for the task alone,
                   // starting from its best checkpoint (a sibling folder), as `maps transfer` builds it.
-                  const std::string source_folder = "maps-" + (variant == "base" ? "" : variant + "-") + "without-" +
+                  const std::string& from = axis.source_variant ? *axis.source_variant : variant;
+                  const std::string source_folder = "maps-" + (from == "base" ? "" : from + "-") + "without-" +
                                                     short_task(task) + "_d" + std::to_string(axis.others_demos) + "_s" +
                                                     std::to_string(seed);
                   const auto source = by_name.find(set_name + "/" + source_folder);

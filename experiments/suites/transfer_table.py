@@ -36,6 +36,31 @@ def new_task_of(cell):
     return task if cell.variant.endswith("new-" + task.rsplit("/", 1)[-1]) else None
 
 
+def label_of(cell, task):
+    """What a cell's row is called: its method, with the variant it ran under when a grid gave one (a new_task cell's
+    variant is "[<variant>-]new-<task>"): "transfer", "transfer (tuned)"."""
+    prefix = cell.variant[:-len("new-" + short(task))].rstrip("-")
+    return f"{cell.method} ({prefix})" if prefix else cell.method
+
+
+def base_of(label):
+    return label.split(" (", 1)[0]
+
+
+def name_of(label):
+    base = base_of(label)
+    return NAMES.get(base, base) + label[len(base):]
+
+
+def ordered(labels):
+    """Transfer's rows first (the plain one, then its variants), then the other methods in the report's order, each
+    method's variants after it."""
+    labels = set(labels)
+    bases = order(METHOD_ORDER, {base_of(label) for label in labels})
+    bases = (["transfer"] if "transfer" in bases else []) + [b for b in bases if b != "transfer"]
+    return [label for b in bases for label in sorted(l for l in labels if base_of(l) == b)]
+
+
 def score_of(cell, task):
     for t in cell.tasks:
         if t.task == task:
@@ -75,7 +100,7 @@ def main():
     for cell in suite.cells:
         task = new_task_of(cell)
         if task is not None:
-            rows.setdefault((cell.set, task, cell.method, cell.demos), []).append(cell)
+            rows.setdefault((cell.set, task, label_of(cell, task), cell.demos), []).append(cell)
     if not rows:
         sys.exit(f"transfer_table: {args.suite} has no finished new-task cells (grids with new_task)")
     sources = {}  # (set, task, seed) -> the holdout MAPS cell
@@ -90,14 +115,13 @@ def main():
     tasks = sorted({(s, t) for s, t, _, _ in rows})
     figure_data = {}
     for set_name, task in tasks:
-        methods = order(METHOD_ORDER, {m for s, t, m, _ in rows if (s, t) == (set_name, task)})
-        methods = (["transfer"] if "transfer" in methods else []) + [m for m in methods if m != "transfer"]
+        methods = ordered({m for s, t, m, _ in rows if (s, t) == (set_name, task)})
         counts = sorted({d for s, t, _, d in rows if (s, t) == (set_name, task)})
         lines += [f"## {task}", "", "| method | " + " | ".join(f"{d} demos" for d in counts) + " |",
                   "|---|" + "---|" * len(counts)]
         for method in methods:
             cells_at = [rows.get((set_name, task, method, d), []) for d in counts]
-            lines.append(f"| {NAMES.get(method, method)} | " + " | ".join(
+            lines.append(f"| {name_of(method)} | " + " | ".join(
                 fmt([score_of(c, task) for c in cells]) + f" ({len(cells)})" if cells else "-" for cells in cells_at)
                 + " |")
             figure_data[(task, method)] = [(d, [score_of(c, task) for c in cells]) for d, cells in zip(counts, cells_at)
@@ -116,7 +140,7 @@ def main():
         adjusted = holm([p for *_, p in comparisons])
         for (method, d, diffs, p), p_holm in zip(comparisons, adjusted):
             if diffs:
-                lines.append(f"| {NAMES.get(method, method)} | {d} | {len(diffs)} | {fmt(diffs, signed=True)} | "
+                lines.append(f"| {name_of(method)} | {d} | {len(diffs)} | {fmt(diffs, signed=True)} | "
                              f"{fmt_p(p)} | {fmt_p(p_holm)} |")
         lines += ["", "Training cost, mean over seeds: the best-validation step, the seconds of training to reach it and "
                       "of the whole training (curve.csv's speed per validation window, every attempt of a resumed "
@@ -126,7 +150,7 @@ def main():
             for d in counts:
                 cells = rows.get((set_name, task, method, d), [])
                 if cells:
-                    lines.append(f"| {NAMES.get(method, method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
+                    lines.append(f"| {name_of(method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
                                  f"{mean_of([c.training_seconds_to(c.best_step) for c in cells])} | "
                                  f"{mean_of([c.training_seconds_to(c.steps) for c in cells])} |")
         held = [c for (s, t, _), c in sources.items() if (s, t) == (set_name, task)]
@@ -138,8 +162,9 @@ def main():
                           "seed serves every count of the new task."]
         neighbour = NEIGHBOUR.get(task)
         usage_lines = []
-        for d in counts:
-            for cell in rows.get((set_name, task, "transfer", d), []):
+        transfers = [m for m in methods if base_of(m) == "transfer"]
+        for method, d in ((m, d) for m in transfers for d in counts):
+            for cell in rows.get((set_name, task, method, d), []):
                 mine = next((t.usage for t in cell.tasks if t.task == task), None)
                 source = sources.get((set_name, task, cell.seed))
                 trained = {t.task: t.usage for t in source.tasks if t.usage} if source else {}
@@ -149,7 +174,7 @@ def main():
                 nearest = min(distance, key=distance.get)
                 others = [v for t, v in distance.items() if t != neighbour]
                 usage_lines.append(
-                    f"| {d} | {cell.seed} | {top_modules(mine)} | {top_modules(trained[neighbour])} | "
+                    f"| {name_of(method)} | {d} | {cell.seed} | {top_modules(mine)} | {top_modules(trained[neighbour])} | "
                     f"{distance[neighbour]:.2f} | " + (f"{min(others):.2f}-{max(others):.2f}" if others else "-") +
                     f" | {short(nearest)} ({distance[nearest]:.2f}) |")
         if usage_lines:
@@ -157,8 +182,8 @@ def main():
                           "source run (the same modules: the numbering is the source run's); the total-variation "
                           "distance of the new task's usage from the neighbour's and from the other trained tasks' "
                           "(0: the same mixture; 1: no module in common); the trained task whose usage is nearest:",
-                      "", "| demos | seed | new task | neighbour in the source run | TV to the neighbour | TV to the "
-                          "others | nearest trained task (TV) |", "|---|---|---|---|---|---|---|"]
+                      "", "| method | demos | seed | new task | neighbour in the source run | TV to the neighbour | "
+                          "TV to the others | nearest trained task (TV) |", "|---|---|---|---|---|---|---|---|"]
             lines += usage_lines
         lines.append("")
     (out / "transfer.md").write_text("\n".join(lines) + "\n")
@@ -183,8 +208,8 @@ def draw(data, tasks, path):
             xs = [d for d, _ in points]
             ys = [mean(v) for _, v in points]
             err = [0.0 if math.isnan(ci95(v)) else ci95(v) for _, v in points]
-            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=NAMES.get(method, method),
-                        color=colours.get(method))
+            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=name_of(method),
+                        color=colours.get(method, "tab:olive" if base_of(method) == "transfer" else None))
         ax.set(title=task, xlabel="demonstrations of the new task", ylabel="new task's score", ylim=(0, 1.1))
         ax.set_xscale("log")
         ax.grid(alpha=0.3)

@@ -76,19 +76,39 @@ class Transfer(unittest.TestCase):
             "--set", f"init.run={work() / 'without_reach'}", "--set", "train.steps=1")
         refused(1, "started from another run", "started_from")
 
+    def test_a_suite_grid_that_cannot_be_meant_is_refused(self):
+        fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
+        for change, needle in [
+                (lambda g: g.update(source_variant="wide"), "grids[2].source_variant: 'wide' is not defined under"),
+                (lambda g: g.update(source_variant=3), "source_variant: expected a variant name"),
+                (lambda g: g.update(methods=["mt_bc"]), "source_variant: only with method transfer"),
+                (lambda g: g.update(module_lr_scale=0.1, freeze=["modules"]), "the modules are frozen")]:
+            config = json.loads(fixture.read_text())
+            change(config["grids"][-1])
+            path = work() / "refused-suite.json"
+            path.write_text(json.dumps(config))
+            proc = run("suite", "plan", path, check=False)
+            self.assertNotEqual(proc.returncode, 0, needle)
+            self.assertIn(needle, proc.stderr)
+
     def test_a_suite_runs_transfer_cells_after_their_sources(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
         plan = json.loads(run("suite", "plan", fixture, "--json").stdout)
         names = [cell["name"] for cell in plan["cells"]]
         self.assertEqual(names[0], "mt10/maps-without-reach_d2_s0")
         self.assertIn("mt10/transfer-new-reach_d1_s0", names)
+        self.assertIn("mt10/transfer-tuned-new-reach_d1_s0", names)
         proc = run("suite", "run", fixture, "--out", "suite", "--jobs", "2")
-        self.assertIn("5 cells done, 0 failed", proc.stdout)
+        self.assertIn("6 cells done, 0 failed", proc.stdout)
         cells = work() / "suite" / "cells" / "mt10"
         request = json.loads((cells / "transfer-new-reach_d1_s0" / "request.json").read_text())
         self.assertEqual(request["init"]["run"], "../maps-without-reach_d2_s0")
         self.assertEqual((request["data"]["tasks"], request["data"]["task_demos"]), (["mt10/reach"], {"mt10/reach": 1}))
         self.assertIn("starting from", (cells / "transfer-new-reach_d1_s0" / "train.log").read_text())
+        # The fine-tuned grid starts from the base source too (source_variant), its modules training at a tenth.
+        tuned = json.loads((cells / "transfer-tuned-new-reach_d1_s0" / "request.json").read_text())
+        self.assertEqual(tuned["init"]["run"], "../maps-without-reach_d2_s0")
+        self.assertEqual((tuned["train"]["freeze"], tuned["train"]["lr_scale"]), ([], {"modules": 0.1}))
         baseline = json.loads((cells / "mt_bc-new-reach_d2_s0" / "request.json").read_text())
         self.assertEqual((baseline["data"]["demos_per_task"], baseline["data"]["task_demos"]), (2, {"mt10/reach": 2}))
         # Judged on the new task, as the transfer and Single BC runs are; every cell draws each task's demos from a
@@ -105,6 +125,8 @@ class Transfer(unittest.TestCase):
         report = (work() / "suite" / "report" / "transfer.md").read_text()
         self.assertIn("## mt10/reach", report)
         self.assertRegex(report, r"\| MAPS transfer \| [0-9.]+ \+- nan \(1\) \| [0-9.]+ \+- nan \(1\) \|")
+        self.assertRegex(report, r"\| MAPS transfer \(tuned\) \| [0-9.]+ \+- nan \(1\) \| - \|")
+        self.assertRegex(report, r"\| MAPS transfer \(tuned\) \| 1 \| 1 \| [-+][0-9.]+ \+- nan \| - \| - \|")
         # The cost from the curves: seconds to the best step and of training, numbers for every cell; the source
         # run's beside.
         self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| \d+ \| \d+ \|")
