@@ -298,6 +298,15 @@ Suite parse_suite(const Json& json, const std::string& where) {
                   // The MAPS cell that never saw the task, at the other tasks' count: its request, for the task alone,
                   // starting from its best checkpoint (a sibling folder), as `maps transfer` builds it.
                   const std::string& from = axis.source_variant ? *axis.source_variant : variant;
+                  // A transfer cell's run config is its source's, taught the task: a variant that is not the
+                  // source's can only name the cells, so a config in it would be silently dropped.
+                  if (from != variant && variant != "base" && !variants.at(variant).empty())
+                    throw std::invalid_argument(at + ".variants: '" + variant + "' has a run config (" +
+                                                variants.at(variant).dump() + "), but transfer cells started from " +
+                                                "source_variant '" + from +
+                                                "' take their source's; give the grid an empty variant ({}) to name "
+                                                "its cells, and say what transfer trains with freeze and "
+                                                "module_lr_scale");
                   const std::string source_folder = "maps-" + (from == "base" ? "" : from + "-") + "without-" +
                                                     short_task(task) + "_d" + std::to_string(axis.others_demos) + "_s" +
                                                     std::to_string(seed);

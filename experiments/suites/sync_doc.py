@@ -6,7 +6,8 @@ A block in the page is delimited by two HTML comments, each on a line of its own
     ...replaced by the body of report.md's section "## The paper's claims"...
     <!-- /report.md -->
 
-Everything outside the blocks (the discussion) is left as written. A block whose section is missing from
+Everything outside the blocks (the discussion) is left as written. A marker inside a fenced code block counts too:
+keep examples of markers off lines of their own. A block whose section is missing from
 report.md is an error, so a renamed section cannot leave a stale table behind silently.
 
     python3 experiments/suites/sync_doc.py results/study/report/report.md docs/results.md
@@ -18,8 +19,9 @@ import sys
 from pathlib import Path
 
 # Markers count only on lines of their own, so a page can mention them in its text.
-BLOCK = re.compile(r"^(<!-- report\.md: (?P<title>[^>\n]*?) -->\n)(?P<body>.*?)^(<!-- /report\.md -->)$", re.S | re.M)
-OPENER = re.compile(r"^<!-- report\.md: ", re.M)
+BLOCK = re.compile(r"^(<!-- report\.md: (?P<title>[^>\n]*?) -->[ \t]*\n)(?P<body>.*?)^(<!-- /report\.md -->)[ \t]*$",
+                   re.S | re.M)
+OPENER = re.compile(r"^<!-- report\.md: [^>\n]*? -->[ \t]*$", re.M)
 
 
 def sections(report_text):

@@ -61,6 +61,14 @@ def ordered(labels):
     return [label for b in bases for label in sorted(l for l in labels if base_of(l) == b)]
 
 
+def source_of(cell, by_folder):
+    """The holdout cell a transfer cell started from (its init.run, a sibling folder), or None."""
+    run = cell.config.get("init", {}).get("run", "")
+    if not run:
+        return None
+    return by_folder.get(cell.set + "/" + pathlib.PurePosixPath(run).name)
+
+
 def score_of(cell, task):
     for t in cell.tasks:
         if t.task == task:
@@ -103,11 +111,7 @@ def main():
             rows.setdefault((cell.set, task, label_of(cell, task), cell.demos), []).append(cell)
     if not rows:
         sys.exit(f"transfer_table: {args.suite} has no finished new-task cells (grids with new_task)")
-    sources = {}  # (set, task, seed) -> the holdout MAPS cell
-    for cell in suite.cells:
-        held = cell.config.get("data", {}).get("holdout", [])
-        if cell.method == "maps" and len(held) == 1:
-            sources[(cell.set, held[0], cell.seed)] = cell
+    by_folder = {cell.name: cell for cell in suite.cells}
 
     lines = ["# Transfer: a new task from few demonstrations", "",
              f"Suite folder `{args.suite}`. The new task's score (HalfCheetah: return / its demonstrations' mean "
@@ -126,22 +130,29 @@ def main():
                 + " |")
             figure_data[(task, method)] = [(d, [score_of(c, task) for c in cells]) for d, cells in zip(counts, cells_at)
                                            if cells]
+        transfers = [m for m in methods if base_of(m) == "transfer"]
         lines += ["", "Paired differences, transfer - method, over the seeds both ran (p: paired t test; Holm over "
-                      "this task's comparisons):", "", "| method | demos | pairs | difference | p | p (Holm) |",
-                  "|---|---|---|---|---|---|"]
-        comparisons = []
-        for method in methods:
-            if method == "transfer":
-                continue
+                      "one transfer's comparisons with the other methods of this task):", "",
+                  "| transfer | method | demos | pairs | difference | p | p (Holm) |", "|---|---|---|---|---|---|---|"]
+        for transfer in transfers:
+            comparisons = []
+            for method in (m for m in methods if m not in transfers):
+                for d in counts:
+                    diffs = paired(rows.get((set_name, task, transfer, d), []),
+                                   rows.get((set_name, task, method, d), []), lambda c: score_of(c, task))
+                    comparisons.append((method, d, diffs, paired_p(diffs)))
+            adjusted = holm([p for *_, p in comparisons])
+            for (method, d, diffs, p), p_holm in zip(comparisons, adjusted):
+                if diffs:
+                    lines.append(f"| {name_of(transfer)} | {name_of(method)} | {d} | {len(diffs)} | "
+                                 f"{fmt(diffs, signed=True)} | {fmt_p(p)} | {fmt_p(p_holm)} |")
+        for transfer in transfers[1:]:
             for d in counts:
-                diffs = paired(rows.get((set_name, task, "transfer", d), []), rows.get((set_name, task, method, d), []),
-                               lambda c: score_of(c, task))
-                comparisons.append((method, d, diffs, paired_p(diffs)))
-        adjusted = holm([p for *_, p in comparisons])
-        for (method, d, diffs, p), p_holm in zip(comparisons, adjusted):
-            if diffs:
-                lines.append(f"| {name_of(method)} | {d} | {len(diffs)} | {fmt(diffs, signed=True)} | "
-                             f"{fmt_p(p)} | {fmt_p(p_holm)} |")
+                diffs = paired(rows.get((set_name, task, transfer, d), []),
+                               rows.get((set_name, task, transfers[0], d), []), lambda c: score_of(c, task))
+                if diffs:
+                    lines.append(f"| {name_of(transfer)} | {name_of(transfers[0])} | {d} | {len(diffs)} | "
+                                 f"{fmt(diffs, signed=True)} | {fmt_p(paired_p(diffs))} | (not adjusted) |")
         lines += ["", "Training cost, mean over seeds: the best-validation step, the seconds of training to reach it and "
                       "of the whole training (curve.csv's speed per validation window, every attempt of a resumed "
                       "run, validation included, evaluation not), one thread:", "",
@@ -153,7 +164,8 @@ def main():
                     lines.append(f"| {name_of(method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
                                  f"{mean_of([c.training_seconds_to(c.best_step) for c in cells])} | "
                                  f"{mean_of([c.training_seconds_to(c.steps) for c in cells])} |")
-        held = [c for (s, t, _), c in sources.items() if (s, t) == (set_name, task)]
+        held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts
+                                           for cell in rows.get((set_name, task, m, d), [])) if c}.values())
         if held:
             lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
                           f"at {held[0].demos} demonstrations): best step {mean([c.best_step for c in held]):.0f}, "
@@ -162,11 +174,10 @@ def main():
                           "seed serves every count of the new task."]
         neighbour = NEIGHBOUR.get(task)
         usage_lines = []
-        transfers = [m for m in methods if base_of(m) == "transfer"]
         for method, d in ((m, d) for m in transfers for d in counts):
             for cell in rows.get((set_name, task, method, d), []):
                 mine = next((t.usage for t in cell.tasks if t.task == task), None)
-                source = sources.get((set_name, task, cell.seed))
+                source = source_of(cell, by_folder)
                 trained = {t.task: t.usage for t in source.tasks if t.usage} if source else {}
                 if not mine or neighbour not in trained:
                     continue

@@ -63,8 +63,9 @@ struct TrainSummary {
 // One optimiser step of train_policy on `batch` (train.optimizer). "joint": the loss is differentiated once and
 // `adam` steps every parameter. "alternating" (the paper's code): the parameters flagged in `selector` step first,
 // then the loss is computed again with the stepped selector (batch.noise_seed advanced: a fresh sampled-BC draw)
-// and the others step. Returns the loss before any update (a non-finite one steps nothing); `adam` must hold
-// `params`, in order.
+// and the others step. Returns the loss before any update, or, when that is finite but the loss after the
+// selector's step is not, the latter (the selector has then stepped, the others not). A non-finite loss steps
+// nothing. `adam` must hold `params`, in order.
 LossTerms optimizer_step(Policy& policy, Batch& batch, const std::vector<ag::Tensor>& params,
                          const std::vector<bool>& selector, optim::Adam& adam, const std::string& optimizer);
 

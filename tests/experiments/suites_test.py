@@ -453,7 +453,7 @@ class SyncDoc(unittest.TestCase):
                                "| 1 | new |\n\nRules: new.\n<!-- /report.md -->\ndiscussion after\n")
         self.assertEqual(sync_doc.sync(self.REPORT, text)[0], text)  # idempotent
         # A marker mentioned inside a line of text is not a block.
-        mention = "Blocks look like `<!-- report.md: SECTION -->`.\n" + page
+        mention = ("Blocks look like `<!-- report.md: SECTION -->`.\n<!-- report.md: X --> is how one opens.\n" + page)
         self.assertEqual(sync_doc.sync(self.REPORT, mention)[1], ["The paper's claims"])
 
     def test_missing_section_and_open_block_are_errors(self):

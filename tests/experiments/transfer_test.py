@@ -82,9 +82,12 @@ class Transfer(unittest.TestCase):
                 (lambda g: g.update(source_variant="wide"), "grids[2].source_variant: 'wide' is not defined under"),
                 (lambda g: g.update(source_variant=3), "source_variant: expected a variant name"),
                 (lambda g: g.update(methods=["mt_bc"]), "source_variant: only with method transfer"),
-                (lambda g: g.update(module_lr_scale=0.1, freeze=["modules"]), "the modules are frozen")]:
+                (lambda g: g.update(module_lr_scale=0.1, freeze=["modules"]), "the modules are frozen"),
+                (lambda g: None, "'tuned' has a run config")]:
             config = json.loads(fixture.read_text())
             change(config["grids"][-1])
+            if "run config" in needle:
+                config["variants"]["tuned"] = {"train": {"steps": 10}}
             path = work() / "refused-suite.json"
             path.write_text(json.dumps(config))
             proc = run("suite", "plan", path, check=False)
@@ -126,7 +129,11 @@ class Transfer(unittest.TestCase):
         self.assertIn("## mt10/reach", report)
         self.assertRegex(report, r"\| MAPS transfer \| [0-9.]+ \+- nan \(1\) \| [0-9.]+ \+- nan \(1\) \|")
         self.assertRegex(report, r"\| MAPS transfer \(tuned\) \| [0-9.]+ \+- nan \(1\) \| - \|")
-        self.assertRegex(report, r"\| MAPS transfer \(tuned\) \| 1 \| 1 \| [-+][0-9.]+ \+- nan \| - \| - \|")
+        # Each transfer is paired with the other methods (its own Holm family), and the tuned one with the frozen.
+        self.assertRegex(report, r"\| MAPS transfer \(tuned\) \| MT-BC \(all tasks\) \| 1 \| 1 \| [-+][0-9.]+ \+- nan \|")
+        self.assertRegex(report, r"\| MAPS transfer \| MT-BC \(all tasks\) \| 2 \| 1 \| [-+][0-9.]+ \+- nan \|")
+        self.assertRegex(report, r"\| MAPS transfer \(tuned\) \| MAPS transfer \| 1 \| 1 \| [-+][0-9.]+ \+- nan \| - \| "
+                                 r"\(not adjusted\) \|")
         # The cost from the curves: seconds to the best step and of training, numbers for every cell; the source
         # run's beside.
         self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| \d+ \| \d+ \|")

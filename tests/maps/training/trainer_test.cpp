@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 
+#include "envs/portable_random.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/mt_bc.h"
 #include "maps/training/run_config.h"
@@ -210,13 +211,18 @@ TEST(Trainer, AlternatingStepsTheSelectorThenTheRestOnTheLossAfterTheSelectorsSt
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   std::mt19937_64 rng(3);
   Batch batch = data.sample(16, rng, ag::Dtype::Float32);
+  batch.noise_seed = 11;
   auto alternating = small_maps(4), by_hand = small_maps(4), joint = small_maps(4);
-  for (auto* policy : {alternating.get(), by_hand.get(), joint.get()})
+  // The paper's sampled BC loss, so that the second pass's fresh noise draw is part of what is checked.
+  for (auto* policy : {alternating.get(), by_hand.get(), joint.get()}) {
     policy->set_observation_statistics(data.standardizer().mean, data.standardizer().std);
+    policy->use_sampled_bc_loss();
+  }
   const auto flags = selector_flags(*alternating);
   ASSERT_GT(std::count(flags.begin(), flags.end(), true), 0);
   ASSERT_GT(std::count(flags.begin(), flags.end(), false), 0);
-  const optim::AdamOptions options{.lr = 1e-2, .eps = 1e-5};
+  // eps 1: a first Adam step is then about lr * g, so the check sees the gradients, not only their signs.
+  const optim::AdamOptions options{.lr = 1e-2, .eps = 1.0};
 
   optim::Adam adam(alternating->parameters(), options);
   Batch a = batch;
@@ -229,7 +235,9 @@ TEST(Trainer, AlternatingStepsTheSelectorThenTheRestOnTheLossAfterTheSelectorsSt
   first.total.backward();
   selector_adam.step();
   rest_adam.zero_grad();
-  LossTerms second = by_hand->loss(batch);
+  Batch redrawn = batch;
+  redrawn.noise_seed = envs::splitmix64(batch.noise_seed ^ 0x7365636f6e64ULL);  // optimizer_step's second draw
+  LossTerms second = by_hand->loss(redrawn);
   selector_adam.zero_grad();
   rest_adam.zero_grad();
   second.total.backward();
