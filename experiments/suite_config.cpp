@@ -148,9 +148,9 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
     throw std::invalid_argument(at + ": method transfer needs \"new_task\" (the tasks to teach) and \"others_demos\"");
   for (const char* key : {"others_demos", "freeze", "module_lr_scale", "source_variant"})
     if (grid.contains(key) && !fresh) throw std::invalid_argument(at + "." + key + ": only with \"new_task\"");
-  if (grid.contains("source_variant") && !transfer)
-    throw std::invalid_argument(at +
-                                ".source_variant: only with method transfer (it names the runs transfer starts from)");
+  for (const char* key : {"freeze", "module_lr_scale", "source_variant"})
+    if (grid.contains(key) && !transfer)
+      throw std::invalid_argument(at + "." + key + ": only with method transfer (it says how transfer cells train)");
   if (!holdout && !fresh) return axis;
   axis.kind = holdout ? TaskAxis::Kind::kHoldout : TaskAxis::Kind::kNew;
   const std::string key = holdout ? "holdout" : "new_task";

@@ -81,7 +81,9 @@ class Transfer(unittest.TestCase):
         for change, needle in [
                 (lambda g: g.update(source_variant="wide"), "grids[2].source_variant: 'wide' is not defined under"),
                 (lambda g: g.update(source_variant=3), "source_variant: expected a variant name"),
-                (lambda g: g.update(methods=["mt_bc"]), "source_variant: only with method transfer"),
+                (lambda g: g.update(methods=["mt_bc"]), "freeze: only with method transfer"),
+                (lambda g: [g.update(methods=["mt_bc"]), g.pop("freeze"), g.pop("module_lr_scale")],
+                 "source_variant: only with method transfer"),
                 (lambda g: g.update(module_lr_scale=0.1, freeze=["modules"]), "the modules are frozen"),
                 (lambda g: None, "'tuned' has a run config")]:
             config = json.loads(fixture.read_text())
