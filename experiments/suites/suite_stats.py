@@ -79,6 +79,16 @@ def holm(p_values):
     return adjusted
 
 
+def holm_within(p_values, families):
+    """Holm's adjustment within each family: p_values[i] belongs to families[i]."""
+    adjusted = [float("nan")] * len(p_values)
+    for family in dict.fromkeys(families):
+        members = [i for i, f in enumerate(families) if f == family]
+        for i, a in zip(members, holm([p_values[i] for i in members])):
+            adjusted[i] = a
+    return adjusted
+
+
 def fmt_p(p):
     return "-" if math.isnan(p) else f"{p:.3f}"
 

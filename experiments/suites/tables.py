@@ -4,8 +4,8 @@ and routing, Fig. 3's comparison with Single BC, the ablations and the module-co
 import math
 
 from suite_results import ablation_groups, groups, module_sweep_cells, score_name, short_task, task_names, task_score
-from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, mean, mean_entropy, paired, paired_p,
-                         routing, span, top_share, usage_distances)
+from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
+                         paired_p, routing, span, top_share, usage_distances)
 
 
 MISSING_SHOWN = 40
@@ -118,11 +118,7 @@ def paired_table(cells):
             families.append(variant)
     if not rows:
         return []
-    adjusted = [float("nan")] * len(rows)
-    for family in dict.fromkeys(families):
-        members = [i for i, f in enumerate(families) if f == family]
-        for i, a in zip(members, holm([rows[i][-1] for i in members])):
-            adjusted[i] = a
+    adjusted = holm_within([row[-1] for row in rows], families)
     sizes = {f: sum(1 for i, g in enumerate(families) if g == f and adjusted[i] == adjusted[i]) for f in families}
     family_text = "; ".join(f"{'the base methods' if not f else f}: {n}" for f, n in sizes.items() if n) or "none"
     rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
@@ -273,11 +269,7 @@ def variant_table(cells):
                          paired_p(diffs)])
     if not rows:
         return []
-    adjusted = [None] * len(rows)
-    for label in {row[0] for row in rows}:
-        family = [i for i, row in enumerate(rows) if row[0] == label]
-        for i, a in zip(family, holm([rows[i][-1] for i in family])):
-            adjusted[i] = a
+    adjusted = holm_within([row[-1] for row in rows], [row[0] for row in rows])
     rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
     return (["Each variant against the same method without it (its base cells at the same demos, k and seeds): mean"
              " score over tasks, mean +- 95% CI over the seeds both ran (base and variant alike); difference = variant -"
