@@ -175,10 +175,6 @@ TrainedParameters trained_parameters(Policy& policy, const TrainConfig& config) 
   return trained;
 }
 
-}  // namespace
-
-namespace {
-
 // One pass of an alternating step: only one side's parameters (the selector's or the others) require gradients
 // while the loss is built and differentiated, so backward spends nothing on the other side's weights; Adam then
 // steps the parameters that got a gradient (it skips those without). A non-finite loss steps nothing.
