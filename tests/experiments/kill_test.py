@@ -50,6 +50,25 @@ def kill_at(args, seconds):
         proc.stderr.close()
 
 
+def timed_with_start_up(args, curve):
+    """Runs maps to the end; returns (start-up seconds until `curve` got its first row, total seconds). Kill delays
+    scale with the training part alone: on a machine where start-up is a large share of the run, delays scaled by the
+    whole run let a few starts finish the training (CI once landed 4 kills where 5 were required)."""
+    start = time.monotonic()
+    proc = subprocess.Popen([MAPS, *map(str, args)], cwd=WORK, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    start_up = None
+    while proc.poll() is None:
+        if start_up is None and curve_rows(curve) > 0:
+            start_up = time.monotonic() - start
+        time.sleep(0.005)
+    total = time.monotonic() - start
+    error = proc.stderr.read().decode()
+    proc.stderr.close()
+    if proc.returncode != 0:
+        raise AssertionError(f"maps {' '.join(map(str, args))}: {error}")
+    return (start_up if start_up is not None else total), total
+
+
 def curve_rows(path):
     try:
         with open(path) as f:
@@ -121,22 +140,25 @@ class KillTest(unittest.TestCase):
             "train": {"steps": 1500, "states_per_task": 8, "validate_every": 10, "checkpoint_every": 10,
                       "validation_states_per_task": 20}}))
         reference = pathlib.Path(WORK) / "train_reference"
-        seconds = timed("train", "--config", config, "--out", reference)
+        start_up, seconds = timed_with_start_up(["train", "--config", config, "--out", reference],
+                                                reference / "curve.csv")
+        training = max(seconds - start_up, 0.05)
         killed_dir = pathlib.Path(WORK) / "train_killed"
         args = ["train", "--config", config, "--out", killed_dir]
         kills = 0
-        for start in range(40):
+        for start in range(100):
             # Every third start is killed at any moment from its launch (start-up, loading, the first checkpoint
             # write); the others after they have trained past a validation row, so the run always moves on.
             if start % 3 == 0:
                 killed = kill_at(args, self.rng.uniform(0.0, seconds / 4))
             else:
-                killed = kill_after_progress(args, killed_dir / "curve.csv", self.rng.uniform(0.0, seconds / 8))
+                killed = kill_after_progress(args, killed_dir / "curve.csv", self.rng.uniform(0.0, training / 10))
             if not killed:
                 break
             kills += 1
         else:
-            self.fail("the run never finished within 40 starts")
+            self.fail("the run never finished within 100 starts")
+        print(f"train: {kills} kills; start-up {start_up:.2f} s, training {training:.2f} s", file=sys.stderr)
         self.assertGreaterEqual(kills, 2 if QUICK else 5, "too few kills landed: the run is too short for this machine")
         for name in ("last.ckpt", "best.ckpt"):
             self.assertEqual((killed_dir / name).read_bytes(), (reference / name).read_bytes(), name)
