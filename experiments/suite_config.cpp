@@ -380,10 +380,21 @@ std::pair<int, int> parse_shard(const std::string& text) {
   throw std::invalid_argument("--shard: expected i/N with 0 <= i < N (e.g. 0/4), got '" + text + "'");
 }
 
+int shard_key(const Suite& suite, const SuiteCell& cell) {
+  // A transfer cell reads its source's folder, a sibling under the same shard's cells/: it goes where its source
+  // goes (sources come first in the order, so the shard runs the source before its dependants).
+  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
+  if (relative.rfind("../", 0) != 0) return cell.index;
+  const std::string source = cell.set + "/" + relative.substr(3);
+  for (const auto& other : suite.cells)
+    if (other.name == source) return shard_key(suite, other);
+  return cell.index;
+}
+
 std::vector<const SuiteCell*> shard_cells(const Suite& suite, int shard, int shards) {
   std::vector<const SuiteCell*> out;
   for (const auto& cell : suite.cells)
-    if (cell.index % shards == shard) out.push_back(&cell);
+    if (shard_key(suite, cell) % shards == shard) out.push_back(&cell);
   return out;
 }
 

@@ -34,7 +34,7 @@ struct SuiteSet {
 };
 
 struct SuiteCell {
-  int index = 0;     // position in the expanded suite; --shard i/N runs index % N == i
+  int index = 0;     // position in the expanded suite; --shard i/N runs shard_key % N == i
   std::string name;  // "<set>/<method>[-<variant>]_d<demos>_s<seed>": the cell's folder under cells/
   std::string grid;  // the first grid that named it
   std::string set, method, variant;
@@ -65,7 +65,9 @@ Suite load_suite(const std::string& path);
 
 // "i/N" -> {i, N}, with 0 <= i < N; throws naming the text otherwise.
 std::pair<int, int> parse_shard(const std::string& text);
-// The cells with index % shards == shard, in order.
+// A cell's index, or for a transfer cell its source's (the shard that runs the source runs the transfer too).
+int shard_key(const Suite& suite, const SuiteCell& cell);
+// The cells with shard_key % shards == shard, in order.
 std::vector<const SuiteCell*> shard_cells(const Suite& suite, int shard, int shards);
 
 }  // namespace maps::experiments

@@ -157,11 +157,14 @@ std::string wait_for_source(const fs::path& dir, const SuiteCell& cell) {
   bool announced = false;
   for (;;) {
     if (fs::exists(source / "result.json")) return "";
-    if (fs::exists(source / "error.json")) return "its source cell " + source.string() + " failed (see its error.json)";
-    // A worker that has just taken the source may not hold its lock yet: allow it a moment.
-    if (!cell_is_locked(source) && seconds_since(start) > 30.0)
+    // A running source is waited for even when an error.json of an earlier attempt is still there; a worker that
+    // has just taken the source may not hold its lock (nor have cleared that error.json) yet: allow it a moment.
+    if (!cell_is_locked(source) && seconds_since(start) > 30.0) {
+      if (fs::exists(source / "error.json"))
+        return "its source cell " + source.string() + " failed (see its error.json)";
       return "its source cell " + source.string() +
              " is neither finished nor running: run the suite (or that cell's shard) so that it finishes first";
+    }
     if (!announced) {
       std::printf("suite: %s waits for its source cell %s\n", cell.name.c_str(), source.string().c_str());
       std::fflush(stdout);
@@ -206,6 +209,8 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
     }
   }
   remove_temporaries(dir);
+  // This attempt supersedes an earlier one's failure (a transfer cell waiting on this one must not read it).
+  fs::remove(dir / "error.json");
   if (const std::string waiting = wait_for_source(dir, cell); !waiting.empty()) {
     outcome.status = CellOutcome::Status::kFailed;
     outcome.error = waiting;

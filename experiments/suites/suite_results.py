@@ -114,20 +114,31 @@ class Cell:
 
     def training_seconds_to(self, step):
         """Seconds of training until `step`, summed over curve.csv's validation windows (each row: the steps since
-        the row before at its steps_per_second, which times training and validation), so a resumed run counts every
-        attempt's training and no evaluation. None when the curve is missing, unreadable or ends before `step`."""
+        the row before at its steps_per_second, which times training and validation), so a resumed run counts the
+        attempt that wrote each kept row and no evaluation. None when the curve is missing, unreadable or ends
+        before `step`."""
+        return self._curve_sum_to(step, lambda at, previous, row: (at - previous) / float(row["steps_per_second"]))
+
+    def cpu_seconds_to(self, step):
+        """CPU seconds of training until `step`: the sum of curve.csv's cpu_seconds (each validation window's process
+        CPU time, training and validation), which does not grow when other work shares the cores as wall time
+        does. None as training_seconds_to, or when the curve predates the column."""
+        return self._curve_sum_to(step, lambda at, previous, row: float(row["cpu_seconds"]))
+
+    def _curve_sum_to(self, step, window):
         seconds, previous = 0.0, 0
         try:
             with (self.folder / "curve.csv").open() as f:
                 for row in csv.DictReader(f):
-                    at, speed = int(row["step"]), float(row["steps_per_second"])
+                    at = int(row["step"])
                     if at > step:
                         break
-                    if speed <= 0:
+                    value = window(at, previous, row)
+                    if not value > 0:
                         return None
-                    seconds += (at - previous) / speed
+                    seconds += value
                     previous = at
-        except (OSError, KeyError, ValueError, TypeError):
+        except (OSError, KeyError, ValueError, TypeError, ZeroDivisionError):
             return None
         return seconds if previous == step else None
 

@@ -134,6 +134,11 @@ ROUTED_NAMES = {"maps": "MAPS", "moore": "MOORE", "paco": "PaCo", "care": "CARE-
                 "soft_modularization": "Soft Modularization"}
 USAGE_MEANING = {"maps": "mean selector score", "moore": "share |w_k,i| / sum |w_k|", "paco": "share |w_k,p| / sum |w_k|",
                  "care": "mean attention", "top_k_moe": "mean gate", "soft_modularization": "mean use per layer / L"}
+# Where a method's routing measures cannot reach what another's can.
+ROUTING_NOTE = {"soft_modularization": "Soft Modularization's modules are its L layers' n modules, each layer's shares"
+                " summing to 1/L: a state's top score is at most 1/L and its entropy at least ln L however decisive"
+                " each layer's routing is; read its numbers against its own uniform reference, not against another"
+                " method's."}
 
 
 def usage_tables(cells):
@@ -158,7 +163,8 @@ def usage_tables(cells):
             rows.append([short_task(task)] + [f"{u:.2f}" for u in runs[0].tasks[i].usage] + [span_float(tops)])
         lines += table(["task"] + [f"m{i}" for i in range(modules)] + ["top module, all seeds"], rows)
         lines += ["", f"Routing ({len(runs)} seeds, each computed per seed, then mean +- 95% CI; uniform over"
-                  f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f}):", ""]
+                  f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f})"
+                  + (f". {ROUTING_NOTE[method]}" if method in ROUTING_NOTE else "") + ":", ""]
         rows = [[short_task(task), fmt(tv), fmt(entropy) if entropy else "-", fmt(top) if top else "-"]
                 for task, (tv, entropy, top) in routing(runs, tasks).items()]
         lines += table(["task", "usage distance from the tasks' mean usage (TV)", "per-state entropy (nats)",

@@ -2,7 +2,7 @@
 """Issue 17's results from a suite folder of experiments/suites/transfer.json (or any suite with holdout and
 new_task grids): per (set, new task, method, demonstrations of the new task) the new task's score, mean +- 95% t
 interval over seeds; paired differences of transfer from each other method; the training cost (the best-validation
-step and the training seconds to reach it, from curve.csv; transfer's source run beside); and which modules the new
+step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside); and which modules the new
 task picks: its most used ones next to its named neighbour's in the source run, and how far its usage is (total
 variation) from the neighbour's and from every other trained task's.
 
@@ -153,24 +153,30 @@ def main():
                 if diffs:
                     lines.append(f"| {name_of(transfer)} | {name_of(transfers[0])} | {d} | {len(diffs)} | "
                                  f"{fmt(diffs, signed=True)} | {fmt_p(paired_p(diffs))} | (not adjusted) |")
-        lines += ["", "Training cost, mean over seeds: the best-validation step, the seconds of training to reach it and "
-                      "of the whole training (curve.csv's speed per validation window, every attempt of a resumed "
-                      "run, validation included, evaluation not), one thread:", "",
-                  "| method | demos | best step | seconds to the best step | training seconds |", "|---|---|---|---|---|"]
+        every = [c for m in methods for d in counts for c in rows.get((set_name, task, m, d), [])]
+        cpu = bool(every) and all(c.cpu_seconds_to(c.steps) is not None for c in every)
+        clock = (lambda c, step: c.cpu_seconds_to(step)) if cpu else (lambda c, step: c.training_seconds_to(step))
+        unit = "CPU seconds" if cpu else "seconds"
+        lines += ["", f"Training cost, mean over seeds: the best-validation step, the {unit} of training to reach it "
+                      "and of the whole training (" + ("curve.csv's CPU time per validation window, which other work "
+                      "on the cores does not inflate" if cpu else "curve.csv's speed per validation window, wall "
+                      "time: inflated when other work shared the cores") + "; validation included, evaluation not; "
+                      "a resumed run counts the attempt that wrote each kept row), one thread:", "",
+                  f"| method | demos | best step | {unit} to the best step | training {unit} |", "|---|---|---|---|---|"]
         for method in methods:
             for d in counts:
                 cells = rows.get((set_name, task, method, d), [])
                 if cells:
                     lines.append(f"| {name_of(method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
-                                 f"{mean_of([c.training_seconds_to(c.best_step) for c in cells])} | "
-                                 f"{mean_of([c.training_seconds_to(c.steps) for c in cells])} |")
+                                 f"{mean_of([clock(c, c.best_step) for c in cells])} | "
+                                 f"{mean_of([clock(c, c.steps) for c in cells])} |")
         held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts
                                            for cell in rows.get((set_name, task, m, d), [])) if c}.values())
         if held:
             lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
                           f"at {held[0].demos} demonstrations): best step {mean([c.best_step for c in held]):.0f}, "
-                          f"{mean_of([c.training_seconds_to(c.best_step) for c in held])} seconds to it, "
-                          f"{mean_of([c.training_seconds_to(c.steps) for c in held])} of training; one such run per "
+                          f"{mean_of([clock(c, c.best_step) for c in held])} {unit} to it, "
+                          f"{mean_of([clock(c, c.steps) for c in held])} of training; one such run per "
                           "seed serves every count of the new task."]
         neighbour = NEIGHBOUR.get(task)
         usage_lines = []

@@ -54,7 +54,8 @@ PaCo::PaCo(PolicyShape shape, const PaCoConfig& config, ag::Generator& gen) : Po
     layers->push_back(layer);
   }
   sets_ = register_module("sets", layers);
-  // The task encoder is a Linear(K -> P) with PyTorch's default initialisation (bound 1/sqrt(K)), its weight stored
+  // The task encoder is a Linear(K -> P) initialised as PyTorch initialises one (uniform, bound 1/sqrt(K)); PaCo's
+  // public code builds it with ALF, whose initialisation the reference notes do not record. Its weight is stored
   // [K, P] so that a task's weights are a row.
   const double bound = 1.0 / std::sqrt(static_cast<double>(shape.num_tasks));
   task_weights_ = register_parameter(

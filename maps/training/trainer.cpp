@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -101,6 +102,22 @@ void truncate_curve(const std::string& path, std::int64_t step) {
   in.close();
   std::ofstream out(path, std::ios::trunc);
   for (const auto& l : kept) out << l << "\n";
+}
+
+// CPU time of the whole process (every thread), the cost of a window of steps whatever else shares the cores.
+double process_cpu_seconds() {
+  timespec now{};
+  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
+}
+
+// Whether curve.csv's rows carry cpu_seconds: a fresh curve does; one begun by a build from before the column
+// (a resumed older run) keeps its header's columns.
+bool curve_has_cpu_column(const std::string& path) {
+  std::ifstream in(path);
+  std::string header;
+  if (!std::getline(in, header) || header.empty()) return true;
+  return header.size() >= 12 && header.compare(header.size() - 12, 12, ",cpu_seconds") == 0;
 }
 
 std::string format_seconds(double seconds) {
@@ -273,6 +290,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   const auto start = std::chrono::steady_clock::now();
   auto window_start = start;
   std::int64_t window_first_step = progress.step;
+  const bool cpu_column = curve_has_cpu_column(curve_path);
+  double window_cpu_start = process_cpu_seconds();
   while (progress.step < config.steps) {
     Batch batch = data.sample(per_task, rng, ag::Dtype::Float32);
     batch.noise_seed = envs::splitmix64(noise_stream ^ static_cast<std::uint64_t>(progress.step));
@@ -297,7 +316,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
         std::ofstream curve(curve_path, std::ios::app);
         curve << "step";
         for (const auto& name : term_names) curve << "," << name;
-        curve << ",validation_bc,steps_per_second\n";
+        curve << ",validation_bc,steps_per_second" << (cpu_column ? ",cpu_seconds" : "") << "\n";
       }
     }
     for (std::size_t j = 0; j + 1 < term_names.size(); ++j) term_sums[j] += terms.terms[j].second.item();
@@ -319,7 +338,11 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       std::ofstream curve(curve_path, std::ios::app);
       curve << progress.step;
       for (double sum : term_sums) curve << "," << sum / static_cast<double>(terms_counted);
-      curve << "," << valid << "," << steps_per_second << "\n";
+      curve << "," << valid << "," << steps_per_second;
+      const double cpu_now = process_cpu_seconds();
+      if (cpu_column) curve << "," << cpu_now - window_cpu_start;
+      curve << "\n";
+      window_cpu_start = cpu_now;
       if (log) {
         std::ostringstream line;
         line.precision(4);

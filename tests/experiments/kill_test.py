@@ -103,7 +103,7 @@ def kill_after_progress(args, curve, extra_seconds):
 def curve_without_timing(path):
     with open(path) as f:
         rows = list(csv.reader(f))
-    keep = [i for i, name in enumerate(rows[0]) if name != "steps_per_second"]
+    keep = [i for i, name in enumerate(rows[0]) if name not in ("steps_per_second", "cpu_seconds")]
     return [[row[i] for i in keep] for row in rows]
 
 

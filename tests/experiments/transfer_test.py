@@ -4,12 +4,23 @@ its modules frozen, the result is an ordinary run folder that `maps eval` scores
 that cannot be meant are refused by name. Run by ctest as: transfer_test.py path/to/maps."""
 import json
 import pathlib
+import shutil
+import struct
 import subprocess
 import unittest
 
 from maps_tool import main, run, work
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def checkpoint_config(path):
+    """The JSON config string a checkpoint stores (nn/serialize.h: magic, version, reserved, payload size, then the
+    payload's config size and bytes)."""
+    data = pathlib.Path(path).read_bytes()
+    assert data[:8] == b"MAPSCKPT", path
+    (size,) = struct.unpack_from("<Q", data, 24)
+    return json.loads(data[32:32 + size])
 
 
 class Transfer(unittest.TestCase):
@@ -41,6 +52,11 @@ class Transfer(unittest.TestCase):
         self.assertEqual(request["maps"]["selector_losses"],
                          dict(source["maps"]["selector_losses"], explore=0.0))
         self.assertEqual(pathlib.Path(request["init"]["run"]), (work() / "without_reach").resolve())
+        # Standardised as the source was (its frozen modules were trained on those inputs), not with reach's states.
+        source_stats = checkpoint_config(work() / "without_reach" / "best.ckpt")["standardizer"]
+        own_stats = checkpoint_config(work() / "all_tasks" / "best.ckpt")["standardizer"]
+        self.assertEqual(checkpoint_config(folder / "best.ckpt")["standardizer"], source_stats)
+        self.assertNotEqual(own_stats, source_stats)
         run("eval", "--run", folder)
         evaluation = json.loads((folder / "eval.json").read_text())
         self.assertEqual([t["task"] for t in evaluation["tasks"]], ["mt10/reach"])
@@ -140,11 +156,37 @@ class Transfer(unittest.TestCase):
         # run's beside.
         self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| \d+ \| \d+ \|")
         self.assertRegex(report, r"MAPS transfer starts from a run without reach \(1 seeds, the other tasks at 2 "
-                                 r"demonstrations\): best step \d+, \d+ seconds to it, \d+ of training")
+                                 r"demonstrations\): best step \d+, \d+ CPU seconds to it, \d+ of training")
         self.assertTrue((work() / "suite" / "report" / "transfer_scores.png").stat().st_size > 10000)
         for cell in ("transfer-new-reach_d2_s0", "mt_bc-new-reach_d2_s0"):
             result = json.loads((cells / cell / "result.json").read_text())
             self.assertEqual([t["task"] for t in result["eval"]["tasks"]], ["mt10/reach"], cell)
+        # A rerun after the source had failed: while one job redoes the source, its transfer cells wait for it
+        # instead of failing on the earlier attempt's error.json.
+        rerun = work() / "suite-rerun"
+        shutil.copytree(work() / "suite", rerun)
+        source_dir = rerun / "cells" / "mt10" / "maps-without-reach_d2_s0"
+        (source_dir / "result.json").unlink()
+        (source_dir / "error.json").write_text(json.dumps({"stage": "train", "error": "an earlier attempt failed"}))
+        for cell in (rerun / "cells" / "mt10").iterdir():
+            if cell.name.startswith("transfer-"):
+                (cell / "result.json").unlink()
+        proc = run("suite", "run", fixture, "--out", rerun, "--jobs", "2")
+        self.assertIn("4 cells done, 0 failed", proc.stdout)
+        self.assertFalse((source_dir / "error.json").exists())
+
+    def test_shards_keep_a_transfer_cell_with_its_source(self):
+        fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
+        for shards in (2, 3, 4):
+            for shard in range(shards):
+                names = [c["name"] for c in json.loads(run("suite", "plan", fixture, "--json", "--shard",
+                                                           f"{shard}/{shards}").stdout)["cells"]]
+                if any(name.startswith("mt10/transfer-") for name in names):
+                    self.assertIn("mt10/maps-without-reach_d2_s0", names, f"shard {shard}/{shards}")
+        # Each shard in a folder of its own, as on a cluster: every cell finds its source.
+        for shard in range(2):
+            proc = run("suite", "run", fixture, "--out", f"sharded/shard-{shard}", "--shard", f"{shard}/2")
+            self.assertIn("0 failed", proc.stdout)
 
 
 if __name__ == "__main__":

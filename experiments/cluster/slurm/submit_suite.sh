@@ -95,7 +95,7 @@ MAPS_BIN="$(realpath -m -- "$MAPS_BIN")"
 "$MAPS_BIN" suite --help >/dev/null 2>&1 || die "$MAPS_BIN has no 'suite' command (rebuild it)"
 
 mkdir -p "$out/logs"
-# A suite is split into N shards by cell index % N; resubmitting with another N would give shard folders
+# A suite is split into N shards by cell index % N (a transfer cell by its source's); resubmitting with another N would give shard folders
 # whose cells overlap. And a cell's numbers depend on its thread count (--threads = --cpus-per-task): a cell
 # resumed with another count matches neither run. Keep the first N and T of an OUT.
 keep_same() { # keep_same FILE VALUE OPTION

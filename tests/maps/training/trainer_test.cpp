@@ -73,9 +73,14 @@ TEST(Trainer, LearnsKeepsTheBestCheckpointAndWritesTheCurve) {
   std::ifstream curve(dir / "curve.csv");
   std::string header;
   std::getline(curve, header);
-  EXPECT_EQ(header, "step,bc,share,explore,sparse,smooth,total,validation_bc,steps_per_second");
+  EXPECT_EQ(header, "step,bc,share,explore,sparse,smooth,total,validation_bc,steps_per_second,cpu_seconds");
   int rows = 0;
-  for (std::string line; std::getline(curve, line);) ++rows;
+  for (std::string line; std::getline(curve, line);) {
+    ++rows;
+    const double cpu_seconds = std::stod(line.substr(line.rfind(',') + 1));
+    EXPECT_GT(cpu_seconds, 0.0) << line;
+    EXPECT_LT(cpu_seconds, 60.0) << line;  // one window's CPU time, not the process's total
+  }
   EXPECT_EQ(rows, 10);
   const auto best = nlohmann::json::parse(nn::load_tensors((dir / "best.ckpt").string()).config);
   EXPECT_EQ(best.at("step").get<std::int64_t>(), summary.best_step);
@@ -127,6 +132,32 @@ TEST(Trainer, AResumedRunEndsExactlyWhereAnUninterruptedOneDoes) {
   int rows = -1;
   for (std::string line; std::getline(curve, line);) ++rows;
   EXPECT_EQ(rows, 3);
+}
+
+TEST(Trainer, ResumingACurveWithoutTheCpuColumnKeepsItsColumns) {
+  // A run begun by a build from before curve.csv had cpu_seconds, resumed by this one: every row as wide as its header.
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  const fs::path dir = fresh_dir("old_curve");
+  TrainConfig config = small_config();
+  TrainConfig partial = config;
+  partial.steps = 40;
+  train_policy(*small_maps(2), data, partial, dir.string(), nullptr);
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(dir / "curve.csv");
+    for (std::string line; std::getline(in, line);) lines.push_back(line.substr(0, line.rfind(',')));
+  }
+  ASSERT_EQ(lines.front(), "step,bc,share,explore,sparse,smooth,total,validation_bc,steps_per_second");
+  {
+    std::ofstream out(dir / "curve.csv", std::ios::trunc);
+    for (const auto& line : lines) out << line << "\n";
+  }
+  train_policy(*small_maps(2), data, config, dir.string(), nullptr);
+  std::ifstream curve(dir / "curve.csv");
+  int rows = 0;
+  for (std::string line; std::getline(curve, line); ++rows)
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 8) << line;
+  EXPECT_EQ(rows, 1 + 3);
 }
 
 TEST(Trainer, TrainsInTheDenormalModeItsConfigSaysAndRestoresTheCallers) {

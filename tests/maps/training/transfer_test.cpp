@@ -121,6 +121,32 @@ TEST(TrainerFreeze, FrozenParametersStayBitForBitAndTheRestTrains) {
   fs::remove_all(dir);
 }
 
+TEST(TrainerFreeze, TransfersDefaultKeepsTheSourcesModulesAndTeachesTheNewTasksColumn) {
+  // What `maps transfer` does by default: a one-task policy started from a run without that task, modules frozen.
+  DataConfig only_a;
+  only_a.tasks = {"synthetic/a"};
+  const DemoDataset data(synthetic_demo_file(), only_a);
+  const auto source = maps_for(1, 6);  // trained on b alone
+  const auto policy = maps_for(1, 7);
+  initialize_from(*policy, {"synthetic/a"}, *source, {"synthetic/b"});
+  const ag::RowMatrixD column_before = matrix(*policy, "selector.layers.0.weight").col(3);
+  TrainConfig config = short_training();
+  config.freeze = {"modules"};
+  const fs::path dir = fs::temp_directory_path() / "maps_transfer_test_default_freeze";
+  fs::remove_all(dir);
+  train_policy(*policy, data, config, dir.string(), nullptr);
+  for (const auto& p : source->named_parameters()) {
+    if (p.name.rfind("modules", 0) == 0) {
+      EXPECT_EQ(values(*policy, p.name), values(*source, p.name)) << p.name << " moved";
+    } else if (p.name != "selector.layers.0.weight") {
+      EXPECT_NE(values(*policy, p.name), values(*source, p.name)) << p.name << " did not train";
+    }
+  }
+  EXPECT_FALSE(matrix(*policy, "selector.layers.0.weight").col(3).isApprox(column_before))
+      << "the new task's selector column did not train";
+  fs::remove_all(dir);
+}
+
 TEST(AdamLrScale, ScalesOneParametersStepAndLeavesTheOthers) {
   ag::Tensor a = ag::from_vector(std::vector<double>{1.0, -2.0}, {2}, ag::Dtype::Float64).requires_grad_(true);
   ag::Tensor b = ag::from_vector(std::vector<double>{1.0, -2.0}, {2}, ag::Dtype::Float64).requires_grad_(true);
