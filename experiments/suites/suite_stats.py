@@ -33,7 +33,10 @@ def mean(values):
 
 
 def fmt(values, signed=False):
-    """"0.70 +- 1.27" (mean +- 95% CI half-width; nan with one value)."""
+    """"0.70 +- 1.27" (mean +- 95% CI half-width); the value alone when there is one (no interval: a grid still
+    running, or one seed)."""
+    if len(values) == 1:
+        return f"{values[0]:{'+' if signed else ''}.2f}"
     return f"{mean(values):{'+' if signed else ''}.2f} +- {ci95(values):.2f}"
 
 

@@ -144,7 +144,7 @@ class Report(unittest.TestCase):
         self.assertEqual(self.stdout.strip().splitlines()[-1], f"report: {self.out / 'report.md'}")
         self.assertEqual(row_of(self.stdout, ["gravity", "maps", "5"]), ["gravity", "maps", "5", "10", "2",
                                                                           "0.60 +- 1.27"])
-        self.assertEqual(row_of(self.stdout, ["mt10", "mt_bc", "10"])[4:], ["1", "0.80 +- nan"])
+        self.assertEqual(row_of(self.stdout, ["mt10", "mt_bc", "10"])[4:], ["1", "0.80"])
 
     def test_writes_every_figure_and_its_csv(self):
         for name in FIGURES:
@@ -191,8 +191,8 @@ class Report(unittest.TestCase):
         self.assertEqual(row_of(gravity, ["maps", "5"]), ["maps", "5", "10", "2", "1000", "0.70 +- 1.27",
                                                           "0.50 +- 1.27", "**0.60 +- 1.27**", "750-1000"])
         # The failed seed: one seed left, no interval.
-        self.assertEqual(row_of(gravity, ["mt_bc", "10"]), ["mt_bc", "10", "10", "1", "1000", "0.70 +- nan",
-                                                            "0.80 +- nan", "**0.75 +- nan**", "750"])
+        self.assertEqual(row_of(gravity, ["mt_bc", "10"]), ["mt_bc", "10", "10", "1", "1000", "0.70",
+                                                            "0.80", "**0.75**", "750"])
         mt10 = between(self.md, "## Set mt10", "### Paired")
         self.assertEqual(row_of(mt10, ["maps (no_explore)", "5"])[5:], ["0.35 +- 0.64", "0.25 +- 0.64",
                                                                         "**0.30 +- 0.00**", "750-1000"])
@@ -205,13 +205,13 @@ class Report(unittest.TestCase):
         # the base methods' three comparisons with a p (Single BC at 10: p 0.374; MT-BC at 10 has one pair).
         self.assertEqual(row_of(paired, ["single_bc", "maps", "5"])[4:], ["2", "-0.15 +- 1.91", "0.500", "0.749"])
         self.assertEqual(row_of(paired, ["mt_bc", "maps", "5"])[4:], ["2", "-0.15 +- 0.64", "0.205", "0.614"])
-        self.assertEqual(row_of(paired, ["mt_bc", "maps", "10"])[4:], ["1", "-0.05 +- nan", "-", "-"])
+        self.assertEqual(row_of(paired, ["mt_bc", "maps", "10"])[4:], ["1", "-0.05", "-", "-"])
         # A control with no MAPS under its variant is paired with base MAPS, in a Holm family of its own:
         # 0.6 - 0.7 and 0.5 - 0.5.
         self.assertEqual(row_of(paired, ["mt_bc (w430)", "maps", "5"])[4:], ["2", "-0.05 +- 0.64", "0.500", "0.500"])
         mt10 = between(self.md, "## Set mt10", "## Fig. 4")
         paired = between(mt10, "### Paired differences", "###")
-        self.assertEqual(row_of(paired, ["mt_bc", "maps", "10"])[4:], ["1", "-0.10 +- nan", "-", "-"])
+        self.assertEqual(row_of(paired, ["mt_bc", "maps", "10"])[4:], ["1", "-0.10", "-", "-"])
         # MT-BC under the paper's protocol against MAPS under it (0.4 - 0.5, 0.5 - 0.5), not against base MAPS;
         # MAPS's own variants are not here (they are in "Variants against their base").
         self.assertEqual(row_of(paired, ["mt_bc (paper_protocol)", "maps (paper_protocol)", "5"])[4:],
@@ -502,7 +502,7 @@ class Errors(unittest.TestCase):
             self.assertIn(f"- `{truncated}`: JSONDecodeError", md)
             self.assertIn(f"- `{no_eval}`: KeyError", md)
             self.assertIn(f"- `{stale}`: trained with another run config", md)
-            self.assertEqual(row_of(stdout, ["mt10", "single_bc", "5"])[4:], ["1", "0.50 +- nan"])
+            self.assertEqual(row_of(stdout, ["mt10", "single_bc", "5"])[4:], ["1", "0.50"])
             with (suite / "report" / "results.csv").open() as f:
                 cells = {row["cell"] for row in csv.DictReader(f)}
             self.assertEqual(len(cells), 33)
