@@ -259,6 +259,7 @@ int run_bench_step(const BenchStepOptions& options) {
     const nlohmann::json peer = run_peer(s.name, options.threads, options.seconds);
     if (!peer.is_null()) {
       result["pytorch_ms_per_step"] = peer.at("ms_per_step");
+      result["pytorch_blas"] = peer.value("blas", "");
       result["speedup_vs_pytorch"] = peer.at("ms_per_step").get<double>() / (step_seconds * 1e3);
     }
   }

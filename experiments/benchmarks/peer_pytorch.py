@@ -179,8 +179,13 @@ def main():
     os.environ["OPENBLAS_NUM_THREADS"] = str(blas_threads)  # read when torch loads OpenBLAS
     try:
         import torch
+        message = None if _blas_name(torch) != REFERENCE_BLAS else (
+            "PyTorch calls netlib's reference BLAS, which makes its step 10-20x slower than with OpenBLAS and the "
+            "comparison meaningless (apt-get install libopenblas0-pthread, or point libblas.so.3 back at OpenBLAS: "
+            "update-alternatives --auto libblas.so.3-x86_64-linux-gnu)")
     except ImportError:
-        message = "PyTorch is not installed (apt-get install python3-torch; run with /usr/bin/python3)"
+        message = "PyTorch is not installed (apt-get install python3-torch libopenblas0-pthread; run with /usr/bin/python3)"
+    if message:
         if args.json:
             print(json.dumps({"skipped": message}))
             return 0
@@ -215,7 +220,7 @@ def main():
     seconds = statistics.median(times)
     flops = step_flops(S, A, K, per_task)
     result = {"set": args.set, "threads": args.threads, "torch": torch.__version__,
-              "blas": torch.__config__.show().count("BLAS") and _blas_name(torch), "steps_timed": len(times),
+              "blas": _blas_name(torch), "steps_timed": len(times),
               "ms_per_step": seconds * 1e3, "gflops": flops / seconds * 1e-9,
               "split": f"{blas_threads} OpenBLAS thread(s), {args.threads} torch thread(s)"}
     if args.json:
@@ -226,14 +231,31 @@ def main():
     return 0
 
 
+REFERENCE_BLAS = "netlib reference BLAS"
+
+
 def _blas_name(torch):
-    """The BLAS library this torch process loaded (Debian's torch uses the system's), from /proc/self/maps."""
+    """The BLAS this torch process calls (Debian's torch calls the system's libblas.so.3), from /proc/self/maps."""
+    torch.ones(2, 2) @ torch.ones(2, 2)  # the BLAS is loaded by now
     try:
         with open("/proc/self/maps") as maps:
-            names = {line.split("/")[-1].strip() for line in maps if "blas" in line.lower()}
-        return ", ".join(sorted(names)) or "unknown BLAS"
+            paths = {line.split(None, 5)[-1].strip() for line in maps if "blas" in line.lower() and "/" in line}
     except OSError:
         return "unknown BLAS"
+    return blas_of(paths)
+
+
+def blas_of(paths):
+    """Names the BLAS from the loaded libraries' paths. The alternatives system points libblas.so.3 at OpenBLAS or at
+    netlib's reference BLAS, files of the same name in different folders; torch needs libblas.so.3 itself, so that
+    file's sgemm is the one it calls even when OpenBLAS is loaded too (through liblapack.so.3, whose alternative can
+    point elsewhere)."""
+    blas = [path for path in paths if path.split("/")[-1].startswith("libblas.so")]
+    if any("/blas/" in path for path in blas):
+        return REFERENCE_BLAS
+    if any("openblas" in path.lower() for path in blas or paths):
+        return "OpenBLAS"
+    return ", ".join(sorted(path.split("/")[-1] for path in paths)) or "unknown BLAS"
 
 
 if __name__ == "__main__":

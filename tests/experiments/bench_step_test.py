@@ -104,6 +104,18 @@ class PeerPyTorch(unittest.TestCase):
         self.assertEqual(done.returncode, 0, done.stderr)
         self.assertIn("skipped", json.loads(done.stdout.strip()))
 
+    def test_the_blas_is_named_from_the_loaded_libraries(self):
+        sys.path.insert(0, str(PEER.parent))
+        import peer_pytorch as peer
+        lib = "/usr/lib/x86_64-linux-gnu"
+        # libblas.so.3 pointed at netlib's while liblapack.so.3 still loads OpenBLAS: torch calls the reference sgemm.
+        self.assertEqual(peer.blas_of({f"{lib}/blas/libblas.so.3", f"{lib}/openblas-pthread/liblapack.so.3",
+                                       f"{lib}/openblas-pthread/libopenblas.so.0"}), peer.REFERENCE_BLAS)
+        self.assertEqual(peer.blas_of({f"{lib}/openblas-pthread/libblas.so.3", f"{lib}/lapack/liblapack.so.3"}),
+                         "OpenBLAS")
+        self.assertEqual(peer.blas_of({"/opt/libopenblas.so.0"}), "OpenBLAS")
+        self.assertEqual(peer.blas_of(set()), "unknown BLAS")
+
     def test_factored_selector_equals_the_plain_one(self):
         try:
             import torch
