@@ -169,6 +169,13 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
       const Json& freeze = grid["freeze"];
       if (!freeze.is_array()) throw std::invalid_argument(at + ".freeze: expected an array of parameter prefixes");
       axis.freeze = freeze.empty() ? std::vector<std::string>{} : names_of(freeze, at + ".freeze");
+      // The choices of `maps transfer --freeze`: a source is a MAPS run, whose groups are its modules, its head and
+      // its selector, and the selector must learn the new task.
+      for (const auto& prefix : axis.freeze)
+        if (prefix != "modules" && prefix != "head")
+          throw std::invalid_argument(at + ".freeze: '" + prefix +
+                                      "' is not \"modules\" or \"head\" (MAPS's parameter groups that transfer can "
+                                      "freeze; the selector learns the new task)");
     }
     if (grid.contains("source_variant")) {
       const Json& source = grid["source_variant"];

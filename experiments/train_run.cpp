@@ -21,17 +21,32 @@
 namespace maps::experiments {
 namespace {
 
-// The keys whose values differ between two resolved configs, as dotted paths ("train.steps", "maps.modules").
+// The keys whose values differ between two resolved configs, as dotted paths ("train.steps", "data.task_demos"):
+// JSON pointers unescaped (~1 is '/', ~0 is '~'), a list named by its key rather than by its elements.
 std::string differing_keys(const nlohmann::json& a, const nlohmann::json& b) {
-  std::string keys;
+  std::vector<std::string> keys;
   for (const nlohmann::json& change : nlohmann::json::diff(a, b)) {
-    std::string path = change.at("path").get<std::string>().substr(1);
-    for (char& c : path)
-      if (c == '/') c = '.';
-    keys += (keys.empty() ? "" : ", ") + path;
+    const std::string pointer = change.at("path").get<std::string>();
+    std::string path;
+    const nlohmann::json* in_a = &a;
+    for (std::size_t at = 1; at <= pointer.size();) {
+      const std::size_t next = std::min(pointer.find('/', at), pointer.size());
+      std::string token = pointer.substr(at, next - at);
+      for (std::size_t i = 0; (i = token.find('~', i)) != std::string::npos; ++i)
+        token.replace(i, 2, i + 1 < token.size() && token[i + 1] == '1' ? "/" : "~");
+      if (in_a == nullptr || !in_a->is_object()) break;  // an array's element, or a key only in b: named by its parent
+      path += (path.empty() ? "" : ".") + token;
+      in_a = in_a->contains(token) ? &in_a->at(token) : nullptr;
+      at = next + 1;
+    }
+    if (std::find(keys.begin(), keys.end(), path) == keys.end()) keys.push_back(path);
   }
-  return keys;
+  std::string joined;
+  for (const auto& key : keys) joined += (joined.empty() ? "" : ", ") + key;
+  return joined;
 }
+
+}  // namespace
 
 // What DIR already holds decides what this invocation does: start, resume, or extend (only train.steps differs).
 // Anything else is refused, naming the keys that differ.
@@ -56,8 +71,6 @@ void check_existing_run(const std::string& out, const nlohmann::json& resolved, 
   log << "maps train: " << out << " was configured for " << existing["train"]["steps"] << " steps; continuing to "
       << resolved["train"]["steps"] << std::endl;
 }
-
-}  // namespace
 
 int run_train(const TrainRunOptions& options) {
   nlohmann::json json = read_json_file(options.config_path);

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <nlohmann/json.hpp>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -19,5 +21,9 @@ struct TrainRunOptions {
 };
 
 int run_train(const TrainRunOptions& options);
+
+// What DIR already holds decides what training into it does: nothing there, or a run of the same resolved config:
+// start or resume; only train.steps grew: extend (said on `log`); anything else throws, naming the keys that differ.
+void check_existing_run(const std::string& out, const nlohmann::json& resolved, std::ostream& log);
 
 }  // namespace maps::experiments

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <sstream>
 #include <stdexcept>
 
 #include "envs/demo_file.h"
@@ -45,14 +46,26 @@ int run_transfer(const TransferOptions& options) {
                      "); use --freeze none or --freeze head to fine-tune them");
   if (options.demos < 1) throw UsageError("--demos: expected at least 1 demonstration of the new task");
   const fs::path source_dir = fs::absolute(options.run);
-  const nlohmann::json source_json = read_json_file((source_dir / "config.json").string());
-  const core::RunConfig source = core::parse_run_config(source_json);
+  core::RunConfig source;
+  try {
+    source = core::parse_run_config(read_json_file((source_dir / "config.json").string()));
+  } catch (const std::exception& e) {
+    throw std::invalid_argument("--run " + options.run + ": its config.json: " + e.what());
+  }
   if (source.method != "maps")
     throw std::invalid_argument("--run " + options.run + " is a " + source.method +
                                 " run; transfer reuses the modules of a MAPS run");
   if (!fs::exists(source_dir / "best.ckpt"))
     throw std::invalid_argument("--run " + options.run + " has no best.ckpt: train it first");
-  const envs::DemoFile file = envs::read_demo_file(source.data_file);
+  envs::DemoFile file;
+  try {
+    file = envs::read_demo_file(source.data_file);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument("--run " + options.run +
+                                ": its data.file (a relative path is read from the working "
+                                "directory, as maps train read it): " +
+                                e.what());
+  }
   if (std::find(file.task_names.begin(), file.task_names.end(), options.task) == file.task_names.end()) {
     std::string known;
     for (const auto& task : file.task_names) known += (known.empty() ? "" : ", ") + task;
@@ -78,7 +91,13 @@ int run_transfer(const TransferOptions& options) {
   config["init"] = {{"run", source_dir.string()}, {"checkpoint", "best.ckpt"}};
   core::parse_run_config(config);  // refuse here what maps train would
 
+  std::error_code same_error;
+  if (fs::exists(options.out) && fs::equivalent(options.out, source_dir, same_error))
+    throw UsageError("--out " + options.out + " is the source run (--run): write the transfer to a folder of its own");
   check_output_folder("--out", options.out);
+  // Refused before request.json is written, so that a refused transfer leaves the folder as it was.
+  std::ostringstream ignored;
+  check_existing_run(options.out, core::to_json(core::parse_run_config(config)), ignored);
   const std::string request = (fs::path(options.out) / "request.json").string();
   write_json_file(request, config);
   TrainRunOptions train;

@@ -11,6 +11,7 @@ config.maps.selector_losses. Rows are labelled by method and variant (label()); 
 (set, label, demos, subsample)."""
 import csv
 import json
+import math
 import pathlib
 from collections import Counter, namedtuple
 from dataclasses import dataclass, field
@@ -203,6 +204,13 @@ def read_cell(path):
                                 return_unclipped_cost=float(t.get("return_mean_unclipped_cost", float("nan")))))
     if not tasks:
         raise ValueError("no tasks in eval")
+    for t in tasks:
+        if not math.isfinite(t.score):
+            raise ValueError(f"task {t.task}: score {t.score} is not a finite number")
+        if t.usage is not None and (len(t.usage) != len(tasks[0].usage or [])
+                                    or not all(math.isfinite(u) and u >= 0 for u in t.usage)):
+            raise ValueError(f"task {t.task}: module_usage {t.usage} is not a distribution over the same modules as"
+                             f" {tasks[0].task}'s")
     best_over = ev.get("best_over_checkpoints")
     best_over = None if best_over is None else float(best_over["mean_score"])
     last = [float(c["mean_score"]) for c in ev.get("checkpoints", []) if int(c.get("step", -1)) == int(train["steps"])]

@@ -97,6 +97,8 @@ def fmt_p(p):
 
 
 def total_variation(p, q):
+    if len(p) != len(q):
+        raise ValueError(f"usage over {len(p)} modules compared with usage over {len(q)}")
     return 0.5 * sum(abs(a - b) for a, b in zip(p, q))
 
 

@@ -8,7 +8,9 @@ A block in the page is delimited by two HTML comments, each on a line of its own
 
 Everything outside the blocks (the discussion) is left as written. A marker inside a fenced code block counts too:
 keep examples of markers off lines of their own. A block whose section is missing from
-report.md is an error, so a renamed section cannot leave a stale table behind silently.
+report.md is an error, so a renamed section cannot leave a stale table behind silently; so are a comment line
+that is nearly a marker (indented, spaces missing: it would leave its block stale) and unpaired markers. The page
+keeps its line endings (CRLF stays CRLF).
 
     python3 experiments/suites/sync_doc.py results/study/report/report.md docs/results.md
 """
@@ -22,6 +24,9 @@ from pathlib import Path
 BLOCK = re.compile(r"^(<!-- report\.md: (?P<title>[^>\n]*?) -->[ \t]*\n)(?P<body>.*?)^(<!-- /report\.md -->)[ \t]*$",
                    re.S | re.M)
 OPENER = re.compile(r"^<!-- report\.md: [^>\n]*? -->[ \t]*$", re.M)
+CLOSER = re.compile(r"^<!-- /report\.md -->[ \t]*$", re.M)
+# A line that is a report.md comment but not a marker (indented, spaces missing): an error, not a block left stale.
+NEAR_MISS = re.compile(r"^[ \t]*<!--[ \t]*/?[ \t]*report\.md.*-->[ \t]*$")
 
 
 def sections(report_text):
@@ -55,11 +60,15 @@ def sync(report_text, doc_text):
         refreshed.append(title)
         return f"{match.group(1)}{available[title]}\n{match.group(4)}"
 
+    for number, line in enumerate(doc_text.split("\n"), 1):
+        if NEAR_MISS.match(line) and not (OPENER.fullmatch(line) or CLOSER.fullmatch(line)):
+            raise ValueError(f"line {number} looks like a block marker but is not one: {line.strip()!r} (a marker is "
+                             "'<!-- report.md: TITLE -->' or '<!-- /report.md -->', alone on its line, unindented)")
     result = BLOCK.sub(replace, doc_text)
-    opened = len(OPENER.findall(doc_text))
-    if opened != len(refreshed):
-        raise ValueError(f"the page opens {opened} report.md blocks but closes {len(refreshed)} "
-                         "(each '<!-- report.md: TITLE -->' needs a '<!-- /report.md -->' after it)")
+    opened, closed = len(OPENER.findall(doc_text)), len(CLOSER.findall(doc_text))
+    if opened != len(refreshed) or closed != len(refreshed):
+        raise ValueError(f"the page has {opened} opening and {closed} closing report.md markers, {len(refreshed)} "
+                         "of them in pairs (each '<!-- report.md: TITLE -->' needs one '<!-- /report.md -->' after it)")
     return result, refreshed
 
 
@@ -71,13 +80,18 @@ def main(argv=None):
     for path in (args.report, args.doc):
         if not path.is_file():
             parser.error(f"{path}: no such file")
+    # Read and written with the page's own line endings (a CRLF page stays CRLF outside the blocks too).
+    with open(args.doc, newline="") as f:
+        page = f.read()
+    crlf = "\r\n" in page
     try:
-        text, refreshed = sync(args.report.read_text(), args.doc.read_text())
+        text, refreshed = sync(args.report.read_text(), page.replace("\r\n", "\n") if crlf else page)
     except ValueError as error:
         sys.exit(f"sync_doc.py: {args.doc}: {error}")
     if not refreshed:
         sys.exit(f"sync_doc.py: {args.doc} has no '<!-- report.md: TITLE -->' blocks")
-    args.doc.write_text(text)
+    with open(args.doc, "w", newline="") as f:
+        f.write(text.replace("\n", "\r\n") if crlf else text)
     print(f"{args.doc}: refreshed {', '.join(refreshed)} from {args.report}")
 
 

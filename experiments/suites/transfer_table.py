@@ -8,7 +8,9 @@ variation) from the neighbour's and from every other trained task's.
 
     python3 experiments/suites/transfer_table.py results/transfer --out results/transfer/report
 
-writes OUT/transfer.md (the tables) and OUT/transfer_scores.png (score against demonstrations, per task)."""
+writes OUT/transfer.md (the tables) and OUT/transfer_scores.png (score against demonstrations, per task). A
+damaged or stale result, a new-task cell whose evaluation lacks the new task, and a transfer cell whose source is not
+a finished cell are listed under "Cells left out" (and on stderr), not dropped silently."""
 import argparse
 import math
 import pathlib
@@ -102,16 +104,27 @@ def main():
     except SuiteError as e:
         sys.exit(f"transfer_table: {e}")
     out = pathlib.Path(args.out or pathlib.Path(args.suite) / "report")
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        sys.exit(f"transfer_table: --out {out}: cannot make the folder ({e.strerror})")
 
     rows = {}  # (set, task, method, demos) -> [cells]
+    left_out = [(str(path), reason) for path, reason in suite.damaged]  # what the tables do not count, and why
+    by_folder = {cell.name: cell for cell in suite.cells}
     for cell in suite.cells:
         task = new_task_of(cell)
-        if task is not None:
+        if task is None:
+            continue
+        if score_of(cell, task) is None:
+            left_out.append((str(cell.folder), f"its evaluation has no score for the new task {task}"))
+        else:
+            if cell.method == "transfer" and source_of(cell, by_folder) is None:
+                left_out.append((str(cell.folder), "its score counts, but its source run (init.run) is not a finished "
+                                 "cell of the suite: the source's cost and module usage leave it out"))
             rows.setdefault((cell.set, task, label_of(cell, task), cell.demos), []).append(cell)
     if not rows:
         sys.exit(f"transfer_table: {args.suite} has no finished new-task cells (grids with new_task)")
-    by_folder = {cell.name: cell for cell in suite.cells}
 
     lines = ["# Transfer: a new task from few demonstrations", "",
              f"Suite folder `{args.suite}`. The new task's score (HalfCheetah: return / its demonstrations' mean "
@@ -187,6 +200,10 @@ def main():
                 trained = {t.task: t.usage for t in source.tasks if t.usage} if source else {}
                 if not mine or neighbour not in trained:
                     continue
+                if any(len(u) != len(mine) for u in trained.values()):
+                    left_out.append((str(cell.folder), f"its usage is over {len(mine)} modules, its source run's over"
+                                     f" {len(trained[neighbour])}: left out of the module comparison"))
+                    continue
                 distance = {t: total_variation(mine, u) for t, u in trained.items()}
                 nearest = min(distance, key=distance.get)
                 others = [v for t, v in distance.items() if t != neighbour]
@@ -203,6 +220,12 @@ def main():
                           "TV to the others | nearest trained task (TV) |", "|---|---|---|---|---|---|---|---|"]
             lines += usage_lines
         lines.append("")
+    if left_out:
+        lines += ["## Cells left out", "", f"{len(left_out)} result(s) not counted above, or counted in part:", ""]
+        lines += [f"- `{path}`: {reason}" for path, reason in left_out]
+        lines.append("")
+        for path, reason in left_out:
+            print(f"transfer_table: left out {path}: {reason}", file=sys.stderr)
     (out / "transfer.md").write_text("\n".join(lines) + "\n")
     draw(figure_data, tasks, out / "transfer_scores.png")
     print(f"transfer_table: {out / 'transfer.md'}, {out / 'transfer_scores.png'}")

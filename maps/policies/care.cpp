@@ -125,10 +125,16 @@ PolicyMethod care_method() {
       throw std::invalid_argument(
           "config care.encoder_width: \"dot\" attention compares encodings with the context, so it must equal "
           "care.context_width");
+    // The logits are divided by it in float32: below 1e-3 a softmax of ordinary logits overflows to NaN.
     const double temperature = own.at("temperature").get<double>();
-    if (!(temperature > 0.0) || !std::isfinite(temperature))
-      throw std::invalid_argument("config care.temperature: expected a finite number > 0, got " +
+    if (!(temperature >= 1e-3) || !(temperature <= 1e3))
+      throw std::invalid_argument("config care.temperature: expected a number in [0.001, 1000], got " +
                                   own.at("temperature").dump());
+    if (attention == "dot" && temperature != 1.0)
+      throw std::invalid_argument(
+          "config care.temperature: only the \"task\" attention has a temperature (\"dot\" is CARE's paper's "
+          "softmax of dot products), so " +
+          own.at("temperature").dump() + " would do nothing; set care.attention \"task\" or leave it out");
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return care_parameter_count(shape, care_config(shape, o));

@@ -46,14 +46,31 @@ bool fits(const Json& value) {
   }
 }
 
+// What a value of type T is, in a config error.
+template <typename T>
+std::string expected_kind() {
+  if constexpr (std::is_same_v<T, bool>) {
+    return "true or false";
+  } else if constexpr (std::is_integral_v<T> && std::is_unsigned_v<T>) {
+    return "an integer >= 0";
+  } else if constexpr (std::is_integral_v<T>) {
+    return "an integer";
+  } else if constexpr (std::is_floating_point_v<T>) {
+    return "a number";
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    return "a string";
+  } else {
+    return "a list of " + expected_kind<typename T::value_type>().substr(2) + "s";
+  }
+}
+
 template <typename T>
 void read(const Json& json, const std::string& where, const char* key, T& out) {
   if (!json.contains(key)) return;
   const Json& value = json.at(key);
   if (!fits<T>(value))
     throw std::invalid_argument("config " + where + (where.empty() ? "" : ".") + key + ": wrong type (" + value.dump() +
-                                ")" +
-                                (std::is_integral_v<T> && !std::is_same_v<T, bool> ? ", expected an integer" : ""));
+                                "), expected " + expected_kind<T>());
   out = value.get<T>();
 }
 
@@ -63,7 +80,8 @@ template <typename T, typename Valid>
 std::vector<std::pair<std::string, T>> read_named_numbers(const Json& object, const std::string& where,
                                                           const std::string& shape, const std::string& expected,
                                                           Valid valid) {
-  if (!object.is_object()) throw std::invalid_argument("config " + where + ": expected an object of " + shape);
+  if (!object.is_object())
+    throw std::invalid_argument("config " + where + ": expected an object of " + shape + ", got " + object.dump());
   std::vector<std::pair<std::string, T>> out;
   for (const auto& [name, value] : object.items()) {
     if (!valid(value))
@@ -154,9 +172,18 @@ RunConfig parse_run_config(const Json& json) {
   check_draws(c.data.draws);
   if (data.contains("task_demos"))
     c.data.task_demos = read_named_numbers<int>(
-        data["task_demos"], "data.task_demos", "task name: demonstrations", "an integer >= 0", [](const Json& count) {
-          return count.is_number_integer() && count.get<std::int64_t>() >= 0 && count.get<std::int64_t>() <= 1000000;
+        data["task_demos"], "data.task_demos", "task name: demonstrations", "an integer >= 1", [](const Json& count) {
+          return count.is_number_integer() && count.get<std::int64_t>() >= 1 && count.get<std::int64_t>() <= 1000000;
         });
+  for (const auto& [name, count] : c.data.task_demos) {
+    const bool held_out = std::find(c.data.holdout.begin(), c.data.holdout.end(), name) != c.data.holdout.end();
+    const bool left_out =
+        !c.data.tasks.empty() && std::find(c.data.tasks.begin(), c.data.tasks.end(), name) == c.data.tasks.end();
+    if (held_out || left_out)
+      throw std::invalid_argument("config data.task_demos." + name + ": the task is not trained (" +
+                                  (held_out ? "it is in data.holdout" : "data.tasks leaves it out") +
+                                  "), so its count would do nothing");
+  }
   c.data.seed = c.seed;
   if (json.contains("train")) {
     const Json& t = json["train"];
@@ -180,14 +207,25 @@ RunConfig parse_run_config(const Json& json) {
     if (c.train.optimizer != "joint" && c.train.optimizer != "alternating")
       throw std::invalid_argument("config train.optimizer: expected \"joint\" or \"alternating\", got \"" +
                                   c.train.optimizer + "\"");
-    if (!(c.train.adam_eps > 0.0) || !std::isfinite(c.train.adam_eps))
-      throw std::invalid_argument("config train.adam_eps: expected a finite number > 0, got " + t["adam_eps"].dump());
+    // Adam adds eps in float32, where a value below about 1e-30 is lost to rounding (or flushed to 0) and a step
+    // divides by zero.
+    if (!(c.train.adam_eps >= 1e-30) || !(c.train.adam_eps <= 1.0))
+      throw std::invalid_argument(
+          "config train.adam_eps: expected a number in [1e-30, 1] (float32 training: smaller "
+          "values round to 0), got " +
+          t["adam_eps"].dump());
     if (t.contains("lr_scale"))
       c.train.lr_scale = read_named_numbers<double>(t["lr_scale"], "train.lr_scale", "parameter-name prefix: factor",
                                                     "a finite number >= 0", [](const Json& factor) {
                                                       return factor.is_number() && factor.get<double>() >= 0.0 &&
                                                              std::isfinite(factor.get<double>());
                                                     });
+    for (const auto& [prefix, factor] : c.train.lr_scale)
+      for (const auto& frozen : c.train.freeze)
+        if (prefix.rfind(frozen, 0) == 0 || frozen.rfind(prefix, 0) == 0)
+          throw std::invalid_argument("config train.lr_scale." + prefix +
+                                      ": parameters under it are frozen (train.freeze \"" + frozen +
+                                      "\"), so their learning rate does nothing");
     if (c.train.bc_loss != "mean" && c.train.bc_loss != "sampled")
       throw std::invalid_argument("config train.bc_loss: expected \"mean\" or \"sampled\", got \"" + c.train.bc_loss +
                                   "\"");
@@ -268,7 +306,8 @@ RunConfig parse_run_config(const Json& json) {
     check_keys(init, "init", {"run", "checkpoint"});
     read(init, "init", "run", c.init_run);
     read(init, "init", "checkpoint", c.init_checkpoint);
-    if (c.init_checkpoint.empty() || c.init_checkpoint.find('/') != std::string::npos)
+    if (c.init_checkpoint.empty() || c.init_checkpoint.find('/') != std::string::npos || c.init_checkpoint == "." ||
+        c.init_checkpoint == "..")
       throw std::invalid_argument(
           "config init.checkpoint: expected a file name of the run folder (best.ckpt, "
           "step_<N>.ckpt), got \"" +

@@ -460,8 +460,15 @@ class SyncDoc(unittest.TestCase):
         import sync_doc
         with self.assertRaisesRegex(ValueError, "block 'Fig. 9' has no section '## Fig. 9'"):
             sync_doc.sync(self.REPORT, "<!-- report.md: Fig. 9 -->\nx\n<!-- /report.md -->\n")
-        with self.assertRaisesRegex(ValueError, "opens 1 report.md blocks but closes 0"):
+        with self.assertRaisesRegex(ValueError, "1 opening and 0 closing report.md markers, 0 of them in pairs"):
             sync_doc.sync(self.REPORT, "<!-- report.md: Cells -->\nx\n")
+        block = "<!-- report.md: Cells -->\nx\n<!-- /report.md -->\n"
+        with self.assertRaisesRegex(ValueError, "1 opening and 2 closing"):
+            sync_doc.sync(self.REPORT, block + "text\n<!-- /report.md -->\n")
+        # Comments that are nearly markers would leave their blocks stale: each is named with its line.
+        for near in ("  <!-- report.md: Cells -->", "<!--report.md: Cells-->", "<!-- /report.md  -->x -->"):
+            with self.assertRaisesRegex(ValueError, "line 4 looks like a block marker"):
+                sync_doc.sync(self.REPORT, block + near + "\n")
 
     def test_command_line_rewrites_the_page(self):
         with tempfile.TemporaryDirectory() as tmp:
@@ -472,6 +479,14 @@ class SyncDoc(unittest.TestCase):
                                   capture_output=True, text=True)
             self.assertEqual(done.returncode, 0, done.stderr)
             self.assertIn("| 1 |", page.read_text())
+            # A CRLF page keeps its line endings, inside and outside the block.
+            page.write_bytes(b"intro\r\n<!-- report.md: Cells -->\r\nold\r\n<!-- /report.md -->\r\nafter\r\n")
+            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
+                                  capture_output=True, text=True)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            raw = page.read_bytes()
+            self.assertTrue(raw.startswith(b"intro\r\n<!-- report.md: Cells -->\r\n| a |\r\n"), raw)
+            self.assertNotIn(b"\n", raw.replace(b"\r\n", b""))
             page.write_text("no blocks\n")
             done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
                                   capture_output=True, text=True)
@@ -493,20 +508,32 @@ class Errors(unittest.TestCase):
             result = json.loads(stale.read_text())
             result["config"]["train"]["steps"] = 500
             stale.write_text(json.dumps(result))
+            # A score that is not a number (Python's json writes NaN) and module usage of another length.
+            not_a_number = suite / "cells" / "gravity" / "mt_bc_d5_s1" / "result.json"
+            result = json.loads(not_a_number.read_text())
+            result["eval"]["tasks"][0]["score"] = float("nan")
+            not_a_number.write_text(json.dumps(result))
+            short_usage = suite / "cells" / "mt10" / "maps_d10_s1" / "result.json"
+            result = json.loads(short_usage.read_text())
+            result["eval"]["tasks"][1]["module_usage"] = result["eval"]["tasks"][1]["module_usage"][:-1]
+            short_usage.write_text(json.dumps(result))
             code, stdout, stderr = run_report(suite)  # OUT defaults to DIR/report
             self.assertEqual(code, 0, stderr)
             self.assertNotIn("Traceback", stderr)
             self.assertIn(str(truncated), stderr)
             md = (suite / "report" / "report.md").read_text()
-            self.assertIn("33 finished, 1 missing (not run or not finished), 1 failed, 3 damaged", md)
+            self.assertIn("31 finished, 1 missing (not run or not finished), 1 failed, 5 damaged", md)
+            self.assertIn(f"- `{not_a_number}`: ValueError: task gravity/0.5: score nan is not a finite number", md)
+            self.assertIn(f"- `{short_usage}`: ValueError: task mt10/", md)
             self.assertIn(f"- `{truncated}`: JSONDecodeError", md)
             self.assertIn(f"- `{no_eval}`: KeyError", md)
             self.assertIn(f"- `{stale}`: trained with another run config", md)
             self.assertEqual(row_of(stdout, ["mt10", "single_bc", "5"])[4:], ["1", "0.50"])
             with (suite / "report" / "results.csv").open() as f:
                 cells = {row["cell"] for row in csv.DictReader(f)}
-            self.assertEqual(len(cells), 33)
-            self.assertFalse({"mt10/single_bc_d5_s1", "gravity/maps_d10_s1", "mt10/maps-m5_d5_s0"} & cells)
+            self.assertEqual(len(cells), 31)
+            self.assertFalse({"mt10/single_bc_d5_s1", "gravity/maps_d10_s1", "mt10/maps-m5_d5_s0",
+                              "gravity/mt_bc_d5_s1", "mt10/maps_d10_s1"} & cells)
 
     def test_a_folder_without_suite_json_says_so(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -91,6 +91,24 @@ class Transfer(unittest.TestCase):
         run("train", "--config", self.config, "--out", "started_from", "--set", 'data.holdout=["mt10/reach"]',
             "--set", f"init.run={work() / 'without_reach'}", "--set", "train.steps=1")
         refused(1, "started from another run", "started_from")
+        # Into the source itself; a damaged source config, named as the source's.
+        proc = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out",
+                   "without_reach", check=False)
+        self.assertEqual(proc.returncode, 2, proc.stderr)
+        self.assertIn("is the source run (--run)", proc.stderr)
+        damaged = work() / "damaged_source"
+        damaged.mkdir()
+        (damaged / "config.json").write_text("[]")
+        refused(1, "--run damaged_source: its config.json: config : expected a JSON object", "damaged_source")
+        # A transfer refused by its folder (another transfer there) leaves that folder's request.json as it was.
+        run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "1", "--out", "kept",
+            "--steps", "4")
+        before = (work() / "kept" / "request.json").read_text()
+        proc = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out", "kept",
+                   "--steps", "4", check=False)
+        self.assertEqual(proc.returncode, 1, proc.stderr)
+        self.assertIn("differs in data.task_demos.mt10/reach", proc.stderr)
+        self.assertEqual((work() / "kept" / "request.json").read_text(), before)
 
     def test_a_suite_grid_that_cannot_be_meant_is_refused(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
@@ -101,6 +119,8 @@ class Transfer(unittest.TestCase):
                 (lambda g: [g.update(methods=["mt_bc"]), g.pop("freeze"), g.pop("module_lr_scale")],
                  "source_variant: only with method transfer"),
                 (lambda g: g.update(module_lr_scale=0.1, freeze=["modules"]), "the modules are frozen"),
+                (lambda g: g.update(freeze=["modulez"]), "freeze: 'modulez' is not \"modules\" or \"head\""),
+                (lambda g: g.update(freeze=["modules", "selector"]), "freeze: 'selector' is not"),
                 (lambda g: None, "'tuned' has a run config")]:
             config = json.loads(fixture.read_text())
             change(config["grids"][-1])
@@ -161,6 +181,21 @@ class Transfer(unittest.TestCase):
         for cell in ("transfer-new-reach_d2_s0", "mt_bc-new-reach_d2_s0"):
             result = json.loads((cells / cell / "result.json").read_text())
             self.assertEqual([t["task"] for t in result["eval"]["tasks"]], ["mt10/reach"], cell)
+        # A damaged result is named in transfer.md and on stderr, not dropped silently; --out that is a file is refused.
+        damaged = work() / "suite-damaged"
+        shutil.copytree(work() / "suite", damaged)
+        broken = damaged / "cells" / "mt10" / "mt_bc-new-reach_d1_s0" / "result.json"
+        broken.write_text(broken.read_text()[:100])
+        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+                                damaged], capture_output=True, text=True)
+        self.assertEqual(table.returncode, 0, table.stderr)
+        self.assertIn(f"left out {broken}", table.stderr)
+        self.assertIn(f"- `{broken}`: JSONDecodeError", (damaged / "report" / "transfer.md").read_text())
+        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+                                damaged, "--out", broken], capture_output=True, text=True)
+        self.assertNotEqual(table.returncode, 0)
+        self.assertIn("cannot make the folder", table.stderr)
+        self.assertNotIn("Traceback", table.stderr)
         # A rerun after the source had failed: while one job redoes the source, its transfer cells wait for it
         # instead of failing on the earlier attempt's error.json.
         rerun = work() / "suite-rerun"

@@ -169,6 +169,16 @@ TEST(Zoo, OwnSectionsAreCheckedByNameAndType) {
                 config_of("moore", {{"orthogonal", 1}});
               }),
               HasSubstr("config moore.orthogonal: wrong type (1), expected true or false"));
+  // CARE's temperature: only the task attention has one, and float32 logits divided by a tiny one overflow.
+  EXPECT_THAT(error_of([] {
+                config_of("care", {{"temperature", 5.0}});
+              }),
+              HasSubstr("config care.temperature: only the \"task\" attention has a temperature"));
+  EXPECT_THAT(error_of([] {
+                config_of("care", {{"attention", "task"}, {"temperature", 1e-40}});
+              }),
+              HasSubstr("config care.temperature: expected a number in [0.001, 1000], got 1e-40"));
+  EXPECT_NO_THROW(config_of("care", {{"attention", "task"}, {"temperature", 0.5}}));
   // Another method's section is checked too, and kept out of this run's resolved config.
   EXPECT_THAT(error_of([] {
                 core::parse_run_config({{"method", "maps"}, {"data", {{"file", "x.h5"}}}, {"moore", {{"widht", 3}}}});

@@ -342,7 +342,9 @@ TEST(RunConfig, OptimizerAndAdamEpsAreReadAndChecked) {
               HasSubstr("config train.optimizer: expected \"joint\" or \"alternating\", got \"two_adams\""));
   request["train"] = {{"adam_eps", 0}};
   EXPECT_THAT(error_of([&] { parse_run_config(request); }),
-              HasSubstr("config train.adam_eps: expected a finite number > 0, got 0"));
+              HasSubstr("config train.adam_eps: expected a number in [1e-30, 1] (float32 training"));
+  request["train"] = {{"adam_eps", 1e-40}};  // positive, but 0 in float32
+  EXPECT_THAT(error_of([&] { parse_run_config(request); }), HasSubstr("config train.adam_eps: expected a number"));
 }
 
 TEST(RunConfig, ParsesDefaultsAndRejectsUnknownKeys) {
@@ -438,6 +440,41 @@ TEST(RunConfig, IntegersMustBeIntegersAndModelsMustFitInMemory) {
 
 // A run folder written before "baselines" existed resolves to the same config as today's request for the same run,
 // so it resumes (experiments/train_run.cpp compares resolved configs).
+TEST(RunConfig, SettingsThatWouldDoNothingOrFailLaterAreRefusedByName) {
+  const auto with = [](const char* more) {
+    nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
+    request.merge_patch(nlohmann::json::parse(more));
+    return request;
+  };
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"init": {"run": "r", "checkpoint": ".."}})")); }),
+              HasSubstr("config init.checkpoint: expected a file name of the run folder"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"init": {"run": "r", "checkpoint": "."}})")); }),
+              HasSubstr("config init.checkpoint: expected a file name"));
+  EXPECT_THAT(
+      error_of([&] { parse_run_config(with(R"({"train": {"freeze": ["modules"], "lr_scale": {"modules0": 0.1}}})")); }),
+      HasSubstr("config train.lr_scale.modules0: parameters under it are frozen (train.freeze \"modules\")"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"train": {"freeze": ["modules0"], "lr_scale": {"m": 2}}})")); }),
+              HasSubstr("config train.lr_scale.m: parameters under it are frozen"));
+  EXPECT_NO_THROW(parse_run_config(with(R"({"train": {"freeze": ["head"], "lr_scale": {"modules": 0.1}}})")));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"data": {"file": "x.h5", "task_demos": {"g/a": 0}}})")); }),
+              HasSubstr("config data.task_demos.g/a: expected an integer >= 1, got 0"));
+  EXPECT_THAT(error_of([&] {
+                parse_run_config(with(R"({"data": {"file": "x.h5", "holdout": ["g/a"], "task_demos": {"g/a": 2}}})"));
+              }),
+              HasSubstr("config data.task_demos.g/a: the task is not trained (it is in data.holdout)"));
+  EXPECT_THAT(error_of([&] {
+                parse_run_config(with(R"({"data": {"file": "x.h5", "tasks": ["g/b"], "task_demos": {"g/a": 2}}})"));
+              }),
+              HasSubstr("config data.task_demos.g/a: the task is not trained (data.tasks leaves it out)"));
+  // Type errors say what was expected.
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"data": {"file": "x.h5", "holdout": "g/a"}})")); }),
+              HasSubstr("config data.holdout: wrong type (\"g/a\"), expected a list of strings"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"train": {"optimizer": 5}})")); }),
+              HasSubstr("config train.optimizer: wrong type (5), expected a string"));
+  EXPECT_THAT(error_of([&] { parse_run_config(with(R"({"train": {"lr_scale": [1]}})")); }),
+              HasSubstr("config train.lr_scale: expected an object of parameter-name prefix: factor, got [1]"));
+}
+
 TEST(RunConfig, DrawsAndValidationTasksAreReadAndChecked) {
   nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
   const RunConfig plain = parse_run_config(request);
