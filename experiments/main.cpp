@@ -345,7 +345,10 @@ int main(int argc, char** argv) {
   suite_plan_cmd->add_option("config", suite_plan.config_path, "Suite config (JSON)")
       ->required()
       ->check(CLI::ExistingFile);
-  suite_plan_cmd->add_option("--shard", suite_plan.shard, "Only the cells with index % N == i")->capture_default_str();
+  suite_plan_cmd
+      ->add_option("--shard", suite_plan.shard,
+                   "Only the cells with index % N == i (a transfer cell: its source's index)")
+      ->capture_default_str();
   suite_plan_cmd->add_option("--jobs", suite_plan.jobs, "Cells at once, for the wall-time estimate (0: cores)")
       ->check(non_negative);
   suite_plan_cmd->add_flag("--cells", suite_plan.list_cells, "List every cell");
@@ -365,7 +368,9 @@ int main(int argc, char** argv) {
   suite_run_cmd->add_option("--threads", suite_run.threads, "Op threads per cell (0: one per core)")
       ->check(non_negative)
       ->capture_default_str();
-  suite_run_cmd->add_option("--shard", suite_run.shard, "Run only the cells with index % N == i (i/N)")
+  suite_run_cmd
+      ->add_option("--shard", suite_run.shard,
+                   "Run only the cells with index % N == i (i/N; a transfer cell: its source's index)")
       ->capture_default_str();
   suite_run_cmd->add_option("--costs", suite_run.costs, "Cost table for the ETA");
 

@@ -389,13 +389,19 @@ std::pair<int, int> parse_shard(const std::string& text) {
 
 int shard_key(const Suite& suite, const SuiteCell& cell) {
   // A transfer cell reads its source's folder, a sibling under the same shard's cells/: it goes where its source
-  // goes (sources come first in the order, so the shard runs the source before its dependants).
-  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
-  if (relative.rfind("../", 0) != 0) return cell.index;
-  const std::string source = cell.set + "/" + relative.substr(3);
-  for (const auto& other : suite.cells)
-    if (other.name == source) return shard_key(suite, other);
-  return cell.index;
+  // goes (sources come first in the order, so the shard runs the source before its dependants). Followed at most
+  // once per cell of the suite, so a cycle (a variant's init.run naming its own folder) cannot loop.
+  const SuiteCell* at = &cell;
+  for (std::size_t hops = 0; hops < suite.cells.size(); ++hops) {
+    const std::string relative = at->request.contains("init") ? at->request["init"].value("run", "") : "";
+    if (relative.rfind("../", 0) != 0) break;
+    const std::string source = at->set + "/" + relative.substr(3);
+    const auto found = std::find_if(suite.cells.begin(), suite.cells.end(),
+                                    [&source](const SuiteCell& other) { return other.name == source; });
+    if (found == suite.cells.end() || &*found == at) break;
+    at = &*found;
+  }
+  return at->index;
 }
 
 std::vector<const SuiteCell*> shard_cells(const Suite& suite, int shard, int shards) {

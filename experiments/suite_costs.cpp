@@ -158,6 +158,7 @@ int run_suite_plan(const SuitePlanOptions& options) {
     group.episodes = cell->request["eval"]["episodes"].get<int>();
     Json entry = cell->identity();
     entry["estimated_seconds"] = seconds;
+    entry["shard_key"] = shard_key(suite, *cell);
     cell_list.push_back(entry);
   }
   std::set<std::string> missing_files;

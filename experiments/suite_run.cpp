@@ -158,10 +158,13 @@ std::string wait_for_source(const fs::path& dir, const SuiteCell& cell) {
   for (;;) {
     if (fs::exists(source / "result.json")) return "";
     // A running source is waited for even when an error.json of an earlier attempt is still there; a worker that
-    // has just taken the source may not hold its lock (nor have cleared that error.json) yet: allow it a moment.
-    if (!cell_is_locked(source) && seconds_since(start) > 30.0) {
-      if (fs::exists(source / "error.json"))
-        return "its source cell " + source.string() + " failed (see its error.json)";
+    // has just taken the source may not hold its lock (nor have cleared that error.json) yet: allow it a moment
+    // (a few seconds when the source has failed, so that a failed source's dependants do not each wait long).
+    const bool failed = fs::exists(source / "error.json");
+    if (!cell_is_locked(source) && seconds_since(start) > (failed ? 5.0 : 30.0)) {
+      // It may have finished between the checks above (writing result.json, then releasing its lock).
+      if (fs::exists(source / "result.json")) return "";
+      if (failed) return "its source cell " + source.string() + " failed (see its error.json)";
       return "its source cell " + source.string() +
              " is neither finished nor running: run the suite (or that cell's shard) so that it finishes first";
     }
@@ -212,6 +215,9 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
   // This attempt supersedes an earlier one's failure (a transfer cell waiting on this one must not read it).
   fs::remove(dir / "error.json");
   if (const std::string waiting = wait_for_source(dir, cell); !waiting.empty()) {
+    // Recorded like any failure, so that status and the report count the cell as failed and say why.
+    write_json_file((dir / "error.json").string(),
+                    {{"stage", "source"}, {"error", waiting}, {"host", host_name()}, {"time", utc_now()}});
     outcome.status = CellOutcome::Status::kFailed;
     outcome.error = waiting;
     return outcome;

@@ -26,7 +26,7 @@ BLOCK = re.compile(r"^(<!-- report\.md: (?P<title>[^>\n]*?) -->[ \t]*\n)(?P<body
 OPENER = re.compile(r"^<!-- report\.md: [^>\n]*? -->[ \t]*$", re.M)
 CLOSER = re.compile(r"^<!-- /report\.md -->[ \t]*$", re.M)
 # A line that is a report.md comment but not a marker (indented, spaces missing): an error, not a block left stale.
-NEAR_MISS = re.compile(r"^[ \t]*<!--[ \t]*/?[ \t]*report\.md.*-->[ \t]*$")
+NEAR_MISS = re.compile(r"^[ \t]*<!--[ \t]*(/[ \t]*report\.md[ \t]*|report\.md[ \t]*:.*)-->[ \t]*$")
 
 
 def sections(report_text):
@@ -84,6 +84,9 @@ def main(argv=None):
     with open(args.doc, newline="") as f:
         page = f.read()
     crlf = "\r\n" in page
+    if crlf and "\n" in page.replace("\r\n", ""):
+        sys.exit(f"sync_doc.py: {args.doc} mixes CRLF and LF line endings: make them one kind first (the blocks "
+                 "would be written in one of them)")
     try:
         text, refreshed = sync(args.report.read_text(), page.replace("\r\n", "\n") if crlf else page)
     except ValueError as error:

@@ -222,7 +222,7 @@ RunConfig parse_run_config(const Json& json) {
                                                     });
     for (const auto& [prefix, factor] : c.train.lr_scale)
       for (const auto& frozen : c.train.freeze)
-        if (prefix.rfind(frozen, 0) == 0 || frozen.rfind(prefix, 0) == 0)
+        if (prefix.rfind(frozen, 0) == 0)  // every parameter under the prefix is frozen
           throw std::invalid_argument("config train.lr_scale." + prefix +
                                       ": parameters under it are frozen (train.freeze \"" + frozen +
                                       "\"), so their learning rate does nothing");

@@ -466,9 +466,12 @@ class SyncDoc(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "1 opening and 2 closing"):
             sync_doc.sync(self.REPORT, block + "text\n<!-- /report.md -->\n")
         # Comments that are nearly markers would leave their blocks stale: each is named with its line.
-        for near in ("  <!-- report.md: Cells -->", "<!--report.md: Cells-->", "<!-- /report.md  -->x -->"):
+        for near in ("  <!-- report.md: Cells -->", "<!--report.md: Cells-->", "<!-- /report.md-->"):
             with self.assertRaisesRegex(ValueError, "line 4 looks like a block marker"):
                 sync_doc.sync(self.REPORT, block + near + "\n")
+        # An ordinary comment that mentions report.md is not a marker, nearly or not.
+        self.assertEqual(sync_doc.sync(self.REPORT, block + "<!-- report.md tables below are generated -->\n")[1],
+                         ["Cells"])
 
     def test_command_line_rewrites_the_page(self):
         with tempfile.TemporaryDirectory() as tmp:

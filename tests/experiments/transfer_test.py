@@ -212,16 +212,46 @@ class Transfer(unittest.TestCase):
 
     def test_shards_keep_a_transfer_cell_with_its_source(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
+        transfers = {c["name"] for c in json.loads(run("suite", "plan", fixture, "--json").stdout)["cells"]
+                     if c["name"].startswith("mt10/transfer-")}
+        self.assertEqual(len(transfers), 3)
         for shards in (2, 3, 4):
+            placed = set()
             for shard in range(shards):
-                names = [c["name"] for c in json.loads(run("suite", "plan", fixture, "--json", "--shard",
-                                                           f"{shard}/{shards}").stdout)["cells"]]
-                if any(name.startswith("mt10/transfer-") for name in names):
+                cells = json.loads(run("suite", "plan", fixture, "--json", "--shard", f"{shard}/{shards}").stdout)["cells"]
+                names = {c["name"] for c in cells}
+                placed |= names & transfers
+                if names & transfers:
                     self.assertIn("mt10/maps-without-reach_d2_s0", names, f"shard {shard}/{shards}")
-        # Each shard in a folder of its own, as on a cluster: every cell finds its source.
+                self.assertTrue(all(c["shard_key"] % shards == shard for c in cells))
+            self.assertEqual(placed, transfers, f"{shards} shards")
+        # Each shard in a folder of its own, as on a cluster: every transfer cell runs and finds its source.
         for shard in range(2):
             proc = run("suite", "run", fixture, "--out", f"sharded/shard-{shard}", "--shard", f"{shard}/2")
             self.assertIn("0 failed", proc.stdout)
+        ran = {f"mt10/{p.parent.name}" for p in work().glob("sharded/shard-*/cells/mt10/transfer-*/result.json")}
+        self.assertEqual(ran, transfers)
+
+    def test_a_failed_source_fails_its_transfer_cells_by_name(self):
+        # The holdout run diverges (a learning rate of 1e30): its transfer cells fail naming it, and are counted failed.
+        config = json.loads((pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json").read_text())
+        config["variants"]["diverges"] = {"train": {"learning_rate": 1e30}}
+        config["grids"][0]["variants"] = ["diverges"]
+        config["grids"][1].update(source_variant="diverges", methods=["transfer"])
+        del config["grids"][2]
+        path = work() / "diverging-suite.json"
+        path.write_text(json.dumps(config))
+        proc = run("suite", "run", path, "--out", "diverging", "--jobs", "2", check=False)
+        self.assertIn("0 cells done, 3 failed", proc.stdout)
+        cells = work() / "diverging" / "cells" / "mt10"
+        self.assertEqual(json.loads((cells / "maps-diverges-without-reach_d2_s0" / "error.json").read_text())["stage"],
+                         "train")
+        for demos in (1, 2):
+            error = json.loads((cells / f"transfer-new-reach_d{demos}_s0" / "error.json").read_text())
+            self.assertEqual(error["stage"], "source")
+            self.assertIn("maps-diverges-without-reach_d2_s0 failed (see its error.json)", error["error"])
+        status = run("suite", "status", "diverging").stdout
+        self.assertIn("3 failed", status)
 
 
 if __name__ == "__main__":

@@ -136,8 +136,8 @@ cells = plan["cells"]
 known = [c for c in cells if isinstance(c.get("estimated_seconds"), (int, float))]
 per = [0.0] * shards
 for c in known:
-    per[c["index"] % shards] += c["estimated_seconds"]
-counts = [sum(1 for c in cells if c["index"] % shards == i) for i in range(shards)]
+    per[c.get("shard_key", c["index"]) % shards] += c["estimated_seconds"]
+counts = [sum(1 for c in cells if c.get("shard_key", c["index"]) % shards == i) for i in range(shards)]
 print(f"== suite: {len(cells)} cells, estimated {plan['cpu_seconds'] / 3600:.1f} CPU-hours at one thread per cell"
       f" (costs: {plan.get('costs')}); {shards} shards of {min(counts)}-{max(counts)} cells,"
       f" estimated {hm(min(per))} to {hm(max(per))} each at one thread")
