@@ -48,7 +48,12 @@ core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::str
     } catch (const nlohmann::json::exception& e) {
       throw std::runtime_error("init.run: " + path + " records no observation statistics (" + e.what() + ")");
     }
-    data.use_standardizer(standardizer);
+    try {
+      data.use_standardizer(standardizer);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("init.run: " + path + " was trained on observations of another size than " +
+                               config.data_file + "'s (" + e.what() + ")");
+    }
   }
   return data;
 }

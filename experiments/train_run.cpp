@@ -98,17 +98,22 @@ int run_train(const TrainRunOptions& options) {
                                                       {"threads", options.threads},
                                                       {"demo_file", config.data_file},
                                                       {"demo_file_sha256", sha256_of_file(config.data_file)}}));
-    write_json_file((dir / "config.json").string(), resolved);
-
     const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};
     const auto policy = core::make_policy(config, shape);
     if (!config.init_run.empty() && core::trained_steps(options.out) == 0) {
       const std::string source_dir = init_run_folder(config, options.out);
-      const TrainedRun source = load_trained_run(source_dir, config.init_checkpoint);
-      core::initialize_from(*policy, data.task_names(), *source.policy, source.data->task_names());
-      log << "maps train: starting from " << source_dir << "/" << config.init_checkpoint << " (step "
-          << source.best.value("step", -1) << ", tasks " << source.data->task_names().size() << ")" << std::endl;
+      try {
+        const TrainedRun source = load_trained_run(source_dir, config.init_checkpoint);
+        core::initialize_from(*policy, data.task_names(), *source.policy, source.data->task_names());
+        log << "maps train: starting from " << source_dir << "/" << config.init_checkpoint << " (step "
+            << source.best.value("step", -1) << ", tasks " << source.data->task_names().size() << ")" << std::endl;
+      } catch (const std::exception& e) {
+        throw std::invalid_argument("init.run " + source_dir + ": cannot start from it: " + e.what());
+      }
     }
+    // Written once the run can start, so that a refused start leaves no config behind that a corrected rerun into
+    // the same folder would be compared with.
+    write_json_file((dir / "config.json").string(), resolved);
     std::size_t fewest = SIZE_MAX, most = 0;
     for (const auto& seeds : data.training_demo_seeds())
       fewest = std::min(fewest, seeds.size()), most = std::max(most, seeds.size());

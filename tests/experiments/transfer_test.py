@@ -91,6 +91,17 @@ class Transfer(unittest.TestCase):
         run("train", "--config", self.config, "--out", "started_from", "--set", 'data.holdout=["mt10/reach"]',
             "--set", f"init.run={work() / 'without_reach'}", "--set", "train.steps=1")
         refused(1, "started from another run", "started_from")
+        # maps train started from a run it cannot start from: refused naming init.run, leaving no config.json, so
+        # the corrected command runs in the same folder.
+        source = work() / "without_reach"
+        proc = run("train", "--config", self.config, "--out", "mismatch", "--set", f"init.run={source}",
+                   "--set", 'data.holdout=["mt10/reach"]', "--set", "maps.modules=2", "--set", "train.steps=2",
+                   check=False)
+        self.assertEqual(proc.returncode, 1, proc.stderr)
+        self.assertIn(f"init.run {source}: cannot start from it: initialize_from: parameter modules0", proc.stderr)
+        self.assertFalse((work() / "mismatch" / "config.json").exists())
+        run("train", "--config", self.config, "--out", "mismatch", "--set", f"init.run={source}",
+            "--set", 'data.holdout=["mt10/reach"]', "--set", "train.steps=2")
         # Into the source itself; a damaged source config, named as the source's.
         proc = run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "2", "--out",
                    "without_reach", check=False)
