@@ -89,7 +89,7 @@ int run_transfer(const TransferOptions& options) {
   if (options.seed) config["seed"] = *options.seed;
   if (options.steps) config["train"]["steps"] = *options.steps;
   config["init"] = {{"run", source_dir.string()}, {"checkpoint", "best.ckpt"}};
-  core::parse_run_config(config);  // refuse here what maps train would
+  const core::RunConfig parsed = core::parse_run_config(config);  // refuse here what maps train would
 
   std::error_code same_error;
   if (fs::exists(options.out) && fs::equivalent(options.out, source_dir, same_error))
@@ -97,7 +97,7 @@ int run_transfer(const TransferOptions& options) {
   check_output_folder("--out", options.out);
   // Refused before request.json is written, so that a refused transfer leaves the folder as it was.
   std::ostringstream ignored;
-  check_existing_run(options.out, core::to_json(core::parse_run_config(config)), ignored);
+  check_existing_run(options.out, core::to_json(parsed), ignored);
   const std::string request = (fs::path(options.out) / "request.json").string();
   write_json_file(request, config);
   TrainRunOptions train;

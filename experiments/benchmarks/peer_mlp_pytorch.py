@@ -21,11 +21,10 @@ try:
 except ImportError:
     sys.exit("peer_mlp_pytorch: PyTorch is not installed (apt-get install python3-torch libopenblas0-pthread; run "
              "/usr/bin/python3)")
-from peer_pytorch import REFERENCE_BLAS, _blas_name  # noqa: E402 (beside this script)
+from peer_pytorch import REFERENCE_BLAS, REFERENCE_BLAS_MESSAGE, _blas_name  # noqa: E402 (beside this script)
 
 if _blas_name(torch) == REFERENCE_BLAS:
-    sys.exit("peer_mlp_pytorch: PyTorch calls netlib's reference BLAS, 10-20x slower than OpenBLAS: no fair comparison "
-             "(apt-get install libopenblas0-pthread)")
+    sys.exit(f"peer_mlp_pytorch: {REFERENCE_BLAS_MESSAGE}")
 
 torch.set_num_threads(1)
 torch.manual_seed(0)

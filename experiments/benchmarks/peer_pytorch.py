@@ -179,10 +179,7 @@ def main():
     os.environ["OPENBLAS_NUM_THREADS"] = str(blas_threads)  # read when torch loads OpenBLAS
     try:
         import torch
-        message = None if _blas_name(torch) != REFERENCE_BLAS else (
-            "PyTorch calls netlib's reference BLAS, which makes its step 10-20x slower than with OpenBLAS and the "
-            "comparison meaningless (apt-get install libopenblas0-pthread, or point libblas.so.3 back at OpenBLAS: "
-            "update-alternatives --auto libblas.so.3-x86_64-linux-gnu)")
+        message = REFERENCE_BLAS_MESSAGE if _blas_name(torch) == REFERENCE_BLAS else None
     except ImportError:
         message = "PyTorch is not installed (apt-get install python3-torch libopenblas0-pthread; run with /usr/bin/python3)"
     if message:
@@ -232,6 +229,9 @@ def main():
 
 
 REFERENCE_BLAS = "netlib reference BLAS"
+REFERENCE_BLAS_MESSAGE = ("PyTorch calls netlib's reference BLAS, which makes its step 10-20x slower than with OpenBLAS "
+                          "and the comparison meaningless (apt-get install libopenblas0-pthread, or point libblas.so.3 "
+                          "back at OpenBLAS: update-alternatives --auto libblas.so.3-x86_64-linux-gnu)")
 
 
 def _blas_name(torch):

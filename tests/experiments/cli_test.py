@@ -9,7 +9,7 @@ import pathlib
 import re
 import unittest
 
-from maps_tool import main, run, work
+from maps_tool import curve_without_timing, main, run, work
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -20,13 +20,6 @@ def dotted_keys(value, prefix=""):
             yield from dotted_keys(inner, f"{prefix}.{key}" if prefix else key)
     else:
         yield prefix
-
-
-def curve_without_timing(path):
-    """curve.csv without its timing columns (steps per second, CPU seconds), which differ from run to run."""
-    rows = [line.split(",") for line in pathlib.Path(path).read_text().splitlines()]
-    keep = [i for i, name in enumerate(rows[0]) if name not in ("steps_per_second", "cpu_seconds")]
-    return [[row[i] for i in keep] for row in rows]
 
 
 class Tool(unittest.TestCase):

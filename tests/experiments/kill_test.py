@@ -3,7 +3,6 @@
 to the end, must end exactly where an uninterrupted run ends, and must never leave a file that a later step
 trusts half-written (checkpoints and demo files are written to a temporary and renamed). The suite's own kill test
 is in suite_run_test.py. Run by ctest as: kill_test.py path/to/maps (needs h5diff, from hdf5-tools)."""
-import csv
 import json
 import os
 import pathlib
@@ -15,6 +14,8 @@ import sys
 import tempfile
 import time
 import unittest
+
+from maps_tool import curve_without_timing  # beside this file
 
 MAPS = None  # set from argv
 # MAPS_TEST_QUICK=1 (CI's sanitizer pass, where every step is several times slower): fewer kills.
@@ -98,13 +99,6 @@ def kill_after_progress(args, curve, extra_seconds):
         return False
     finally:
         proc.stderr.close()
-
-
-def curve_without_timing(path):
-    with open(path) as f:
-        rows = list(csv.reader(f))
-    keep = [i for i, name in enumerate(rows[0]) if name not in ("steps_per_second", "cpu_seconds")]
-    return [[row[i] for i in keep] for row in rows]
 
 
 def same_demo_files(a, b):

@@ -1,4 +1,5 @@
 """What the tests that drive the `maps` tool share: running it in a scratch folder, and their main()."""
+import csv
 import pathlib
 import subprocess
 import sys
@@ -19,6 +20,14 @@ def run(*args, check=True, timeout=600):
 
 def work(*parts):
     return pathlib.Path(WORK, *parts)
+
+
+def curve_without_timing(path):
+    """curve.csv's rows without its timing columns (steps per second, CPU seconds), which differ from run to run."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    keep = [i for i, name in enumerate(rows[0]) if name not in ("steps_per_second", "cpu_seconds")]
+    return [[row[i] for i in keep] for row in rows]
 
 
 def main(script):
