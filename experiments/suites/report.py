@@ -118,6 +118,9 @@ def report_lines(suite, draw):
         paired = tables.paired_table(mine)
         lines += ["", "### Paired differences from MAPS", ""] + (paired or [
             "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds)."])
+        pooling = tables.pooling_table(mine)
+        lines += ["", "### Paired differences from Single BC (learning the tasks together against each alone)", ""] + (
+            pooling or ["Nothing to pair with Single BC (no Single BC cells, or none at the same demos and seeds)."])
         figure = task_figures.get(f"fig2_tasks_{set_name}.png")
         lines += embed([figure] if figure else [])
         usage = tables.usage_tables(mine)

@@ -129,6 +129,29 @@ def paired_table(cells):
             + table(["method", "against", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
 
+
+def pooling_table(cells):
+    """Does learning the tasks together beat learning each alone? Every base multi-task method (no variant) against
+    Single BC, paired by seed, Holm over all of the set's comparisons (one family: methods x counts)."""
+    by_key = groups(cells)
+    rows = []
+    for key, runs in by_key.items():
+        if key.label == "single_bc" or " " in key.label:
+            continue
+        alone = by_key.get(key._replace(label="single_bc"))
+        diffs = paired(runs, alone, lambda c: c.mean_score) if alone else []
+        if diffs:
+            rows.append([key.label, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True), paired_p(diffs)])
+    if not rows:
+        return []
+    adjusted = holm([row[-1] for row in rows])
+    size = sum(1 for a in adjusted if a == a)
+    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    return ([f"Paired difference of the mean score over tasks, method - Single BC, over the seeds both ran (mean +- 95%"
+             f" CI; p: paired t test; Holm over the {size} comparisons of this table; a difference holds where the Holm"
+             " p is below 0.05):", ""]
+            + table(["method", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
+
 # Display names of the methods that route (their usage is a share per module, summing to 1 over a task's states).
 ROUTED_NAMES = {"maps": "MAPS", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style", "top_k_moe": "top-k MoE",
                 "soft_modularization": "Soft Modularization"}

@@ -220,6 +220,19 @@ class Report(unittest.TestCase):
         self.assertEqual(rows_of(paired, ["maps (paper_protocol)"]), [])
         self.assertIn("the base methods: 3; w430: 1", gravity)
 
+    def test_pooling_is_paired_with_single_bc_and_holm_corrected(self):
+        gravity = between(self.md, "## Set gravity", "## Set mt10")
+        pooling = between(gravity, "### Paired differences from Single BC", "###")
+        # MT-BC at 5: seed means 0.5 and 0.4 against Single BC's 0.4 and 0.5: +0.1 and -0.1, CI 12.706 * 0.1414 /
+        # sqrt(2) = 1.27. MAPS at 10: p 0.374, the smallest of the 3, so Holm x 3, capped at 1.
+        self.assertEqual(row_of(pooling, ["mt_bc", "5"])[3:], ["2", "+0.00 +- 1.27", "1.000", "1.000"])
+        self.assertEqual(row_of(pooling, ["maps", "10"])[3:], ["2", "+0.15 +- 1.27", "0.374", "1.000"])
+        self.assertEqual(row_of(pooling, ["mt_bc", "10"])[3:], ["1", "+0.00", "-", "-"])
+        # Variants (the width control) are not pooled methods; Single BC is not against itself.
+        self.assertEqual(rows_of(pooling, ["mt_bc (w430)"]), [])
+        self.assertEqual(rows_of(pooling, ["single_bc"]), [])
+        self.assertIn("Holm over the 3 comparisons of this table", pooling)
+
     def test_routing_is_computed_per_seed(self):
         routing = between(self.md, "MAPS, 5 demos, k = 10", "MAPS, 10 demos, k = 10")
         # Seed 0 routes both tasks alike (TV 0), seed 1 each task to its own module (TV 0.4): 0.2 over seeds, where
@@ -565,6 +578,54 @@ class Errors(unittest.TestCase):
             self.assertIn("python3-matplotlib", stderr)
             self.assertNotIn("Traceback", stderr)
 
+
+class CurveStats(unittest.TestCase):
+    """experiments/suites/curve_stats.py: the curve statistics docs/results.md quotes."""
+
+    def run_tool(self, *args):
+        done = subprocess.run([sys.executable, str(SUITES / "curve_stats.py"), *map(str, args)], capture_output=True,
+                              text=True, timeout=120)
+        return done.returncode, done.stdout, done.stderr
+
+    def test_ranges_over_seeds_of_the_validation_and_selector_terms(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            suite = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite)
+            header = "step,bc,share,explore,sparse,smooth,total,validation_bc,steps_per_second\n"
+            cells = suite / "cells" / "gravity"
+            # Seed 0: best 0.05 at 500, ends at 0.08 (1.6x); explore 0.25 at the end: 10 / 1.25 = 8.0 modules.
+            (cells / "maps_d5_s0" / "curve.csv").write_text(
+                header + "250,1,0,0.1,0.80,0,1,0.10,40\n500,1,0,0.1,0.70,0,1,0.05,40\n1000,1,0,0.25,0.50,0,1,0.08,40\n")
+            # Seed 1: best 0.04 at 250, ends at 0.04 (1.0x); explore 0 at the end: all 10 modules.
+            (cells / "maps_d5_s1" / "curve.csv").write_text(
+                header + "250,1,0,0.1,0.82,0,1,0.04,40\n1000,1,0,0,0.30,0,1,0.04,40\n")
+            (cells / "single_bc_d5_s1" / "curve.csv").unlink()
+            code, stdout, stderr = self.run_tool(suite, "--set", "gravity")
+            self.assertEqual(code, 0, stderr)
+            self.assertEqual(row_of(stdout, ["gravity", "maps", "5"])[3:],
+                             ["2", "0.040-0.050", "250-500", "1.0-1.6", "0.040-0.080", "8.0-10.0",
+                              "0.800-0.820 -> 0.300-0.500"])
+            # A baseline has no selector terms; the cell without a curve is named and left out of its group.
+            self.assertEqual(row_of(stdout, ["gravity", "single_bc", "5"])[3], "1")
+            self.assertEqual(row_of(stdout, ["gravity", "single_bc", "5"])[-2:], ["-", "-"])
+            self.assertIn("left out: gravity/single_bc_d5_s1", stderr)
+            self.assertEqual(rows_of(stdout, ["mt10"]), [])
+            code, stdout, stderr = self.run_tool(suite, "--set", "gravity", "--seeds", "1")
+            self.assertEqual(row_of(stdout, ["gravity", "maps", "5"])[3:5], ["1", "0.040"])
+
+    def test_bad_arguments_are_named(self):
+        code, stdout, stderr = self.run_tool(FIXTURE, "--seeds", "0,x")
+        self.assertEqual(code, 2)
+        self.assertIn("--seeds '0,x': expected comma-separated integers", stderr)
+        code, stdout, stderr = self.run_tool(FIXTURE, "--set", "nope")
+        self.assertEqual(code, 2)
+        self.assertIn("no finished cells", stderr)
+        self.assertIn("('gravity', 'maps')", stderr)
+        with tempfile.TemporaryDirectory() as tmp:
+            code, stdout, stderr = self.run_tool(tmp)
+            self.assertEqual(code, 2)
+            self.assertIn("suite.json", stderr)
+            self.assertNotIn("Traceback", stderr)
 
 if __name__ == "__main__":
     unittest.main()
