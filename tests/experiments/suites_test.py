@@ -3,7 +3,7 @@
 tests/experiments/fixtures/suite-small (written by make_suite_small.py, whose hand-chosen scores give the numbers
 below): results.csv, the score table, paired differences, routing, Fig. 3's shares, ablation and module-count
 tables, every figure and its CSV, and the errors (damaged result, no suite.json, nothing finished, no matplotlib).
-Run by ctest (tests/CMakeLists.txt)."""
+Also curve_stats.py and more_seeds.py, the tools beside the report. Run by ctest (tests/CMakeLists.txt)."""
 import csv
 import filecmp
 import json
@@ -623,6 +623,75 @@ class CurveStats(unittest.TestCase):
         self.assertIn("('gravity', 'maps')", stderr)
         with tempfile.TemporaryDirectory() as tmp:
             code, stdout, stderr = self.run_tool(tmp)
+            self.assertEqual(code, 2)
+            self.assertIn("suite.json", stderr)
+            self.assertNotIn("Traceback", stderr)
+
+class MoreSeeds(unittest.TestCase):
+    """experiments/suites/more_seeds.py: docs/zoo.md's "5 seeds where the intervals overlap", on the fixture."""
+    # The fixture's grids in a config's list form (its suite.json keeps an older form); seeds 0-1 ran.
+    CONFIG = {"sets": {"gravity": {"demos": [5, 10]}, "mt10": {"demos": [5, 10]}}, "grids": [
+        {"name": "comparison", "sets": ["gravity", "mt10"], "methods": ["maps", "single_bc", "mt_bc"],
+         "seeds": [0, 1]},
+        {"name": "controls", "sets": ["gravity"], "methods": ["mt_bc"], "variants": ["w430"], "demos": [5],
+         "seeds": [0, 1]},
+        {"name": "paper_protocol", "sets": ["mt10"], "methods": ["maps", "mt_bc"], "variants": ["paper_protocol"],
+         "demos": [5], "seeds": [0, 1]},
+        {"name": "five_seeds", "sets": ["mt10"], "methods": ["mt_bc"], "demos": [5], "seeds": [0, 1, 2]}]}
+
+    def run_tool(self, suite, config, *args):
+        done = subprocess.run([sys.executable, str(SUITES / "more_seeds.py"), str(suite), str(config), *args],
+                              capture_output=True, text=True, timeout=120)
+        return done.returncode, done.stdout, done.stderr
+
+    def test_overlapping_settings_get_the_new_seeds_with_their_maps(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            config = pathlib.Path(tmp) / "c.json"
+            config.write_text(json.dumps(self.CONFIG))
+            code, stdout, stderr = self.run_tool(FIXTURE, config, "--seeds", "2,3")
+            self.assertEqual(code, 0, stderr)
+            # Paired with MAPS as report.md pairs (test_paired_differences_from_maps_use_the_same_seeds).
+            self.assertIn("- comparison, gravity at 5: single_bc - maps -0.15 +- 1.91 (2 pairs): more seeds", stdout)
+            self.assertIn("- controls, gravity at 5: mt_bc (w430) - maps -0.05 +- 0.64 (2 pairs): more seeds", stdout)
+            self.assertIn("- paper_protocol, mt10 at 5: mt_bc (paper_protocol) - maps (paper_protocol) -0.05 +- 0.64"
+                          " (2 pairs): more seeds", stdout)
+            # A failed or unfinished cell holds its setting back; a grid that runs seed 2 already is not judged.
+            self.assertIn("- comparison, gravity at 10: not ready (1 cells not finished (failed or to run), e.g."
+                          " gravity/mt_bc_d10_s1)", stdout)
+            self.assertIn("- comparison, mt10 at 10: not ready (1 cells not finished", stdout)
+            self.assertNotIn("five_seeds", stdout)
+            self.assertEqual(json.loads(config.read_text()), self.CONFIG)  # not written without --write
+            code, stdout, stderr = self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
+            self.assertEqual(code, 0, stderr)
+            grids = {g["name"]: g for g in json.loads(config.read_text())["grids"]}
+            added = grids["comparison_seeds_2_3"]
+            self.assertEqual(added["seeds"], [2, 3])
+            self.assertEqual(added["methods"], ["maps", "single_bc", "mt_bc"])
+            self.assertEqual(added["demos"], {"gravity": [5], "mt10": [5]})
+            # The width control has no MAPS of its own: base MAPS's grid (comparison) runs MAPS there.
+            self.assertEqual(grids["controls_seeds_2_3"]["methods"], ["mt_bc"])
+            self.assertEqual(grids["controls_seeds_2_3"]["variants"], ["w430"])
+            self.assertEqual(grids["paper_protocol_seeds_2_3"]["methods"], ["maps", "mt_bc"])
+            # A second run adds nothing twice.
+            self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
+            self.assertEqual(len(json.loads(config.read_text())["grids"]), len(grids))
+
+    def test_bad_input_is_named(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            config = pathlib.Path(tmp) / "c.json"
+            config.write_text("{not json")
+            code, stdout, stderr = self.run_tool(FIXTURE, config)
+            self.assertEqual(code, 2)
+            self.assertIn(f"{config}: unreadable", stderr)
+            config.write_text('{"grids": {"a": {}}}')
+            code, stdout, stderr = self.run_tool(FIXTURE, config)
+            self.assertEqual(code, 2)
+            self.assertIn('expected a suite config with a "grids" list', stderr)
+            config.write_text(json.dumps(self.CONFIG))
+            code, stdout, stderr = self.run_tool(FIXTURE, config, "--seeds", "three")
+            self.assertEqual(code, 2)
+            self.assertIn("--seeds 'three': expected comma-separated integers", stderr)
+            code, stdout, stderr = self.run_tool(tmp, config)
             self.assertEqual(code, 2)
             self.assertIn("suite.json", stderr)
             self.assertNotIn("Traceback", stderr)

@@ -1,0 +1,175 @@
+#!/usr/bin/python3
+"""Which settings of a suite need more seeds: the rule of docs/zoo.md ("3 seeds, 5 where the intervals overlap").
+
+    python3 experiments/suites/more_seeds.py results/zoo experiments/suites/zoo.json [--seeds 3,4] [--write]
+
+For every grid of the config that runs none of --seeds, and every (set, demos) of it, each method other
+than MAPS is paired with MAPS over the seeds both finished (MAPS of the same grid where the grid has it, else base
+MAPS at that set and count, as report.md pairs a variant). A method gets more seeds where the 95% interval of its
+paired difference includes 0, or where fewer than 2 pairs finished. MAPS gets them too wherever a method it pairs
+with does.
+
+Without --write it prints the settings and the grids it would add. With --write it appends those grids to the config,
+named <grid>_seeds_<a>_<b>, so `maps suite run` runs them after everything else. A grid of that name already in the
+config is not added again. The pairing is the report's (suite_stats.paired, significance); a setting whose cells
+have not all finished is listed as not ready and gets nothing, so run this when the first seeds are done."""
+import argparse
+import copy
+import json
+import pathlib
+import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from suite_results import SuiteError, load_suite  # noqa: E402
+from suite_stats import fmt, paired, significance  # noqa: E402
+
+
+def grid_demos(config, grid, set_name):
+    """The demo counts a grid runs on a set: its own (a list, or per set), else the set's."""
+    demos = grid.get("demos")
+    if demos is None:
+        demos = config.get("sets", {}).get(set_name, {}).get("demos", [])
+    return list(demos.get(set_name, [])) if isinstance(demos, dict) else list(demos)
+
+
+def planned_names(suite):
+    """{grid: {cell name, ...}} from suite.json's planned cells."""
+    names = {}
+    for ident in suite.planned:
+        if isinstance(ident, dict):
+            names.setdefault(str(ident.get("grid", "")), set()).add(str(ident.get("name", "")))
+    return names
+
+
+def cell_names(set_name, method, variants, demos, seeds):
+    """The suite's names of a method's cells (docs/suite.md: <set>/<method>[-<variant>]_d<demos>_s<seed>)."""
+    return {f"{set_name}/{method}{'-' + v if v and v != 'base' else ''}_d{demos}_s{seed}"
+            for v in (variants or [None]) for seed in seeds}
+
+
+def decide(suite, config, new_seeds):
+    """(lines to print, grids to add)."""
+    finished = {c.name for c in suite.cells}
+    planned = planned_names(suite)
+    everywhere = set().union(*planned.values()) if planned else set()
+    maps_by = {}  # (set, demos, label) -> MAPS cells, label "maps" or "maps (variant)"
+    for c in suite.cells:
+        if c.method == "maps":
+            maps_by.setdefault((c.set, c.demos, c.label), []).append(c)
+    lines, wanted = [], {}  # wanted[(grid name, set, demos)] = set of methods
+    needs_maps = set()  # (set, demos, variant or None): a MAPS reference from another grid needs the new seeds
+    for grid in config.get("grids", []):
+        name = grid.get("name", "")
+        if set(new_seeds) & set(grid.get("seeds", [])) or name.endswith("_seeds_" + "_".join(map(str, new_seeds))):
+            continue  # it runs (some of) those seeds already, or it is a grid this tool added
+        mine = [c for c in suite.cells if c.grid == name]
+        for set_name in grid.get("sets", []):
+            for demos in grid_demos(config, grid, set_name):
+                here = [c for c in mine if c.set == set_name and c.demos == demos]
+                unfinished = sorted(n for n in planned.get(name, ()) if n not in finished
+                                    and n.startswith(set_name + "/") and f"_d{demos}_" in n)
+                if unfinished:
+                    lines.append(f"- {name}, {set_name} at {demos}: not ready ({len(unfinished)} cells not finished (failed or to run),"
+                                 f" e.g. {unfinished[0]})")
+                    continue
+                by_label = {}
+                for c in here:
+                    by_label.setdefault(c.label, []).append(c)
+                in_grid = "maps" in grid.get("methods", [])
+                for label, cells in sorted(by_label.items()):
+                    if cells[0].method == "maps":
+                        continue
+                    # As report.md pairs: MAPS under the same variant where that ran, else base MAPS.
+                    variant = cells[0].variant if cells[0].variant not in ("", "base") else None
+                    same = f"maps ({variant})" if variant else "maps"
+                    reference = same if (set_name, demos, same) in maps_by else "maps"
+                    diffs = paired(cells, maps_by.get((set_name, demos, reference), []), lambda c: c.mean_score)
+                    overlaps = len(diffs) < 2 or significance(diffs) == 0
+                    text = fmt(diffs, signed=True) if diffs else "no pairs"
+                    lines.append(f"- {name}, {set_name} at {demos}: {label} - {reference} {text} ({len(diffs)} pairs):"
+                                 f" {'more seeds' if overlaps else 'separated, stays'}")
+                    if not overlaps:
+                        continue
+                    if not cell_names(set_name, cells[0].method, [variant], demos, new_seeds) <= everywhere:
+                        wanted.setdefault((name, set_name, demos), set()).add(cells[0].method)
+                    ref_variant = variant if reference != "maps" else None
+                    if cell_names(set_name, "maps", [ref_variant], demos, new_seeds) <= everywhere:
+                        continue
+                    if in_grid and ref_variant in [None] + list(grid.get("variants") or []):
+                        wanted.setdefault((name, set_name, demos), set()).add("maps")
+                    else:
+                        needs_maps.add((set_name, demos, ref_variant))
+    # A grid without its MAPS reference: the grid that runs that MAPS there runs its new seeds too.
+    for set_name, demos, variant in sorted(needs_maps, key=str):
+        home = next((g for g in config.get("grids", []) if "maps" in g.get("methods", [])
+                     and (g.get("variants") or [None]) == [variant] and set_name in g.get("sets", [])
+                     and demos in grid_demos(config, g, set_name)), None)
+        if home is None:
+            lines.append(f"- MAPS{f' ({variant})' if variant else ''} at {set_name} {demos}: no grid of the config"
+                         " runs it alone; add its seeds by hand")
+            continue
+        wanted.setdefault((home["name"], set_name, demos), set()).add("maps")
+    grids, existing = [], {g.get("name") for g in config.get("grids", [])}
+    suffix = "_seeds_" + "_".join(map(str, new_seeds))
+    by_grid = {}
+    for (name, set_name, demos), methods in wanted.items():
+        by_grid.setdefault(name, []).append((set_name, demos, methods))
+    for grid in config.get("grids", []):
+        name = grid.get("name", "")
+        if name not in by_grid or name + suffix in existing:
+            continue
+        new = copy.deepcopy(grid)
+        new["name"] = name + suffix
+        order = list(grid.get("methods", []))
+        new["methods"] = [m for m in order if any(m in methods for _, _, methods in by_grid[name])]
+        new["sets"] = [s for s in grid.get("sets", []) if any(s == set_name for set_name, _, _ in by_grid[name])]
+        new["demos"] = {s: sorted({d for set_name, d, _ in by_grid[name] if set_name == s}) for s in new["sets"]}
+        new["seeds"] = list(new_seeds)
+        # One grid covers its sets x demos x methods: it may add a few cells the rule did not ask for (a method
+        # flagged at one count runs at the grid's other flagged counts too); the list above says which were asked.
+        grids.append(new)
+    return lines, grids
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("dir", help="the suite folder (e.g. results/zoo)")
+    parser.add_argument("config", help="its suite config (e.g. experiments/suites/zoo.json)")
+    parser.add_argument("--seeds", default="3,4", help="the seeds to add (default 3,4)")
+    parser.add_argument("--write", action="store_true", help="append the new grids to the config")
+    args = parser.parse_args(argv)
+    try:
+        new_seeds = [int(s) for s in args.seeds.split(",")]
+    except ValueError:
+        parser.error(f"--seeds {args.seeds!r}: expected comma-separated integers, e.g. 3,4")
+    config_path = pathlib.Path(args.config)
+    try:
+        config = json.loads(config_path.read_text())
+    except (OSError, ValueError) as e:
+        print(f"more_seeds: {config_path}: unreadable ({e}); expected a suite config JSON", file=sys.stderr)
+        return 2
+    if not isinstance(config, dict) or not isinstance(config.get("grids"), list):
+        print(f"more_seeds: {config_path}: expected a suite config with a \"grids\" list", file=sys.stderr)
+        return 2
+    try:
+        suite = load_suite(args.dir)
+    except SuiteError as e:
+        print(f"more_seeds: {e}", file=sys.stderr)
+        return 2
+    lines, grids = decide(suite, config, new_seeds)
+    print("\n".join(lines) if lines else "no settings to judge")
+    if not grids:
+        print("no grids to add")
+        return 0
+    print(f"grids to add ({len(grids)}):")
+    print(json.dumps(grids, indent=1))
+    if args.write:
+        config["grids"] += grids
+        config_path.write_text(json.dumps(config, indent=1) + "\n")
+        print(f"appended to {config_path}; `maps suite plan {config_path}` lists the new cells")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
