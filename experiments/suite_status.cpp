@@ -62,6 +62,7 @@ bool same_numbers(const Json& a, const Json& b) {
 
 struct CellState {
   std::string state, detail;
+  double wall_seconds = -1.0;  // a finished cell's, from result.json (-1: not finished or not recorded)
 };
 
 // done > running > failed > started > left: what a cell is, over the folders that may hold it.
@@ -82,6 +83,8 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     std::snprintf(text, sizeof(text), "mean score %.3f, best step %lld", result->at("eval").value("mean_score", 0.0),
                   static_cast<long long>(result->at("eval").value("best_step", -1LL)));
     s.detail = text;
+    const Json& wall = result->contains("wall_seconds") ? result->at("wall_seconds") : Json();
+    if (wall.is_number()) s.wall_seconds = wall.get<double>();
   } else if (cell_is_locked(dir)) {
     s.state = "running";
     s.detail = curve_progress(dir, steps);
@@ -129,15 +132,17 @@ int run_suite_status(const SuiteStatusOptions& options) {
   std::map<std::string, std::map<std::string, int>> by_grid;
   Json cells = Json::array();
   std::vector<std::string> lines;
+  std::vector<CellState> states;
   for (const auto& cell : suite.cells) {
-    CellState best{"left", ""};
+    CellState best{.state = "left", .detail = ""};
     for (const auto& dir : options.dirs) {
       const CellState here = state_in(dir, cell);
       if (rank_of(here.state) > rank_of(best.state) || (best.detail.empty() && here.state == best.state)) best = here;
     }
     if ((best.state == "left" || best.state == "started") && !current.count(cell.name))
-      best = {"dropped", "no longer in the suite's config"};
+      best = {.state = "dropped", .detail = "no longer in the suite's config"};
     counts[best.state] += 1;
+    states.push_back(best);
     if (!by_grid.count(cell.grid)) grids.push_back(cell.grid);
     by_grid[cell.grid][best.state] += 1;
     Json entry = cell.identity();
@@ -181,8 +186,26 @@ int run_suite_status(const SuiteStatusOptions& options) {
         known = false;
       }
     }
-    if (known && counts["done"] + counts["dropped"] < static_cast<int>(suite.cells.size()))
+    if (known && counts["done"] + counts["dropped"] < static_cast<int>(suite.cells.size())) {
       std::printf("estimated CPU time left: %s (one thread per cell)\n", format_duration(left).c_str());
+      // The cost table was measured on one machine; the finished cells say how the machines they ran on differ.
+      // (result.json's host names a container, not a machine, so the pace is the folder's, not this machine's.)
+      double measured = 0.0, estimated = 0.0;
+      int finished = 0;
+      for (std::size_t i = 0; i < suite.cells.size(); ++i) {
+        if (states[i].state != "done" || states[i].wall_seconds <= 0.0) continue;
+        try {
+          estimated += costs->cell_seconds(suite.cells[i]);
+          measured += states[i].wall_seconds;
+          ++finished;
+        } catch (const std::exception&) {
+        }
+      }
+      if (finished >= 3 && estimated > 0.0)
+        std::printf(
+            "at the finished cells' pace: %s (%d finished cells took %.2fx the table's estimate in wall time)\n",
+            format_duration(left * measured / estimated).c_str(), finished, measured / estimated);
+    }
   }
   return 0;
 }

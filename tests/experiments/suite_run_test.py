@@ -182,6 +182,29 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("| ablations | 1 | 0 | 0 | 0 | 0 | 0 | 1 |", status)
         self.assertNotIn("estimated CPU time left", status)
 
+    def test_status_scales_the_estimate_by_the_finished_cells_pace(self):
+        out = self.dir / "pace"
+        shutil.copytree(self.reference, out)
+        results = sorted((out / "cells").glob("*/*/result.json"))
+        for path in results[:2]:
+            path.unlink()
+
+        def pace(status):
+            line = next((l for l in status.splitlines() if l.startswith("at the finished cells' pace: ")), None)
+            self.assertIsNotNone(line, status)
+            self.assertIn(f"({len(results) - 2} finished cells took ", line)
+            return float(line.split(" took ")[1].split("x")[0])
+
+        first = pace(maps("suite", "status", out).stdout)
+        for path in results[2:]:
+            result = json.loads(path.read_text())
+            result["wall_seconds"] *= 2
+            path.write_text(json.dumps(result))
+        self.assertAlmostEqual(pace(maps("suite", "status", out).stdout), 2 * first, delta=0.011)
+        for path in results[2:-2]:
+            path.unlink()
+        self.assertNotIn("finished cells' pace", maps("suite", "status", out).stdout)  # 2 cells say too little
+
     def test_a_rerun_of_a_finished_suite_does_nothing(self):
         proc = maps("suite", "run", TINY, "--out", self.reference)
         self.assertIn("9 finished before, 0 to run", proc.stdout)
