@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """What the training curves say, per (set, method, demos) group of a suite folder: how far each run's validation BC
 loss ends above its best, and for MAPS the selector terms at the end of training (curve.csv logs each term before
-its weight). docs/results.md's statements about the curves (section 2c, section 4) are this table's numbers.
+its weight). docs/results.md's statements about the curves (section 2d, section 4) are this table's numbers.
 
     python3 experiments/suites/curve_stats.py results/study [--set mt10] [--method maps] [--seeds 0,1,2]
 
