@@ -20,6 +20,7 @@ import sys
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from suite_results import SuiteError, groups, load_suite  # noqa: E402
+from suite_stats import span_fixed  # noqa: E402
 
 
 def read_rows(cell):
@@ -29,13 +30,6 @@ def read_rows(cell):
             return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
     except (OSError, ValueError, TypeError, AttributeError):
         return []
-
-
-def span(values, digits):
-    """'lo-hi' (or one value) at `digits` decimals."""
-    lo, hi = min(values), max(values)
-    text = f"{lo:.{digits}f}"
-    return text if f"{hi:.{digits}f}" == text else f"{text}-{hi:.{digits}f}"
 
 
 def group_row(key, cells, left_out):
@@ -56,9 +50,9 @@ def group_row(key, cells, left_out):
             sparse.append((rows[0]["sparse"], rows[-1]["sparse"]))
     if not best:
         return None
-    return [key.set, key.label, key.demos, len(best), span(best, 3), span(best_step, 0), span(ratio, 1),
-            span(end, 3), span(in_use, 1) if in_use else "-",
-            f"{span([a for a, _ in sparse], 3)} -> {span([b for _, b in sparse], 3)}" if sparse else "-"]
+    return [key.set, key.label, key.demos, len(best), span_fixed(best, 3), span_fixed(best_step, 0),
+            span_fixed(ratio, 1), span_fixed(end, 3), span_fixed(in_use, 1) if in_use else "-",
+            f"{span_fixed([a for a, _ in sparse], 3)} -> {span_fixed([b for _, b in sparse], 3)}" if sparse else "-"]
 
 
 def main(argv=None):

@@ -21,7 +21,7 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, load_suite  # noqa: E402
+from suite_results import SuiteError, load_suite, maps_partner  # noqa: E402
 from suite_stats import fmt, paired, significance  # noqa: E402
 
 
@@ -70,8 +70,8 @@ def decide(suite, config, new_seeds):
                 unfinished = sorted(n for n in planned.get(name, ()) if n not in finished
                                     and n.startswith(set_name + "/") and f"_d{demos}_" in n)
                 if unfinished:
-                    lines.append(f"- {name}, {set_name} at {demos}: not ready ({len(unfinished)} cells not finished (failed or to run),"
-                                 f" e.g. {unfinished[0]})")
+                    lines.append(f"- {name}, {set_name} at {demos}: not ready ({len(unfinished)} cells not finished"
+                                 f" (failed or to run), e.g. {unfinished[0]})")
                     continue
                 by_label = {}
                 for c in here:
@@ -80,10 +80,8 @@ def decide(suite, config, new_seeds):
                 for label, cells in sorted(by_label.items()):
                     if cells[0].method == "maps":
                         continue
-                    # As report.md pairs: MAPS under the same variant where that ran, else base MAPS.
                     variant = cells[0].variant if cells[0].variant not in ("", "base") else None
-                    same = f"maps ({variant})" if variant else "maps"
-                    reference = same if (set_name, demos, same) in maps_by else "maps"
+                    reference = maps_partner(label, lambda maps_label: (set_name, demos, maps_label) in maps_by)
                     diffs = paired(cells, maps_by.get((set_name, demos, reference), []), lambda c: c.mean_score)
                     overlaps = len(diffs) < 2 or significance(diffs) == 0
                     text = fmt(diffs, signed=True) if diffs else "no pairs"

@@ -167,6 +167,14 @@ def label(method, variant):
     return method if variant in ("", "base", None) else f"{method} ({variant})"
 
 
+def maps_partner(method_label, ran):
+    """The MAPS label a method's cells are paired with: MAPS under the same variant where that ran (ran(label) is
+    true), else base MAPS, so a control such as the wide MT-BC pairs with base MAPS."""
+    _, _, variant = method_label.partition(" ")
+    same = f"maps {variant}" if variant else "maps"
+    return same if ran(same) else "maps"
+
+
 def order(preferred, names):
     """names sorted with the preferred ones first, in that order, then the rest alphabetically."""
     names = set(names)

@@ -45,6 +45,12 @@ def span(values):
     return f"{min(values)}-{max(values)}" if min(values) != max(values) else str(values[0])
 
 
+def span_fixed(values, digits, collapse=True):
+    """"0.12-0.18" at `digits` decimals; with collapse, one value where both ends print alike."""
+    lo, hi = f"{min(values):.{digits}f}", f"{max(values):.{digits}f}"
+    return lo if collapse and lo == hi else f"{lo}-{hi}"
+
+
 def paired(cells_a, cells_b, value):
     """value(a) - value(b) over the seeds both lists ran, by seed."""
     b_by_seed = {c.seed: c for c in cells_b}

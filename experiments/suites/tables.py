@@ -3,9 +3,10 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import ablation_groups, groups, module_sweep_cells, score_name, short_task, task_names, task_score
+from suite_results import (ablation_groups, groups, maps_partner, module_sweep_cells, score_name, short_task,
+                           task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
-                         paired_p, routing, span, top_share, usage_distances)
+                         paired_p, routing, span, span_fixed, top_share, usage_distances)
 
 
 MISSING_SHOWN = 40
@@ -107,8 +108,7 @@ def paired_table(cells):
         method, _, variant = key.label.partition(" ")
         if method == "maps":
             continue
-        same = f"maps {variant}" if variant else "maps"
-        against = same if by_key.get(key._replace(label=same)) else "maps"
+        against = maps_partner(key.label, lambda label: by_key.get(key._replace(label=label)))
         variant = variant.strip("()")
         maps = by_key.get(key._replace(label=against))
         diffs = paired(runs, maps, lambda c: c.mean_score) if maps else []
@@ -183,7 +183,8 @@ def usage_tables(cells):
         rows = []
         for i, task in enumerate(tasks):
             tops = [max(c.tasks[i].usage) for c in runs]
-            rows.append([short_task(task)] + [f"{u:.2f}" for u in runs[0].tasks[i].usage] + [span_float(tops)])
+            rows.append([short_task(task)] + [f"{u:.2f}" for u in runs[0].tasks[i].usage]
+                        + [span_fixed(tops, 2, collapse=False)])
         lines += table(["task"] + [f"m{i}" for i in range(modules)] + ["top module, all seeds"], rows)
         lines += ["", f"Routing ({len(runs)} seeds, each computed per seed, then mean +- 95% CI; uniform over"
                   f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f})"
@@ -207,10 +208,6 @@ def division_rows(runs, modules):
         rows.append([c.seed, len(shared), len(specific), modules - len(shared) - len(specific),
                      f"{both} of {len(used)}", f"{min(per_task)}-{max(per_task)}"])
     return rows
-
-
-def span_float(values):
-    return f"{min(values):.2f}-{max(values):.2f}"
 
 
 def percent(count, total):
