@@ -33,9 +33,9 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
     observation_mean_ = register_buffer("observation_mean", ag::zeros({S}));
     observation_std_ = register_buffer("observation_std", ag::ones({S}));
   }
-  if (config.selector != "learned" && config.selector != "uniform")
-    throw std::invalid_argument("MAPSPolicy: selector must be \"learned\" or \"uniform\", got \"" + config.selector +
-                                "\"");
+  if (config.selector != "learned" && config.selector != "uniform" && config.selector != "task")
+    throw std::invalid_argument("MAPSPolicy: selector must be \"learned\", \"uniform\" or \"task\", got \"" +
+                                config.selector + "\"");
   // Drawn either way, so that the modules and the head start from the same numbers for a seed.
   auto selector = std::make_shared<nn::MLP>(selector_sizes, activation_, gen);
   if (!uniform_selector()) selector_ = register_module("selector", selector);
@@ -105,6 +105,11 @@ MAPSPolicy::SelectorFirstLayer MAPSPolicy::selector_first_layer() {
   return {ag::narrow(w, 1, 0, S), task_rows};
 }
 
+ag::Tensor MAPSPolicy::selector_state_parts(const ag::Tensor& observations, const ag::Tensor& state_weight) const {
+  if (task_selector()) return ag::zeros({observations.size(0), state_weight.size(0)}, observations.dtype());
+  return ag::linear(selector_inputs(observations), state_weight);
+}
+
 ag::Tensor MAPSPolicy::selector_logits(const ag::Tensor& state_parts, const std::vector<std::int64_t>& state_rows,
                                        const ag::Tensor& task_rows, const std::vector<std::int64_t>& tasks) {
   auto& selector = child_at<nn::MLP>(selector_);
@@ -140,8 +145,7 @@ ag::Tensor MAPSPolicy::checked_scores(const ag::Tensor& observations, const std:
   const auto [state_weight, task_rows] = selector_first_layer();
   std::vector<std::int64_t> rows(tasks.size());
   std::iota(rows.begin(), rows.end(), std::int64_t{0});
-  return ag::softmax(selector_logits(ag::linear(selector_inputs(observations), state_weight), rows, task_rows, tasks),
-                     1);
+  return ag::softmax(selector_logits(selector_state_parts(observations, state_weight), rows, task_rows, tasks), 1);
 }
 
 ag::Tensor MAPSPolicy::head(const ag::Tensor& features, const ag::Tensor& scores) {
@@ -177,8 +181,7 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   // scores are rows of it) and the previous states under their own tasks. The first layer's state part is computed
   // once per state, then each task's row is added (PAPER.md's G(s, k) on [s, one_hot(k)], factored).
   const auto [state_weight, task_rows] = selector_first_layer();  // [H, S], [K, H]
-  const ag::Tensor state_parts =
-      ag::linear(selector_inputs(ag::concat({obs, batch.previous_observations}, 0)), state_weight);
+  const ag::Tensor state_parts = selector_state_parts(ag::concat({obs, batch.previous_observations}, 0), state_weight);
   // Rows 0..Kn-1: state j under task k at k n + j; rows Kn..(K+1)n-1: the previous states under their own tasks.
   std::vector<std::int64_t> state_rows, row_tasks;
   state_rows.reserve(static_cast<std::size_t>((K + 1) * n));

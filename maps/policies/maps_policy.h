@@ -28,7 +28,10 @@ struct MAPSConfig {
       {"share", 1.0}, {"explore", 0.5}, {"sparse", 0.001}, {"smooth", 1.0}};
   // "learned": G(s, k) as above. "uniform": every score 1/M, no selector and no selector losses: the control that
   // asks whether MAPS is more than an average of M modules (its modules and head start as the learned model's of
-  // the same seed).
+  // the same seed; the selector is MAPS's only input of the task, so this policy does not see the task). "task": G(k),
+  // the selector with its state input zeroed, so each task has one fixed mixture of modules whatever the state (the
+  // control that asks whether the routing needs the state or only the task; the first layer keeps its state columns,
+  // unused, so its parameters are named and shaped as the learned selector's).
   std::string selector = "learned";
   // "standardized": modules and selector see the standardised observations. "raw_clipped": the paper's code's
   // inputs: the modules see the raw observations clipped to [-5, 5], the selector the raw ones (recovered from the
@@ -60,6 +63,7 @@ class MAPSPolicy : public Policy {
   const MAPSConfig& config() const { return config_; }
   std::int64_t num_modules() const { return config_.modules; }
   bool uniform_selector() const { return config_.selector == "uniform"; }
+  bool task_selector() const { return config_.selector == "task"; }
   bool raw_inputs() const { return config_.observations == "raw_clipped"; }
   void set_observation_statistics(const Eigen::VectorXd& mean, const Eigen::VectorXd& std) override;
 
@@ -90,6 +94,8 @@ class MAPSPolicy : public Policy {
   // What the modules and the selector see of standardised observations [n, S] (the identity but for raw_clipped).
   ag::Tensor module_inputs(const ag::Tensor& observations) const;
   ag::Tensor selector_inputs(const ag::Tensor& observations) const;
+  // W_s s [n, H] for the selector's first layer, or zeros for the task-only selector.
+  ag::Tensor selector_state_parts(const ag::Tensor& observations, const ag::Tensor& state_weight) const;
 
   MAPSConfig config_;
   nn::Activation activation_;

@@ -26,7 +26,7 @@
 //              "bc_loss": "mean",                       // or "sampled" (the paper's code; not for maml)
 //              "validation_tasks": [],                  // judge checkpoints on these tasks only (empty: all)
 //              "optimizer": "joint", "adam_eps": 1e-8},  // or "alternating": the paper's code's selector-first step
-//    "maps": {"modules": 10, "activation": "tanh", "selector": "learned",   // or "uniform" (scores 1/M)
+//    "maps": {"modules": 10, "activation": "tanh", "selector": "learned",   // or "uniform" (scores 1/M), "task" (G(k))
 //             "selector_losses": {"share": 1, "explore": 0.5, "sparse": 0.001, "smooth": 1}},
 //    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10,
 //             "validate": "unadapted"},              // or "adapted": checkpoints judged after fine-tuning

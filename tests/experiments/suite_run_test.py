@@ -136,7 +136,7 @@ class SuiteTest(unittest.TestCase):
             (lambda c: c["grids"][0].update(seeds=[0, 0]), "listed twice"),
             (lambda c: c["grids"][0].update(seeds=[-1]), "expected integers >= 0"),
             (lambda c: c["defaults"]["train"].update(stepz=1), "unknown key 'stepz'"),
-            (lambda c: c["defaults"].update(maps={"selector": "fixed"}), 'maps.selector: expected "learned" or'),
+            (lambda c: c["defaults"].update(maps={"selector": "fixed"}), 'maps.selector: expected "learned", "uniform" or "task", got "fixed"'),
             (lambda c: c["sets"]["gravity"]["data"].pop("file"), "\"file\" is required"),
             (lambda c: c["grids"].append(dict(c["grids"][1])), "names two grids"),
             (lambda c: c["variants"].update(base={}), "is not a variant name"),

@@ -285,14 +285,64 @@ TwoTaskProblem make_two_task_problem(std::int64_t per_task) {
   return p;
 }
 
+// A float64 MAPS of tiny_config(4) with this selector, drawn from generator seed 8: whatever the selector, the
+// modules and head start from the same numbers.
+std::shared_ptr<MAPSPolicy> seed8_policy(const std::string& selector) {
+  ag::Generator gen(8);
+  MAPSConfig config = tiny_config(4);
+  config.selector = selector;
+  auto policy = std::make_shared<MAPSPolicy>(PolicyShape{4, 2, 3}, config, gen);
+  policy->to(Dtype::Float64);
+  return policy;
+}
+
+TEST(MAPSPolicy, TaskSelectorScoresEachTaskAloneAndLearnsItsTaskColumns) {
+  const auto learned_policy = seed8_policy("learned"), task_policy = seed8_policy("task");
+  MAPSPolicy &learned = *learned_policy, &task = *task_policy;
+  // The same parameters, named and shaped alike and starting from the same numbers for a seed.
+  const auto learned_parameters = learned.named_parameters();
+  const auto task_parameters = task.named_parameters();
+  ASSERT_EQ(task_parameters.size(), learned_parameters.size());
+  for (std::size_t i = 0; i < task_parameters.size(); ++i) {
+    EXPECT_EQ(task_parameters[i].name, learned_parameters[i].name);
+    EXPECT_EQ(max_abs_diff(task_parameters[i].tensor, learned_parameters[i].tensor), 0.0) << task_parameters[i].name;
+  }
+  ag::Generator gen(9);
+  const Batch batch = random_batch(4, 3, 4, 2, gen);
+  const Tensor scores = task.scores(batch.observations, batch.tasks);  // rows 4k..4k+3 are task k's
+  const Tensor other_states = task.scores(batch.previous_observations, batch.tasks);
+  EXPECT_EQ(max_abs_diff(scores, other_states), 0.0) << "a task's scores moved with the state";
+  EXPECT_GT(max_abs_diff(ag::narrow(scores, 0, 0, 4), ag::narrow(scores, 0, 4, 4)), 1e-6) << "tasks 0 and 1 alike";
+  // Each task's scores are the learned selector's at the zero state.
+  const Tensor zero_state = learned.scores(ag::zeros({3, 4}, Dtype::Float64), {0, 1, 2});
+  for (std::int64_t k = 0; k < 3; ++k)
+    EXPECT_LT(max_abs_diff(ag::narrow(scores, 0, 4 * k, 1), ag::narrow(zero_state, 0, k, 1)), 1e-12) << k;
+  // Every selector loss is kept; smooth is 0 (a state and its previous one share their task, so their scores).
+  const LossTerms terms = task.loss(batch);
+  ASSERT_EQ(terms.terms.size(), 5u);
+  for (const auto& [name, value] : terms.terms) {
+    if (name == "smooth") {
+      EXPECT_EQ(value.item(), 0.0);
+    }
+  }
+  expect_loss_gradcheck_in_observations(task, batch, "task-selector MAPS loss");
+  // An Adam step moves the selector's task columns and leaves its state columns as they were.
+  task.to(Dtype::Float32);
+  const Batch batch32 = random_batch(4, 3, 4, 2, gen, Dtype::Float32);
+  const Tensor weight = task.parameter("selector.layers.0.weight");
+  const Tensor state_before = ag::narrow(weight, 1, 0, 4).detach().clone();
+  const Tensor task_before = ag::narrow(weight, 1, 4, 3).detach().clone();
+  optim::Adam adam(task.parameters(), {.lr = 1e-2});
+  adam.zero_grad();
+  task.loss(batch32).total.backward();
+  adam.step();
+  EXPECT_EQ(max_abs_diff(ag::narrow(weight, 1, 0, 4), state_before), 0.0);
+  EXPECT_GT(max_abs_diff(ag::narrow(weight, 1, 4, 3), task_before), 1e-4);
+}
+
 TEST(MAPSPolicy, UniformSelectorScoresEveryModuleOneOverMAndLearnsOnlyBC) {
-  ag::Generator gen_learned(8), gen_uniform(8);
-  MAPSConfig uniform_config = tiny_config(4);
-  uniform_config.selector = "uniform";
-  MAPSPolicy learned({4, 2, 3}, tiny_config(4), gen_learned);
-  MAPSPolicy uniform({4, 2, 3}, uniform_config, gen_uniform);
-  learned.to(Dtype::Float64);
-  uniform.to(Dtype::Float64);
+  const auto learned_policy = seed8_policy("learned"), uniform_policy = seed8_policy("uniform");
+  MAPSPolicy &learned = *learned_policy, &uniform = *uniform_policy;
   // No selector and no selector losses among its parameters and buffers; the modules and head start as the
   // learned-selector model's of the same seed.
   const auto learned_parameters = learned.named_parameters();
@@ -318,10 +368,11 @@ TEST(MAPSPolicy, UniformSelectorScoresEveryModuleOneOverMAndLearnsOnlyBC) {
   const Tensor expected = uniform.head(uniform.features(batch.observations), ag::full({12, 4}, 0.25, Dtype::Float64));
   EXPECT_LT(max_abs_diff(uniform.act(batch.observations, batch.tasks), expected), 1e-12);
   expect_loss_gradcheck_in_observations(uniform, batch, "uniform-selector MAPS loss");
-  uniform_config.selector = "fixed";
+  MAPSConfig bad_config = tiny_config(4);
+  bad_config.selector = "fixed";
   ag::Generator gen_bad(1);
   try {
-    MAPSPolicy bad({4, 2, 3}, uniform_config, gen_bad);
+    MAPSPolicy bad({4, 2, 3}, bad_config, gen_bad);
     FAIL() << "an unknown selector kind was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("\"fixed\""));

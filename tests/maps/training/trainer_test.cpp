@@ -328,6 +328,20 @@ TEST(Trainer, AlternatingTrainsResumesExactlyAndNeedsASelector) {
       HasSubstr("trains no parameter named selector...; use \"joint\""));
 }
 
+TEST(RunConfig, SelectorKindsAreReadAndChecked) {
+  nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
+  EXPECT_EQ(parse_run_config(request).maps.selector, "learned");
+  for (const std::string kind : {"uniform", "task"}) {
+    request["maps"] = {{"selector", kind}};
+    const RunConfig config = parse_run_config(request);
+    EXPECT_EQ(config.maps.selector, kind);
+    EXPECT_EQ(parse_run_config(to_json(config)).maps.selector, kind);
+  }
+  request["maps"] = {{"selector", "state"}};
+  EXPECT_THAT(error_of([&] { parse_run_config(request); }),
+              HasSubstr("config maps.selector: expected \"learned\", \"uniform\" or \"task\", got \"state\""));
+}
+
 TEST(RunConfig, OptimizerAndAdamEpsAreReadAndChecked) {
   nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");
   EXPECT_EQ(parse_run_config(request).train.optimizer, "joint");
