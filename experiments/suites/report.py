@@ -135,6 +135,9 @@ def report_lines(suite, draw):
                                                 " the number of modules M (from the config):", ""])
     lines += section("Fig. 5: number of modules", sweep + embed(draw("fig5_modules_heatmap")) if sweep else [],
                      "No module-count cells in this suite (MAPS at another M than the base one).")
+    controls = per_set(suite, tables.controls_table, [])
+    lines += section("Controls: what MAPS's parts are worth", controls,
+                     "No control cells in this suite (MAPS with a uniform or task-only selector, a wider MT-BC).")
     variants = per_set(suite, tables.variant_table, [])
     lines += section("Variants against their base (the paper's protocol, controls, ablations, module counts)",
                      variants, "No variant cells beside their base method's in this suite.")

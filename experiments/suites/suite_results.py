@@ -83,6 +83,20 @@ class Cell:
         return int(self.config.get("maps", {}).get("modules", 10))
 
     @property
+    def selector_kind(self):
+        """MAPS's selector (config maps.selector: "learned", "uniform", "task"); None for the baselines."""
+        if self.method != "maps":
+            return None
+        return self.config.get("maps", {}).get("selector", "learned")
+
+    @property
+    def hidden(self):
+        """The baselines' hidden widths (config baselines.hidden) as a tuple; None for MAPS."""
+        if self.method == "maps":
+            return None
+        return tuple(self.config.get("baselines", {}).get("hidden", ()))
+
+    @property
     def selector_losses(self):
         losses = self.config.get("maps", {}).get("selector_losses", {})
         return tuple(optional_float(losses.get(term)) for term in SELECTOR_TERMS)
@@ -319,6 +333,21 @@ def maps_reference(cells):
     """(M, selector losses) of the set's base MAPS cells (the most common, should they differ); None without any."""
     base = Counter((c.modules, c.selector_losses) for c in cells if c.method == "maps" and c.label == "maps")
     return base.most_common(1)[0][0] if base else None
+
+
+def control_cells(cells):
+    """The controls of MAPS (docs/results.md, item 7): MAPS at the base M with another selector than the learned
+    one (uniform scores, the task-only G(k)), and MT-BC wider than the base MT-BC's (as many parameters as MAPS)."""
+    ref = maps_reference(cells)
+    base_hidden = Counter(c.hidden for c in cells if c.label == "mt_bc").most_common(1)
+    controls = []
+    for c in cells:
+        if c.method == "maps" and ref and c.modules == ref[0] and c.selector_kind != "learned":
+            controls.append(c)
+        elif c.method == "mt_bc" and c.label != "mt_bc" and base_hidden and c.hidden and \
+                min(c.hidden) > max(base_hidden[0][0] or (0,)):
+            controls.append(c)
+    return controls
 
 
 def ablation_cells(cells):

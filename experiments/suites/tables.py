@@ -3,8 +3,8 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import (ablation_groups, groups, maps_partner, module_sweep_cells, score_name, short_task,
-                           task_names, task_score)
+from suite_results import (ablation_groups, control_cells, groups, maps_partner, module_sweep_cells, score_name,
+                           short_task, task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
                          paired_p, routing, span, span_fixed, top_share, usage_distances)
 
@@ -301,6 +301,43 @@ def variant_table(cells):
              " score over tasks, mean +- 95% CI over the seeds both ran (base and variant alike); difference = variant -"
              " base; p: paired t test; Holm within each variant's rows (the counts it ran at):", ""]
             + table(["variant", "demos", "k", "pairs", "base", "variant", "difference", "p", "p (Holm)"], rows))
+
+
+def control_meaning(cell):
+    """What a control takes away from MAPS, in a few words."""
+    if cell.method == "mt_bc":
+        return f"modules and selector: one MLP on [state, task], {len(cell.hidden)} x {cell.hidden[0]}"
+    if cell.selector_kind == "uniform":
+        return "the selector: scores 1/M, so the task too (it enters MAPS only through the selector)"
+    if cell.selector_kind == "task":
+        return "the state from the selector: G(k), one mixture of modules per task"
+    return f"selector {cell.selector_kind}"
+
+
+def controls_table(cells):
+    """Each control of MAPS (control_cells) against base MAPS at the same demos, k and seeds, paired by seed; Holm over
+    the set's whole table, one family: every row asks what one part of MAPS is worth at one count."""
+    by_key = groups(cells)
+    rows = []
+    for key, runs in groups(control_cells(cells)).items():
+        maps = by_key.get(key._replace(label="maps"))
+        diffs = paired(runs, maps, lambda c: c.mean_score) if maps else []
+        if not diffs:
+            continue
+        seeds = {c.seed for c in runs} & {c.seed for c in maps}
+        rows.append([key.label, control_meaning(runs[0]), key.demos, key.subsample, len(diffs),
+                     fmt([c.mean_score for c in maps if c.seed in seeds]),
+                     fmt([c.mean_score for c in runs if c.seed in seeds]), fmt(diffs, signed=True), paired_p(diffs)])
+    if not rows:
+        return []
+    adjusted = holm([row[-1] for row in rows])
+    size = sum(1 for a in adjusted if a == a)
+    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    return ([f"Each control against base MAPS at the same demos, k and seeds: mean score over tasks, mean +- 95% CI over"
+             f" the seeds both ran; difference = control - MAPS; p: paired t test; Holm over the {size} comparisons of"
+             " this table; a difference holds where the Holm p is below 0.05:", ""]
+            + table(["control", "takes away", "demos", "k", "pairs", "MAPS", "control", "difference", "p", "p (Holm)"],
+                    rows))
 
 
 def checkpoint_rule_table(cells):

@@ -281,6 +281,16 @@ class Report(unittest.TestCase):
         self.assertEqual(rows_of(variants, ["maps"]) + rows_of(variants, ["mt_bc"]), [])
         self.assertIn("No cells kept checkpoints", between(self.md, "## The paper's checkpoint rule", "## Fig. 6"))
 
+    def test_controls_are_paired_with_base_maps(self):
+        controls = between(self.md, "## Controls", "## Variants against their base")
+        # The wide MT-BC at 5 demos: (0.6 - 0.7) and (0.5 - 0.5) against MAPS's seeds 0 and 1; Holm over 1.
+        self.assertEqual(row_of(controls, ["mt_bc (w430)"])[2:],
+                         ["5", "10", "2", "0.60 +- 1.27", "0.55 +- 0.64", "-0.05 +- 0.64", "0.500", "0.500"])
+        self.assertIn("one MLP on [state, task], 3 x 430", row_of(controls, ["mt_bc (w430)"])[1])
+        # MT10 ran no control: no table there; MAPS's other variants are not controls.
+        self.assertNotIn("### mt10", controls)
+        self.assertEqual(rows_of(controls, ["maps (m5)"]) + rows_of(controls, ["mt_bc (paper_protocol)"]), [])
+
     def test_the_papers_claims_have_verdicts(self):
         found = between(self.md, "## The paper's claims", "## Set gravity")
         # Fig. 3's numbers (test_fig3_shares_against_single_bc): 7 of 8 better is not "more than 90%".
@@ -433,6 +443,37 @@ class SweepCells(unittest.TestCase):
         self.assertEqual(sorted((c.variant, c.seed) for c in sweep),
                          [("base", 0), ("base", 1), ("m20", 1), ("m5", 0)])
         self.assertEqual(suite_results.module_sweep_cells(cells[:2] + cells[4:6]), [])
+
+
+class ControlCells(unittest.TestCase):
+    """The controls: MAPS at the base M with a selector other than the learned one, and MT-BC wider than its base;
+    not MAPS's ablations, module counts or protocol variants, nor MT-BC's variants at its base width."""
+
+    def test_only_the_controls_are_picked(self):
+        import suite_results
+
+        def cell(method, variant, seed, **changes):
+            config = {"method": method, "seed": seed, "data": {"demos_per_task": 5}, "train": {"steps": 100}}
+            if method == "maps":
+                config["maps"] = {"modules": 10, "selector": "learned", "selector_losses": {"share": 1, "explore": 0.5}}
+            else:
+                config["baselines"] = {"hidden": [128, 128, 128]}
+            for section, values in changes.items():
+                config[section].update(values)
+            task = suite_results.TaskResult("gravity/0.5", 0.5, 0.0, 0.0, 1.0)
+            return suite_results.Cell(pathlib.Path("."), f"gravity/{method}-{variant}_{seed}", "g", "gravity", method,
+                                      variant, 5, 10, seed, config, 100, 50, 10, 1.0, [task])
+
+        cells = [cell("maps", "base", 0), cell("maps", "uniform", 0, maps={"selector": "uniform"}),
+                 cell("maps", "task_selector", 0, maps={"selector": "task"}),
+                 cell("maps", "m5_uniform", 0, maps={"modules": 5, "selector": "uniform"}),
+                 cell("maps", "no_explore", 0, maps={"selector_losses": {"share": 1, "explore": 0}}),
+                 cell("mt_bc", "base", 0), cell("mt_bc", "w430", 0, baselines={"hidden": [430, 430, 430]}),
+                 cell("mt_bc", "sampled_bc", 0), cell("mt_bc", "narrow", 0, baselines={"hidden": [64, 64, 64]})]
+        self.assertEqual(sorted(c.variant for c in suite_results.control_cells(cells)),
+                         ["task_selector", "uniform", "w430"])
+        # Without base MT-BC cells there is no width to be wider than; without base MAPS, no M to match.
+        self.assertEqual(sorted(c.variant for c in suite_results.control_cells(cells[1:5] + cells[6:7])), [])
 
 
 class Statistics(unittest.TestCase):
