@@ -340,14 +340,15 @@ def control_cells(cells):
     one (uniform scores, the task-only G(k)), and MT-BC wider than the base MT-BC's (as many parameters as MAPS)."""
     ref = maps_reference(cells)
     base_hidden = Counter(c.hidden for c in cells if c.label == "mt_bc").most_common(1)
-    controls = []
-    for c in cells:
-        if c.method == "maps" and ref and c.modules == ref[0] and c.selector_kind != "learned":
-            controls.append(c)
-        elif c.method == "mt_bc" and c.label != "mt_bc" and base_hidden and c.hidden and \
-                min(c.hidden) > max(base_hidden[0][0] or (0,)):
-            controls.append(c)
-    return controls
+    base_width = max(base_hidden[0][0], default=0) if base_hidden else None
+
+    def is_control(c):
+        if c.method == "maps":
+            return ref is not None and c.modules == ref[0] and c.selector_kind != "learned"
+        return (c.method == "mt_bc" and c.label != "mt_bc" and base_width is not None and bool(c.hidden)
+                and min(c.hidden) > base_width)
+
+    return [c for c in cells if is_control(c)]
 
 
 def ablation_cells(cells):

@@ -17,6 +17,28 @@ def table(header, rows):
     return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
 
 
+def holm_columns(rows, families=None):
+    """Rows whose last cell is a p value, with that p and its Holm-adjusted value formatted as the last two cells
+    (Holm over all rows, or within each family of holm_within), and {family: comparisons adjusted} (one family,
+    None, without families)."""
+    p_values = [row[-1] for row in rows]
+    adjusted = holm(p_values) if families is None else holm_within(p_values, families)
+    families = families or [None] * len(rows)
+    sizes = {f: sum(1 for g, a in zip(families, adjusted) if g == f and a == a) for f in families}
+    return [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)], sizes
+
+
+def against_columns(runs, reference):
+    """runs paired by seed with the reference's cells: [pairs, the reference's mean score, the runs' (both over the
+    seeds both ran), difference runs - reference, p of the paired t test]; None without a pair."""
+    diffs = paired(runs, reference, lambda c: c.mean_score)
+    if not diffs:
+        return None
+    seeds = {c.seed for c in runs} & {c.seed for c in reference}
+    return [len(diffs), fmt([c.mean_score for c in reference if c.seed in seeds]),
+            fmt([c.mean_score for c in runs if c.seed in seeds]), fmt(diffs, signed=True), paired_p(diffs)]
+
+
 def distinct(cells, field):
     """The values field(cell) takes over cells, sorted and comma-separated ("0, 1")."""
     return ", ".join(str(v) for v in sorted({field(c) for c in cells}, key=lambda v: (isinstance(v, str), v)))
@@ -118,10 +140,8 @@ def paired_table(cells):
             families.append(variant)
     if not rows:
         return []
-    adjusted = holm_within([row[-1] for row in rows], families)
-    sizes = {f: sum(1 for i, g in enumerate(families) if g == f and adjusted[i] == adjusted[i]) for f in families}
+    rows, sizes = holm_columns(rows, families)
     family_text = "; ".join(f"{'the base methods' if not f else f}: {n}" for f, n in sizes.items() if n) or "none"
-    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
     return (["Paired difference of the mean score over tasks, method - MAPS, over the seeds both ran (mean +- 95% CI;"
              " p: paired t test; a variant is paired with MAPS under the same variant where that ran, else with base"
              " MAPS; Holm: p adjusted within the comparisons of one variant (" + family_text + "); a difference"
@@ -144,9 +164,8 @@ def pooling_table(cells):
             rows.append([key.label, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True), paired_p(diffs)])
     if not rows:
         return []
-    adjusted = holm([row[-1] for row in rows])
-    size = sum(1 for a in adjusted if a == a)
-    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    rows, sizes = holm_columns(rows)
+    size = sizes[None]
     return ([f"Paired difference of the mean score over tasks, method - Single BC, over the seeds both ran (mean +- 95%"
              f" CI; p: paired t test; Holm over the {size} comparisons of this table; a difference holds where the Holm"
              " p is below 0.05):", ""]
@@ -286,17 +305,12 @@ def variant_table(cells):
         base = by_key.get(key._replace(label=method))
         if key.label == method or not base:
             continue
-        diffs = paired(runs, base, lambda c: c.mean_score)
-        seeds = {c.seed for c in runs} & {c.seed for c in base}
-        if diffs:
-            rows.append([key.label, key.demos, key.subsample, len(diffs),
-                         fmt([c.mean_score for c in base if c.seed in seeds]),
-                         fmt([c.mean_score for c in runs if c.seed in seeds]), fmt(diffs, signed=True),
-                         paired_p(diffs)])
+        columns = against_columns(runs, base)
+        if columns:
+            rows.append([key.label, key.demos, key.subsample] + columns)
     if not rows:
         return []
-    adjusted = holm_within([row[-1] for row in rows], [row[0] for row in rows])
-    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    rows, _ = holm_columns(rows, [row[0] for row in rows])
     return (["Each variant against the same method without it (its base cells at the same demos, k and seeds): mean"
              " score over tasks, mean +- 95% CI over the seeds both ran (base and variant alike); difference = variant -"
              " base; p: paired t test; Holm within each variant's rows (the counts it ran at):", ""]
@@ -320,19 +334,13 @@ def controls_table(cells):
     by_key = groups(cells)
     rows = []
     for key, runs in groups(control_cells(cells)).items():
-        maps = by_key.get(key._replace(label="maps"))
-        diffs = paired(runs, maps, lambda c: c.mean_score) if maps else []
-        if not diffs:
-            continue
-        seeds = {c.seed for c in runs} & {c.seed for c in maps}
-        rows.append([key.label, control_meaning(runs[0]), key.demos, key.subsample, len(diffs),
-                     fmt([c.mean_score for c in maps if c.seed in seeds]),
-                     fmt([c.mean_score for c in runs if c.seed in seeds]), fmt(diffs, signed=True), paired_p(diffs)])
+        columns = against_columns(runs, by_key.get(key._replace(label="maps"), []))
+        if columns:
+            rows.append([key.label, control_meaning(runs[0]), key.demos, key.subsample] + columns)
     if not rows:
         return []
-    adjusted = holm([row[-1] for row in rows])
-    size = sum(1 for a in adjusted if a == a)
-    rows = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    rows, sizes = holm_columns(rows)
+    size = sizes[None]
     return ([f"Each control against base MAPS at the same demos, k and seeds: mean score over tasks, mean +- 95% CI over"
              f" the seeds both ran; difference = control - MAPS; p: paired t test; Holm over the {size} comparisons of"
              " this table; a difference holds where the Holm p is below 0.05:", ""]

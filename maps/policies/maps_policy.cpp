@@ -10,6 +10,8 @@
 
 namespace maps::core {
 
+bool is_selector_kind(const std::string& kind) { return kind == "learned" || kind == "uniform" || kind == "task"; }
+
 MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generator& gen)
     : Policy("MAPSPolicy", shape), config_(config), activation_(nn::activation_from_name(config.activation)) {
   const std::int64_t S = shape.observation_size, A = shape.action_size, K = shape.num_tasks, M = config.modules;
@@ -33,8 +35,8 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
     observation_mean_ = register_buffer("observation_mean", ag::zeros({S}));
     observation_std_ = register_buffer("observation_std", ag::ones({S}));
   }
-  if (config.selector != "learned" && config.selector != "uniform" && config.selector != "task")
-    throw std::invalid_argument("MAPSPolicy: selector must be \"learned\", \"uniform\" or \"task\", got \"" +
+  if (!is_selector_kind(config.selector))
+    throw std::invalid_argument(std::string("MAPSPolicy: selector must be ") + kSelectorKinds + ", got \"" +
                                 config.selector + "\"");
   // Drawn either way, so that the modules and the head start from the same numbers for a seed.
   auto selector = std::make_shared<nn::MLP>(selector_sizes, activation_, gen);

@@ -39,6 +39,10 @@ struct MAPSConfig {
   std::string observations = "standardized";
 };
 
+// The kinds MAPSConfig::selector takes, and their list as error messages quote it.
+inline constexpr const char* kSelectorKinds = "\"learned\", \"uniform\" or \"task\"";
+bool is_selector_kind(const std::string& kind);
+
 class MAPSPolicy : public Policy {
  public:
   MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generator& gen);

@@ -260,8 +260,8 @@ RunConfig parse_run_config(const Json& json) {
     if (c.maps.observations != "standardized" && c.maps.observations != "raw_clipped")
       throw std::invalid_argument("config maps.observations: expected \"standardized\" or \"raw_clipped\", got \"" +
                                   c.maps.observations + "\"");
-    if (c.maps.selector != "learned" && c.maps.selector != "uniform" && c.maps.selector != "task")
-      throw std::invalid_argument("config maps.selector: expected \"learned\", \"uniform\" or \"task\", got \"" +
+    if (!is_selector_kind(c.maps.selector))
+      throw std::invalid_argument(std::string("config maps.selector: expected ") + kSelectorKinds + ", got \"" +
                                   c.maps.selector + "\"");
     if (m.contains("selector_losses"))
       c.maps.selector_losses =
