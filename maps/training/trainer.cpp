@@ -90,18 +90,24 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, s
   return progress;
 }
 
-// Keeps the header and the rows up to `step` (the rows a resumed run will not write again).
+// Keeps the header and the whole rows up to `step` (the rows a resumed run will not write again). Rewritten through
+// a temporary and a rename: a kill during the rewrite must leave the old curve, not an empty one (CI once saw a
+// run killed there resume into a curve that began at step 1350).
 void truncate_curve(const std::string& path, std::int64_t step) {
   std::ifstream in(path);
   if (!in) return;
-  std::vector<std::string> kept;
+  std::string header;
+  if (!std::getline(in, header)) return;
+  const auto columns = std::count(header.begin(), header.end(), ',');
+  std::string kept = header + "\n";
   std::string line;
-  for (bool header = true; std::getline(in, line); header = false) {
-    if (header || std::stoll(line.substr(0, line.find(','))) <= step) kept.push_back(line);
+  while (std::getline(in, line)) {
+    // A row cut short by a kill mid-append has fewer columns; the resumed run writes it again.
+    if (std::count(line.begin(), line.end(), ',') != columns) continue;
+    if (std::stoll(line.substr(0, line.find(','))) <= step) kept += line + "\n";
   }
   in.close();
-  std::ofstream out(path, std::ios::trunc);
-  for (const auto& l : kept) out << l << "\n";
+  nn::write_file_atomically(path, kept);
 }
 
 // CPU time of the whole process (every thread), the cost of a window of steps whatever else shares the cores.

@@ -134,6 +134,30 @@ TEST(Trainer, AResumedRunEndsExactlyWhereAnUninterruptedOneDoes) {
   EXPECT_EQ(rows, 3);
 }
 
+TEST(Trainer, ResumingDropsCurveRowsPastTheCheckpointAndRowsCutShort) {
+  // A kill after a validation row but before its checkpoint leaves a row the resumed run writes again; a kill in the
+  // middle of an append leaves a row cut short. Neither may stay, and the rows before them must.
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  const fs::path dir = fresh_dir("cut_curve");
+  TrainConfig config = small_config();
+  TrainConfig partial = config;
+  partial.steps = 40;
+  train_policy(*small_maps(2), data, partial, dir.string(), nullptr);
+  {
+    std::ofstream out(dir / "curve.csv", std::ios::app);
+    out << "60,1,2,3,4,5,6,7,8,9\n"
+        << "6";  // cut short: no newline, one column
+  }
+  train_policy(*small_maps(2), data, config, dir.string(), nullptr);
+  std::ifstream curve(dir / "curve.csv");
+  std::vector<std::string> steps;
+  for (std::string line; std::getline(curve, line);) steps.push_back(line.substr(0, line.find(',')));
+  EXPECT_THAT(steps, ::testing::ElementsAre("step", "20", "40", "60"));
+  // The rewrite went through a temporary that is gone.
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find("tmp"), std::string::npos) << entry.path();
+}
+
 TEST(Trainer, ResumingACurveWithoutTheCpuColumnKeepsItsColumns) {
   // A run begun by a build from before curve.csv had cpu_seconds, resumed by this one: every row as wide as its header.
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
