@@ -49,6 +49,15 @@ std::shared_ptr<Policy> small_maps(std::uint64_t seed) {
   return std::make_shared<MAPSPolicy>(PolicyShape{3, 2, 2}, config, gen);
 }
 
+// A run folder stopped after 40 of small_config()'s 60 steps, as a killed run leaves it at its last checkpoint.
+fs::path trained_40_of_60_steps(const DemoDataset& data, const std::string& name) {
+  const fs::path dir = fresh_dir(name);
+  TrainConfig partial = small_config();
+  partial.steps = 40;
+  train_policy(*small_maps(2), data, partial, dir.string(), nullptr);
+  return dir;
+}
+
 std::vector<double> parameters_of(const Policy& policy) {
   std::vector<double> out;
   for (const auto& p : policy.parameters())
@@ -138,17 +147,13 @@ TEST(Trainer, ResumingDropsCurveRowsPastTheCheckpointAndRowsCutShort) {
   // A kill after a validation row but before its checkpoint leaves a row the resumed run writes again; a kill in the
   // middle of an append leaves a row cut short. Neither may stay, and the rows before them must.
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
-  const fs::path dir = fresh_dir("cut_curve");
-  TrainConfig config = small_config();
-  TrainConfig partial = config;
-  partial.steps = 40;
-  train_policy(*small_maps(2), data, partial, dir.string(), nullptr);
+  const fs::path dir = trained_40_of_60_steps(data, "cut_curve");
   {
     std::ofstream out(dir / "curve.csv", std::ios::app);
     out << "60,1,2,3,4,5,6,7,8,9\n"
         << "6";  // cut short: no newline, one column
   }
-  train_policy(*small_maps(2), data, config, dir.string(), nullptr);
+  train_policy(*small_maps(2), data, small_config(), dir.string(), nullptr);
   std::ifstream curve(dir / "curve.csv");
   std::vector<std::string> steps;
   for (std::string line; std::getline(curve, line);) steps.push_back(line.substr(0, line.find(',')));
@@ -161,11 +166,7 @@ TEST(Trainer, ResumingDropsCurveRowsPastTheCheckpointAndRowsCutShort) {
 TEST(Trainer, ResumingACurveWithoutTheCpuColumnKeepsItsColumns) {
   // A run begun by a build from before curve.csv had cpu_seconds, resumed by this one: every row as wide as its header.
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
-  const fs::path dir = fresh_dir("old_curve");
-  TrainConfig config = small_config();
-  TrainConfig partial = config;
-  partial.steps = 40;
-  train_policy(*small_maps(2), data, partial, dir.string(), nullptr);
+  const fs::path dir = trained_40_of_60_steps(data, "old_curve");
   std::vector<std::string> lines;
   {
     std::ifstream in(dir / "curve.csv");
@@ -176,7 +177,7 @@ TEST(Trainer, ResumingACurveWithoutTheCpuColumnKeepsItsColumns) {
     std::ofstream out(dir / "curve.csv", std::ios::trunc);
     for (const auto& line : lines) out << line << "\n";
   }
-  train_policy(*small_maps(2), data, config, dir.string(), nullptr);
+  train_policy(*small_maps(2), data, small_config(), dir.string(), nullptr);
   std::ifstream curve(dir / "curve.csv");
   int rows = 0;
   for (std::string line; std::getline(curve, line); ++rows)
