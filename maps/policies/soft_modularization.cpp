@@ -6,12 +6,46 @@
 
 #include "maps/policies/baseline_util.h"
 #include "maps/policies/policy_registry.h"
+#include "nn/init.h"
 #include "nn/linear.h"
 #include "nn/mlp.h"
 #include "nn/module_list.h"
 #include "nn/parallel_linear.h"
 
 namespace maps::core {
+namespace {
+
+// The official code's basic_init: weight U(+-1/sqrt(out)), bias 0.1 (SoftModularizationConfig::init).
+void official_hidden_init(ag::Tensor weight, ag::Tensor bias, std::int64_t out, ag::Generator& gen) {
+  const double bound = 1.0 / std::sqrt(static_cast<double>(out));
+  nn::init::uniform_(weight, -bound, bound, gen);
+  nn::init::constant_(bias, 0.1);
+}
+
+// The official code's uniform_init: weight and bias U(+-3e-3).
+void official_last_init(nn::Linear& layer, ag::Generator& gen) {
+  ag::Tensor weight = layer.weight(), bias = layer.bias();
+  nn::init::uniform_(weight, -3e-3, 3e-3, gen);
+  nn::init::uniform_(bias, -3e-3, 3e-3, gen);
+}
+
+void official_hidden_init(nn::Linear& layer, ag::Generator& gen) {
+  official_hidden_init(layer.weight(), layer.bias(), layer.out_features(), gen);
+}
+
+void official_hidden_init(nn::MLP& mlp, ag::Generator& gen) {
+  for (std::size_t i = 0; i < mlp.num_layers(); ++i) official_hidden_init(mlp.layer(i), gen);
+}
+
+void check_init(const std::string& init, const std::string& where) {
+  if (init != "official" && init != "pytorch")
+    throw std::invalid_argument(where +
+                                ": expected \"official\" (the official code's initialisation) or \"pytorch\" "
+                                "(torch.nn.Linear's), got \"" +
+                                init + "\"");
+}
+
+}  // namespace
 
 SoftModularization::SoftModularization(PolicyShape shape, const SoftModularizationConfig& config, ag::Generator& gen)
     : Policy("SoftModularization", shape), config_(config) {
@@ -23,6 +57,7 @@ SoftModularization::SoftModularization(PolicyShape shape, const SoftModularizati
   if (config.aggregation != "softmax" && config.aggregation != "sum" && config.aggregation != "mean")
     throw std::invalid_argument("SoftModularization: aggregation must be \"softmax\", \"sum\" or \"mean\", got \"" +
                                 config.aggregation + "\"");
+  check_init(config.init, "SoftModularization: init");
   const std::int64_t L = config.module_layers, n = config.modules, d = config.module_width, B = config.base_width,
                      G = config.gating_width;
   base_ = register_module("base", std::make_shared<nn::MLP>(std::vector<std::int64_t>{shape.observation_size, B, B},
@@ -43,6 +78,20 @@ SoftModularization::SoftModularization(PolicyShape shape, const SoftModularizati
     layers->push_back(std::make_shared<nn::ParallelLinear>(n, l == 0 ? B : d, d, gen));
   module_layers_ = register_module("modules", layers);
   output_ = register_module("output", std::make_shared<nn::Linear>(d, shape.action_size, gen));
+  if (config.init == "official") {
+    // Redrawn in a fixed order after construction, so "pytorch" keeps the draws it always had.
+    official_hidden_init(child_at<nn::MLP>(base_), gen);
+    official_hidden_init(child_at<nn::Linear>(embedding_), gen);
+    official_hidden_init(child_at<nn::MLP>(gating_), gen);
+    for (std::size_t i = 0; i < down->size(); ++i) official_last_init(down->at<nn::Linear>(i), gen);
+    for (std::size_t i = 0; i < up->size(); ++i) official_hidden_init(up->at<nn::Linear>(i), gen);
+    if (weighted) official_last_init(child_at<nn::Linear>(last_), gen);
+    for (std::size_t i = 0; i < layers->size(); ++i) {
+      auto& layer = layers->at<nn::ParallelLinear>(i);
+      official_hidden_init(layer.weight(), layer.bias(), d, gen);
+    }
+    official_last_init(child_at<nn::Linear>(output_), gen);
+  }
 }
 
 SoftModularization::Forward SoftModularization::run(const ag::Tensor& observations,
@@ -129,6 +178,7 @@ SoftModularizationConfig soft_modularization_config(const PolicyShape& shape, co
   c.base_width = option_int(o.own, "base_width");
   c.gating_width = option_int(o.own, "gating_width");
   c.aggregation = o.own.at("aggregation").get<std::string>();
+  c.init = o.own.at("init").get<std::string>();
   c.module_width = option_int(o.own, "module_width");
   if (c.module_width == 0) {
     // The paper's proportions (base 400 and gating 256 for modules of 256) at MAPS's parameter count.
@@ -154,7 +204,8 @@ PolicyMethod soft_modularization_method() {
   method.name = "soft_modularization";
   method.summary = "Soft Modularization: L layers of n modules, per-layer n x n softmax routing from state and task";
   method.defaults = {{"module_layers", 2}, {"modules", 2},        {"module_width", 0},
-                     {"base_width", 400},  {"gating_width", 256}, {"aggregation", "softmax"}};
+                     {"base_width", 400},  {"gating_width", 256}, {"aggregation", "softmax"},
+                     {"init", "official"}};
   method.check = [](const nlohmann::json& own) {
     check_option_range(own, "soft_modularization", "module_layers", 2, 16);
     check_option_range(own, "soft_modularization", "modules", 1, 64);
@@ -167,6 +218,7 @@ PolicyMethod soft_modularization_method() {
           "config soft_modularization.aggregation: expected \"softmax\" (the official code), \"sum\" (the paper) or "
           "\"mean\" (mtrl), got \"" +
           aggregation + "\"");
+    check_init(own.at("init").get<std::string>(), "config soft_modularization.init");
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return soft_modularization_parameter_count(shape, soft_modularization_config(shape, o));

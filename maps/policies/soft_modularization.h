@@ -24,6 +24,11 @@ struct SoftModularizationConfig {
   std::int64_t base_width = 400;    // the base MLP's two layers and the task embedding
   std::int64_t gating_width = 256;  // the gating MLP's two layers
   std::string aggregation = "softmax";
+  // "official": the official code's initialisation (torchrl/networks/init.py), which starts the routing and the
+  // actions near their centres: the routing heads (W_d, W_last) and the output layer U(+-3e-3) for weight and bias;
+  // every other layer's weight U(+-1/sqrt(its output width)) (its fan-in helper reads dimension 0 of PyTorch's
+  // [out, in] weight) and bias 0.1. "pytorch": every layer as torch.nn.Linear initialises one.
+  std::string init = "official";
 };
 
 class SoftModularization : public Policy {
