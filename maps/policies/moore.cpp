@@ -75,6 +75,7 @@ LossTerms MOORE::loss(const Batch& batch) {
 
 ag::Tensor MOORE::routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("MOORE::routing", shape(), observations, tasks);
+  ag::NoGradGuard no_grad;  // a record, never a loss: no graph back to the task weights
   return detail::task_weight_shares(parameter_at(task_weights_), tasks);
 }
 
