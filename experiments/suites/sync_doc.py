@@ -10,12 +10,14 @@ Everything outside the blocks (the discussion) is left as written. A marker insi
 keep examples of markers off lines of their own. A block whose section is missing from
 report.md is an error, so a renamed section cannot leave a stale table behind silently; so are a comment line
 that is nearly a marker (indented, spaces missing: it would leave its block stale) and unpaired markers. The page
-keeps its line endings (CRLF stays CRLF).
+keeps its line endings (CRLF stays CRLF). Relative links and images in a section (report.md's figures, next to it)
+are rewritten to be relative to the page's folder, so they still resolve there.
 
     python3 experiments/suites/sync_doc.py results/study/report/report.md docs/results.md
 """
 
 import argparse
+import os
 import re
 import sys
 from pathlib import Path
@@ -25,6 +27,8 @@ BLOCK = re.compile(r"^(<!-- report\.md: (?P<title>[^>\n]*?) -->[ \t]*\n)(?P<body
                    re.S | re.M)
 OPENER = re.compile(r"^<!-- report\.md: [^>\n]*? -->[ \t]*$", re.M)
 CLOSER = re.compile(r"^<!-- /report\.md -->[ \t]*$", re.M)
+# A markdown link or image target that is relative (not a URL, not absolute, not an anchor).
+RELATIVE_LINK = re.compile(r"(\]\()(?![a-z][a-z0-9+.-]*:|/|#)([^)\s]+)(\))", re.I)
 # A line that is a report.md comment but not a marker (indented, spaces missing): an error, not a block left stale.
 NEAR_MISS = re.compile(r"^[ \t]*<!--[ \t]*(/[ \t]*report\.md[ \t]*|report\.md[ \t]*:.*)-->[ \t]*$")
 
@@ -46,10 +50,15 @@ def sections(report_text):
     return {name: "\n".join(lines).strip("\n") for name, lines in found.items()}
 
 
-def sync(report_text, doc_text):
-    """Return (new doc text, titles of the blocks refreshed). Raises ValueError naming a block whose section
-    report.md lacks, or a page with an opening marker that is never closed."""
+def sync(report_text, doc_text, link_prefix=""):
+    """Return (new doc text, titles of the blocks refreshed). `link_prefix` is the path from the page's folder to
+    report.md's ("../results/study/report"): relative link targets in the sections get it. Raises ValueError naming
+    a block whose section report.md lacks, or a page with an opening marker that is never closed."""
     available = sections(report_text)
+    if link_prefix:
+        prefix = link_prefix.rstrip("/") + "/"
+        available = {title: RELATIVE_LINK.sub(lambda m: m.group(1) + prefix + m.group(2) + m.group(3), body)
+                     for title, body in available.items()}
     refreshed = []
 
     def replace(match):
@@ -88,7 +97,9 @@ def main(argv=None):
         sys.exit(f"sync_doc.py: {args.doc} mixes CRLF and LF line endings: make them one kind first (the blocks "
                  "would be written in one of them)")
     try:
-        text, refreshed = sync(args.report.read_text(), page.replace("\r\n", "\n") if crlf else page)
+        prefix = os.path.relpath(args.report.resolve().parent, args.doc.resolve().parent)
+        text, refreshed = sync(args.report.read_text(), page.replace("\r\n", "\n") if crlf else page,
+                               "" if prefix == "." else prefix)
     except ValueError as error:
         sys.exit(f"sync_doc.py: {args.doc}: {error}")
     if not refreshed:

@@ -527,6 +527,26 @@ class SyncDoc(unittest.TestCase):
         self.assertEqual(sync_doc.sync(self.REPORT, block + "<!-- report.md tables below are generated -->\n")[1],
                          ["Cells"])
 
+    def test_relative_links_are_rewritten_for_the_pages_folder(self):
+        import sync_doc
+        report = ("## Fig. 5\n\n![](fig5.png) and [cells](cells/x.json), [web](https://a.b/c), [top](#fig-5), "
+                  "![abs](/tmp/a.png)\n")
+        page = "<!-- report.md: Fig. 5 -->\nold\n<!-- /report.md -->\n"
+        text = sync_doc.sync(report, page, "../results/study/report")[0]
+        self.assertIn("![](../results/study/report/fig5.png) and [cells](../results/study/report/cells/x.json), "
+                      "[web](https://a.b/c), [top](#fig-5), ![abs](/tmp/a.png)", text)
+        self.assertEqual(sync_doc.sync(report, text, "../results/study/report")[0], text)  # idempotent
+        with tempfile.TemporaryDirectory() as tmp:
+            (pathlib.Path(tmp) / "results" / "report").mkdir(parents=True)
+            (pathlib.Path(tmp) / "docs").mkdir()
+            report_path, page_path = pathlib.Path(tmp, "results", "report", "report.md"), pathlib.Path(tmp, "docs", "p.md")
+            report_path.write_text(report)
+            page_path.write_text(page)
+            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report_path), str(page_path)],
+                                  capture_output=True, text=True)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            self.assertIn("![](../results/report/fig5.png)", page_path.read_text())
+
     def test_command_line_rewrites_the_page(self):
         with tempfile.TemporaryDirectory() as tmp:
             report, page = pathlib.Path(tmp, "report.md"), pathlib.Path(tmp, "page.md")
