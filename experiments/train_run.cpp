@@ -125,7 +125,9 @@ int run_train(const TrainRunOptions& options) {
     log << "maps train: " << policy->parameter_count()
         << " parameters (MAPS under this config: " << static_cast<long long>(maps_parameters) << ")" << std::endl;
     ag::set_num_threads(options.threads);
-    const core::TrainSummary summary = core::train_policy(*policy, data, config.train, options.out, &log);
+    core::TrainConfig train = config.train;
+    train.validate_start = !config.init_run.empty();
+    const core::TrainSummary summary = core::train_policy(*policy, data, train, options.out, &log);
 
     nlohmann::json seeds = nlohmann::json::object();
     for (int k = 0; k < data.num_tasks(); ++k) seeds[data.task_names()[k]] = data.training_demo_seeds()[k];

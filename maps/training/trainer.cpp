@@ -290,6 +290,17 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task, config.validation_tasks);
   const std::int64_t per_task = policy.batch_per_task(config.states_per_task);
 
+  if (config.validate_start && !summary.resumed && progress.step == 0) {
+    const double valid = policy.validation_loss(validation, data);
+    policy.train();
+    if (valid < progress.best_validation) {  // false for a NaN: the start is then not a candidate
+      progress.best_validation = valid;
+      progress.best_step = 0;
+      nn::save(policy, best_path, policy_record(data, 0, valid).dump());
+    }
+    if (log) *log << "step 0/" << config.steps << "  (the starting parameters)  valid " << valid << std::endl;
+  }
+
   std::vector<std::string> term_names;
   std::vector<double> term_sums;
   std::int64_t terms_counted = 0;

@@ -50,6 +50,11 @@ struct TrainConfig {
   // The best checkpoint is judged on these tasks' validation states only (empty: every task's). Transfer's
   // comparison: a multi-task run taught a new task is judged on the new task, as a run of that task alone is.
   std::vector<std::string> validation_tasks;
+  // Also judge the parameters the run starts from, as step 0 (a fresh run only; not a config key: `maps train` sets
+  // it for a run that starts from another run's parameters, init.run). A transferred policy starts as a working
+  // policy that training on a few demonstrations can make worse; without this, best.ckpt could only hold a trained
+  // step. Step 0 gets no curve.csv row (it has no training losses); the log has its validation loss.
+  bool validate_start = false;
 };
 
 struct TrainSummary {

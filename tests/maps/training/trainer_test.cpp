@@ -96,6 +96,35 @@ TEST(Trainer, LearnsKeepsTheBestCheckpointAndWritesTheCurve) {
   EXPECT_EQ(best.at("standardizer").at("mean").size(), 3u);
 }
 
+TEST(Trainer, ValidateStartMakesTheStartingParametersACandidateForTheBestCheckpoint) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  // Learning rate 0: every validation scores the start again, so the first one judged stays the best (strict <).
+  TrainConfig config = small_config();
+  config.learning_rate = 0.0;
+  config.validate_start = true;
+  auto policy = small_maps(1);
+  const std::vector<double> start = parameters_of(*policy);
+  const fs::path dir = fresh_dir("validate_start");
+  const TrainSummary summary = train_policy(*policy, data, config, dir.string(), nullptr);
+  EXPECT_EQ(summary.best_step, 0);
+  const Batch validation = data.validation_batch(ag::Dtype::Float32);
+  EXPECT_NEAR(summary.best_validation_loss, mean_action_error(*small_maps(1), validation), 1e-6);
+  const auto best = nlohmann::json::parse(nn::load_tensors((dir / "best.ckpt").string()).config);
+  EXPECT_EQ(best.at("step").get<std::int64_t>(), 0);
+  auto reloaded = small_maps(9);
+  nn::load(*reloaded, (dir / "best.ckpt").string());
+  EXPECT_EQ(parameters_of(*reloaded), start);
+  // Step 0 has no training losses, so no curve row: the rows are the trained steps' as without the option.
+  std::ifstream curve(dir / "curve.csv");
+  std::string header, first;
+  std::getline(curve, header);
+  std::getline(curve, first);
+  EXPECT_EQ(first.substr(0, first.find(',')), "20");
+  // Without the option the first validated step is the best a run can keep.
+  config.validate_start = false;
+  EXPECT_EQ(train_policy(*small_maps(1), data, config, fresh_dir("no_validate_start").string(), nullptr).best_step, 20);
+}
+
 TEST(Trainer, JudgesCheckpointsOnTheValidationTasksItIsGiven) {
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   TrainConfig config = small_config();
