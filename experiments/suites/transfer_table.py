@@ -175,13 +175,18 @@ def main():
                       "and of the whole training (" + ("curve.csv's CPU time per validation window, which other work "
                       "on the cores does not inflate" if cpu else "curve.csv's speed per validation window, wall "
                       "time: inflated when other work shared the cores") + "; validation included, evaluation not; "
-                      "a resumed run counts the attempt that wrote each kept row), one thread:", "",
-                  f"| method | demos | best step | {unit} to the best step | training {unit} |", "|---|---|---|---|---|"]
+                      "a resumed run counts the attempt that wrote each kept row), one thread; \"kept the start\": the "
+                      "seeds whose best checkpoint is the starting policy (step 0: training on the new task's "
+                      "demonstrations never beat it on validation; only a transfer starts from a policy):", "",
+                  f"| method | demos | best step | kept the start | {unit} to the best step | training {unit} |",
+                  "|---|---|---|---|---|---|"]
         for method in methods:
             for d in counts:
                 cells = rows.get((set_name, task, method, d), [])
                 if cells:
-                    lines.append(f"| {name_of(method)} | {d} | {mean([c.best_step for c in cells]):.0f} | "
+                    kept = (f"{sum(c.best_step == 0 for c in cells)} of {len(cells)}"
+                            if base_of(method) == "transfer" else "-")
+                    lines.append(f"| {name_of(method)} | {d} | {mean([c.best_step for c in cells]):.0f} | {kept} | "
                                  f"{mean_of([clock(c, c.best_step) for c in cells])} | "
                                  f"{mean_of([clock(c, c.steps) for c in cells])} |")
         held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts

@@ -185,7 +185,8 @@ class Transfer(unittest.TestCase):
                                  r"\(not adjusted\) \|")
         # The cost from the curves: seconds to the best step and of training, numbers for every cell; the source
         # run's beside.
-        self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| \d+ \| \d+ \|")
+        self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| [01] of 1 \| \d+ \| \d+ \|")
+        self.assertRegex(report, r"\| MT-BC \(all tasks\) \| 1 \| \d+ \| - \| \d+ \| \d+ \|")
         self.assertRegex(report, r"MAPS transfer starts from a run without reach \(1 seeds, the other tasks at 2 "
                                  r"demonstrations\): best step \d+, \d+ CPU seconds to it, \d+ of training")
         self.assertTrue((work() / "suite" / "report" / "transfer_scores.png").stat().st_size > 10000)
