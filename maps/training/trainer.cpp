@@ -290,14 +290,20 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       data.validation_batch(ag::Dtype::Float32, config.validation_states_per_task, config.validation_tasks);
   const std::int64_t per_task = policy.batch_per_task(config.states_per_task);
 
-  if (config.validate_start && !summary.resumed && progress.step == 0) {
+  // Scores the policy at progress.step on the validation states and keeps it as best.ckpt when it beats the best so
+  // far (never for a NaN loss).
+  const auto validate_and_keep_best = [&] {
     const double valid = policy.validation_loss(validation, data);
     policy.train();
-    if (valid < progress.best_validation) {  // false for a NaN: the start is then not a candidate
+    if (valid < progress.best_validation) {
       progress.best_validation = valid;
-      progress.best_step = 0;
-      nn::save(policy, best_path, policy_record(data, 0, valid).dump());
+      progress.best_step = progress.step;
+      nn::save(policy, best_path, policy_record(data, progress.step, valid).dump());
     }
+    return valid;
+  };
+  if (config.validate_start && !summary.resumed && progress.step == 0) {
+    const double valid = validate_and_keep_best();
     if (log) *log << "step 0/" << config.steps << "  (the starting parameters)  valid " << valid << std::endl;
   }
 
@@ -342,13 +348,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
 
     const bool last_step = progress.step == config.steps;
     if (progress.step % config.validate_every == 0 || last_step) {
-      const double valid = policy.validation_loss(validation, data);
-      policy.train();
-      if (valid < progress.best_validation) {
-        progress.best_validation = valid;
-        progress.best_step = progress.step;
-        nn::save(policy, best_path, policy_record(data, progress.step, valid).dump());
-      }
+      const double valid = validate_and_keep_best();
       const auto now = std::chrono::steady_clock::now();
       const double window = std::chrono::duration<double>(now - window_start).count();
       const double steps_per_second = static_cast<double>(progress.step - window_first_step) / std::max(window, 1e-9);
