@@ -125,6 +125,20 @@ TEST(Trainer, ValidateStartMakesTheStartingParametersACandidateForTheBestCheckpo
   EXPECT_EQ(train_policy(*small_maps(1), data, config, fresh_dir("no_validate_start").string(), nullptr).best_step, 20);
 }
 
+TEST(Trainer, AStartWhoseValidationIsNotFiniteIsNeverKeptAndTrainingStopsWithTheReason) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  TrainConfig config = small_config();
+  config.validate_start = true;
+  auto policy = small_maps(1);
+  ag::Tensor w = policy->parameter("head.weight");
+  w.data<float>()[0] = std::numeric_limits<float>::quiet_NaN();
+  const fs::path dir = fresh_dir("validate_start_nan");
+  EXPECT_THAT(error_of([&] { train_policy(*policy, data, config, dir.string(), nullptr); }),
+              HasSubstr("training stopped at step 1"));
+  // A NaN validation loss is not "lower" than no checkpoint: best.ckpt is never written from it.
+  EXPECT_FALSE(fs::exists(dir / "best.ckpt"));
+}
+
 TEST(Trainer, JudgesCheckpointsOnTheValidationTasksItIsGiven) {
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   TrainConfig config = small_config();
