@@ -1,16 +1,37 @@
 # Helpers shared by the layer folders and tests/.
 
-# maps_add_layer(<target> [EXCLUDE_DIRS <subfolders>...] [PUBLIC_DEPS <targets>...])
+# maps_precompile_headers(<target> [<header>...])
+#
+# Precompiles Eigen/Core and the given headers for <target> (MAPS_PRECOMPILE_HEADERS). Parsing them took most of a
+# translation unit's compile time (Eigen/Core, nlohmann/json.hpp and gmock/gmock.h some 2-3 s each at -O2), and
+# the CI builds everything twice. Only third-party headers: a header of ours that forgets an include still fails
+# to compile in the installed-package test, which builds without them.
+function(maps_precompile_headers target)
+  if(NOT MAPS_PRECOMPILE_HEADERS)
+    return()
+  endif()
+  set(headers)
+  if(MAPS_GCC12_AVX512_WORKAROUND)
+    # Before Eigen's intrinsics, as the --include that this property turns off in maps_warnings would put it.
+    list(APPEND headers "${PROJECT_SOURCE_DIR}/cmake/gcc12_avx512_intrinsics.h")
+  endif()
+  list(APPEND headers <Eigen/Core> ${ARGN})
+  target_precompile_headers(${target} PRIVATE ${headers})
+  set_target_properties(${target} PROPERTIES MAPS_PRECOMPILED ON)
+endfunction()
+
+# maps_add_layer(<target> [EXCLUDE_DIRS <subfolders>...] [PUBLIC_DEPS <targets>...] [PRECOMPILE <headers>...])
 #
 # Builds the layer library of the calling folder from every *.cpp under it (recursively, with
 # CONFIGURE_DEPENDS, so adding a file needs no CMake edit: the next build re-globs), except
 # under EXCLUDE_DIRS (optional parts that get targets of their own).
 # A folder with no .cpp yet gives an INTERFACE library with the same name, include directory
-# and dependencies; it becomes a STATIC library by itself once the first .cpp appears.
+# and dependencies; it becomes a STATIC library by itself once the first .cpp appears. PRECOMPILE: headers
+# precompiled beside Eigen/Core (maps_precompile_headers).
 # The repository root is the public include directory ("autograd/tensor.h", "nn/linear.h"); installed, the
 # headers are under <prefix>/include/maps/ and included as "maps/autograd/tensor.h" (cmake/MapsInstall.cmake).
 function(maps_add_layer target)
-  cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "PUBLIC_DEPS;EXCLUDE_DIRS")
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "PUBLIC_DEPS;EXCLUDE_DIRS;PRECOMPILE")
   file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cpp")
   foreach(dir IN LISTS arg_EXCLUDE_DIRS)
     list(FILTER sources EXCLUDE REGEX "^${CMAKE_CURRENT_SOURCE_DIR}/${dir}/")
@@ -20,6 +41,7 @@ function(maps_add_layer target)
     target_include_directories(${target} PUBLIC "$<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>"
                                                 "$<INSTALL_INTERFACE:include>")
     target_link_libraries(${target} PUBLIC ${arg_PUBLIC_DEPS} PRIVATE maps_warnings)
+    maps_precompile_headers(${target} ${arg_PRECOMPILE})
     list(LENGTH sources count)
     message(STATUS "${target}: static library from ${count} source file(s)")
   else()
@@ -51,6 +73,7 @@ function(maps_add_test_suite layer)
   add_executable(${target} ${sources})
   target_link_libraries(${target} PRIVATE ${arg_UNPARSED_ARGUMENTS} GTest::gmock GTest::gtest_main maps_warnings)
   target_compile_definitions(${target} PRIVATE MAPS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+  maps_precompile_headers(${target} <gmock/gmock.h> <gtest/gtest.h> <nlohmann/json.hpp>)
   gtest_discover_tests(${target}
     TEST_PREFIX "${layer}."
     NO_PRETTY_VALUES                 # parameterized tests keep their own names, not dumps of GetParam()
