@@ -2,9 +2,9 @@
 
 # maps_precompile_headers(<target> [<header>...])
 #
-# Precompiles Eigen/Core and the given headers for <target> (MAPS_PRECOMPILE_HEADERS). Parsing them took most of a
-# translation unit's compile time (Eigen/Core, nlohmann/json.hpp and gmock/gmock.h some 2-3 s each at -O2), and
-# the CI builds everything twice. Only third-party headers: a header of ours that forgets an include still fails
+# Precompiles Eigen/Core and the given headers for <target> (MAPS_PRECOMPILE_HEADERS): every translation unit
+# parsed them again, and the CI builds everything twice (the Release build took 676 s without and 461 s with them;
+# docs/reliability.md). Only third-party headers: a header of ours that forgets an include still fails
 # to compile in the installed-package test, which builds without them.
 function(maps_precompile_headers target)
   if(NOT MAPS_PRECOMPILE_HEADERS)
