@@ -54,7 +54,7 @@ struct MatmulCase {
   Shape b;
 };
 
-const std::vector<MatmulCase> kCases = {
+const std::vector<MatmulCase> kMatmulCases = {
     {{2, 3}, {3, 4}},       {{1, 3}, {3, 1}},       {{4, 1}, {1, 3}},       {{3, 3}, {3, 3}},  // 2-d
     {{2, 2, 3}, {2, 3, 2}}, {{3, 1, 2}, {3, 2, 2}}, {{1, 2, 2}, {1, 2, 3}},                    // batched
     {{2, 3, 2}, {2, 4}},    {{2, 2, 3}, {3, 1}},                                               // 3-d @ 2-d
@@ -64,7 +64,7 @@ std::string case_name(const MatmulCase& c) { return ag::to_string(c.a) + " @ " +
 
 TEST(Matmul, ForwardMatchesReference) {
   std::uint64_t seed = 1;
-  for (const MatmulCase& c : kCases) {
+  for (const MatmulCase& c : kMatmulCases) {
     for (Dtype dtype : kBothDtypes) {
       SCOPED_TRACE(case_name(c) + " " + ag::to_string(dtype));
       const Tensor a = randn64(c.a, seed++, false).to(dtype);
@@ -108,7 +108,7 @@ TEST(Matmul, LargeProductMatchesEigen) {
 
 TEST(Matmul, GradcheckAllForms) {
   std::uint64_t seed = 100;
-  for (const MatmulCase& c : kCases) {
+  for (const MatmulCase& c : kMatmulCases) {
     SCOPED_TRACE(case_name(c));
     auto f = [](const Inputs& in) { return ag::matmul(in[0], in[1]); };
     agtest::expect_gradcheck("matmul", f, {randn64(c.a, seed++), randn64(c.b, seed++)});
@@ -120,7 +120,7 @@ TEST(Matmul, GradcheckAllForms) {
 
 TEST(Matmul, GradgradcheckAllForms) {
   std::uint64_t seed = 200;
-  for (const MatmulCase& c : kCases) {
+  for (const MatmulCase& c : kMatmulCases) {
     SCOPED_TRACE(case_name(c));
     auto f = [](const Inputs& in) { return ag::matmul(in[0], in[1]); };
     agtest::expect_gradgradcheck("matmul", f, {randn64(c.a, seed++), randn64(c.b, seed++)});

@@ -48,17 +48,19 @@ std::vector<double> softmax_ref(const std::vector<double>& x, const Shape& shape
   return out;
 }
 
-struct Case {
+struct SoftmaxCase {
   Shape shape;
   std::int64_t dim;
 };
 
-const std::vector<Case> kCases = {{{5}, 0},       {{2, 3}, 1},     {{2, 3}, 0},    {{2, 3}, -1},
-                                  {{2, 3, 4}, 1}, {{2, 3, 4}, -1}, {{2, 3, 4}, 0}, {{1, 4}, 0}};
+const std::vector<SoftmaxCase> kSoftmaxCases = {{{5}, 0},       {{2, 3}, 1},     {{2, 3}, 0},    {{2, 3}, -1},
+                                                {{2, 3, 4}, 1}, {{2, 3, 4}, -1}, {{2, 3, 4}, 0}, {{1, 4}, 0}};
 
-std::string case_name(const Case& c) { return ag::to_string(c.shape) + " dim " + std::to_string(c.dim); }
+std::string case_name(const SoftmaxCase& c) { return ag::to_string(c.shape) + " dim " + std::to_string(c.dim); }
 
-std::int64_t norm(const Case& c) { return c.dim < 0 ? c.dim + static_cast<std::int64_t>(c.shape.size()) : c.dim; }
+std::int64_t norm(const SoftmaxCase& c) {
+  return c.dim < 0 ? c.dim + static_cast<std::int64_t>(c.shape.size()) : c.dim;
+}
 
 class SoftmaxTest : public ::testing::TestWithParam<bool> {};  // true: log_softmax
 
@@ -71,7 +73,7 @@ const char* op_name(bool log) { return log ? "log_softmax" : "softmax"; }
 TEST_P(SoftmaxTest, ForwardMatchesReference) {
   const bool log = GetParam();
   std::uint64_t seed = 1;
-  for (const Case& c : kCases) {
+  for (const SoftmaxCase& c : kSoftmaxCases) {
     for (Dtype dtype : kBothDtypes) {
       SCOPED_TRACE(case_name(c) + " " + ag::to_string(dtype));
       const Tensor x = ag::mul(randn64(c.shape, seed++, false), 2.0).to(dtype);
@@ -98,7 +100,7 @@ TEST_P(SoftmaxTest, StableForLargeInputs) {
 TEST_P(SoftmaxTest, Gradcheck) {
   const bool log = GetParam();
   std::uint64_t seed = 100;
-  for (const Case& c : kCases) {
+  for (const SoftmaxCase& c : kSoftmaxCases) {
     SCOPED_TRACE(case_name(c));
     const std::int64_t dim = c.dim;
     auto f = [log, dim](const Inputs& in) { return apply(log, in[0], dim); };
@@ -109,7 +111,7 @@ TEST_P(SoftmaxTest, Gradcheck) {
 TEST_P(SoftmaxTest, Gradgradcheck) {
   const bool log = GetParam();
   std::uint64_t seed = 200;
-  for (const Case& c : kCases) {
+  for (const SoftmaxCase& c : kSoftmaxCases) {
     SCOPED_TRACE(case_name(c));
     const std::int64_t dim = c.dim;
     auto f = [log, dim](const Inputs& in) { return apply(log, in[0], dim); };
