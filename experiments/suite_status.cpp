@@ -17,6 +17,7 @@
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
 #include "experiments/suite_run.h"
+#include "maps/training/curve_cost.h"
 
 namespace maps::experiments {
 
@@ -62,8 +63,25 @@ bool same_numbers(const Json& a, const Json& b) {
 
 struct CellState {
   std::string state, detail;
-  double wall_seconds = -1.0;  // a finished cell's, from result.json (-1: not finished or not recorded)
+  double cost_seconds = -1.0;  // a finished cell's (cost_of; -1: not finished or not recorded)
+  bool cost_from_curve = false;
 };
+
+// A finished cell's cost: training from curve.csv (every attempt; CPU time where the curve has it) plus the
+// evaluation's seconds. result.json's wall_seconds, the fallback, times only the attempt that finished the cell and
+// grows with pauses.
+void set_cost(CellState& s, const fs::path& dir, const Json& result) {
+  const Json& eval_seconds = result.at("eval").contains("seconds") ? result.at("eval").at("seconds") : Json();
+  const Json& steps = result.at("train").contains("steps") ? result.at("train").at("steps") : Json();
+  if (eval_seconds.is_number() && steps.is_number_integer())
+    if (const auto training = core::curve_training_cost((dir / "curve.csv").string(), steps.get<std::int64_t>())) {
+      s.cost_seconds = training->seconds + eval_seconds.get<double>();
+      s.cost_from_curve = true;
+      return;
+    }
+  const Json& wall = result.contains("wall_seconds") ? result.at("wall_seconds") : Json();
+  if (wall.is_number()) s.cost_seconds = wall.get<double>();
+}
 
 // done > running > failed > started > left: what a cell is, over the folders that may hold it.
 int rank_of(const std::string& state) {
@@ -83,8 +101,7 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     std::snprintf(text, sizeof(text), "mean score %.3f, best step %lld", result->at("eval").value("mean_score", 0.0),
                   static_cast<long long>(result->at("eval").value("best_step", -1LL)));
     s.detail = text;
-    const Json& wall = result->contains("wall_seconds") ? result->at("wall_seconds") : Json();
-    if (wall.is_number()) s.wall_seconds = wall.get<double>();
+    set_cost(s, dir, *result);
   } else if (cell_is_locked(dir)) {
     s.state = "running";
     s.detail = curve_progress(dir, steps);
@@ -191,20 +208,23 @@ int run_suite_status(const SuiteStatusOptions& options) {
       // The cost table was measured on one machine; the finished cells say how the machines they ran on differ.
       // (result.json's host names a container, not a machine, so the pace is the folder's, not this machine's.)
       double measured = 0.0, estimated = 0.0;
-      int finished = 0;
+      int finished = 0, from_curve = 0;
       for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-        if (states[i].state != "done" || states[i].wall_seconds <= 0.0) continue;
+        if (states[i].state != "done" || states[i].cost_seconds <= 0.0) continue;
         try {
           estimated += costs->cell_seconds(suite.cells[i]);
-          measured += states[i].wall_seconds;
+          measured += states[i].cost_seconds;
           ++finished;
+          from_curve += states[i].cost_from_curve ? 1 : 0;
         } catch (const std::exception&) {
         }
       }
       if (finished >= 3 && estimated > 0.0)
         std::printf(
-            "at the finished cells' pace: %s (%d finished cells took %.2fx the table's estimate in wall time)\n",
-            format_duration(left * measured / estimated).c_str(), finished, measured / estimated);
+            "at the finished cells' pace: %s (%d finished cells took %.2fx the table's estimate: training from "
+            "curve.csv, every attempt, plus evaluation; %d timed by their last attempt's wall time)\n",
+            format_duration(left * measured / estimated).c_str(), finished, measured / estimated,
+            finished - from_curve);
     }
   }
   return 0;

@@ -66,6 +66,8 @@ class Cell:
     best_over_checkpoints: float = None
     # The same evaluation of the last kept checkpoint (step == steps): a rule without selection, for comparison.
     last_checkpoint: float = None
+    # eval.json's seconds (one evaluator thread in a suite); None when not recorded.
+    eval_seconds: float = None
 
     @property
     def label(self):
@@ -139,6 +141,22 @@ class Cell:
         CPU time, training and validation), which does not grow when other work shares the cores as wall time
         does. None as training_seconds_to, or when the curve predates the column."""
         return self._curve_sum_to(step, lambda at, previous, row: float(row["cpu_seconds"]))
+
+    def compute_seconds(self):
+        """(seconds, how) this cell's result cost. wall_seconds times only the attempt that finished the cell (a cell
+        resumed after a kill shows a fraction) and grows with pauses and shared cores, so the cost is training's
+        seconds from curve.csv, summed over every attempt's kept rows (steps redone after a kill count once): CPU
+        seconds where the curve has them (how "cpu"), else each validation window's wall seconds ("windows"); plus
+        the evaluation's seconds. Falls back to wall_seconds ("attempt") where the curve or the evaluation time is
+        missing."""
+        if self.eval_seconds is not None:
+            cpu = self.cpu_seconds_to(self.steps)
+            if cpu is not None:
+                return cpu + self.eval_seconds, "cpu"
+            windows = self.training_seconds_to(self.steps)
+            if windows is not None:
+                return windows + self.eval_seconds, "windows"
+        return self.wall_seconds, "attempt"
 
     def _curve_sum_to(self, step, window):
         seconds, previous = 0.0, 0
@@ -240,7 +258,8 @@ def read_cell(path):
                 str(ident.get("variant", "base")), int(ident["demos"]), int(ident["subsample"]), int(ident["seed"]),
                 config, int(train["steps"]), int(ev.get("best_step", train.get("best_step"))),
                 int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
-                float(result.get("wall_seconds", float("nan"))), tasks, best_over, last[0] if last else None)
+                float(result.get("wall_seconds", float("nan"))), tasks, best_over, last[0] if last else None,
+                optional_float(ev.get("seconds")))
 
 
 def read_error(path):

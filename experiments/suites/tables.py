@@ -400,13 +400,20 @@ def checkpoint_rule_pairs(cells):
 
 
 def compute_table(cells):
-    """CPU time per grid and method: the finished cells' wall seconds (each cell runs on one thread), summed."""
-    by = {}
+    """CPU time per grid and method: each finished cell's cost (Cell.compute_seconds: training over every attempt from
+    curve.csv, plus evaluation; each cell runs on one thread), summed."""
+    by, hows = {}, {}
     for c in cells:
-        by.setdefault((c.grid or "-", c.set, c.label), []).append(c.wall_seconds)
+        seconds, how = c.compute_seconds()
+        by.setdefault((c.grid or "-", c.set, c.label), []).append(seconds)
+        hows[how] = hows.get(how, 0) + 1
     rows = [[grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}", f"{sum(seconds) / len(seconds) / 60:.1f}"]
             for (grid, set_name, label), seconds in sorted(by.items())]
-    total = sum(c.wall_seconds for c in cells if c.wall_seconds == c.wall_seconds)
+    total = sum(s for seconds in by.values() for s in seconds if s == s)
+    sources = {"cpu": "training's CPU seconds from curve.csv", "windows": "training's wall seconds per curve.csv window",
+               "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
+    counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
     return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell"], rows)
             + ["", f"In all: {total / 3600:.1f} CPU-hours over {len(cells)} finished cells (training, validation and"
-                   " evaluation; one thread each)."])
+                   " evaluation; one thread each). Training counts every attempt of a resumed cell (steps redone after"
+                   f" a kill once) and the evaluation its own seconds. Cells counted: {counted}."])

@@ -5,6 +5,7 @@ then a rerun equal to an uninterrupted run, damaged cells redone rather than tru
 merge of shards equal to a single run. Run by ctest as: suite_run_test.py path/to/maps (from a scratch folder: the
 tiny suite collects its own demo files under data/tiny/ of the working directory)."""
 import copy
+import csv
 import fcntl
 import json
 import os
@@ -196,11 +197,31 @@ class SuiteTest(unittest.TestCase):
             return float(line.split(" took ")[1].split("x")[0])
 
         first = pace(maps("suite", "status", out).stdout)
+        self.assertIn("; 0 timed by their last attempt's wall time)", maps("suite", "status", out).stdout)
+        # The cost is training's from curve.csv (every attempt) plus evaluation, not the finishing attempt's wall time
+        # (a resumed cell's last attempt, a paused one's pauses).
         for path in results[2:]:
             result = json.loads(path.read_text())
-            result["wall_seconds"] *= 2
+            result["wall_seconds"] *= 5
             path.write_text(json.dumps(result))
+        self.assertAlmostEqual(pace(maps("suite", "status", out).stdout), first, delta=0.011)
+        for path in results[2:]:
+            result = json.loads(path.read_text())
+            result["eval"]["seconds"] *= 2
+            path.write_text(json.dumps(result))
+            curve = path.parent / "curve.csv"
+            with curve.open() as f:
+                rows = list(csv.DictReader(f))
+            self.assertIn("cpu_seconds", rows[0])
+            with curve.open("w", newline="") as f:
+                writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+                writer.writeheader()
+                for row in rows:
+                    writer.writerow(dict(row, cpu_seconds=2 * float(row["cpu_seconds"])))
         self.assertAlmostEqual(pace(maps("suite", "status", out).stdout), 2 * first, delta=0.011)
+        # A cell whose curve cannot say (removed) is timed by its wall time, and the line counts it.
+        (results[2].parent / "curve.csv").unlink()
+        self.assertIn("; 1 timed by their last attempt's wall time)", maps("suite", "status", out).stdout)
         for path in results[2:-2]:
             path.unlink()
         self.assertNotIn("finished cells' pace", maps("suite", "status", out).stdout)  # 2 cells say too little

@@ -163,7 +163,7 @@ class Report(unittest.TestCase):
             self.assertEqual(reader.fieldnames, ["set", "method", "variant", "modules", "demos", "subsample", "seed",
                                                  "task", "score", "success", "success_at_end", "return_mean",
                                                  "return_unclipped_cost", "best_step", "steps",
-                                                 "wall_seconds", "grid", "cell"])
+                                                 "wall_seconds", "compute_seconds", "grid", "cell"])
             rows = list(reader)
         expected = expected_results()
         self.assertEqual(len(rows), len(expected))
@@ -302,14 +302,29 @@ class Report(unittest.TestCase):
         self.assertEqual(row[5], "**not measured**")
         self.assertIn("Rules: (1) holds:", found)
 
-    def test_compute_sums_the_cells_wall_time(self):
-        seconds = [json.loads(p.read_text())["wall_seconds"] for p in FIXTURE.glob("cells/*/*/result.json")]
+    def test_compute_sums_each_cells_training_and_evaluation(self):
+        # The fixture's costs (make_suite_small.py): MAPS 4 windows x 5 CPU s + 3 s of evaluation, the others 1000
+        # steps at 40 steps/s + 3 s, and the one cell without an evaluation time its wall_seconds.
+        results = {p.parent.relative_to(FIXTURE / "cells").as_posix(): json.loads(p.read_text())
+                   for p in FIXTURE.glob("cells/*/*/result.json")}
+        expected = {name: 23.0 if r["cell"]["method"] == "maps" else 28.0 for name, r in results.items()}
+        expected["mt10/single_bc_d5_s0"] = results["mt10/single_bc_d5_s0"]["wall_seconds"]
         compute = self.md[self.md.index("## Compute"):]
-        self.assertIn(f"In all: {sum(seconds) / 3600:.1f} CPU-hours over {len(seconds)} finished cells", compute)
+        self.assertIn(f"In all: {sum(expected.values()) / 3600:.1f} CPU-hours over {len(expected)} finished cells",
+                      compute)
+        maps_cells = sum(r["cell"]["method"] == "maps" for r in results.values())
+        self.assertIn(f"Cells counted: {maps_cells} by training's CPU seconds from curve.csv; {len(results) - maps_cells - 1}"
+                      " by training's wall seconds per curve.csv window; 1 by the finishing attempt's wall seconds", compute)
         row = row_of(compute, ["ablation", "mt10", "maps (no_explore)"])
-        ablation = [json.loads(p.read_text())["wall_seconds"] for p in FIXTURE.glob("cells/mt10/maps-no_explore*/result.json")]
+        ablation = [seconds for name, seconds in expected.items() if name.startswith("mt10/maps-no_explore")]
         self.assertEqual(row[3:], [str(len(ablation)), f"{sum(ablation) / 3600:.2f}",
                                    f"{sum(ablation) / len(ablation) / 60:.1f}"])
+        row = row_of(compute, ["comparison", "mt10", "single_bc"])
+        single = [seconds for name, seconds in expected.items() if name.startswith("mt10/single_bc_")]
+        self.assertEqual(row[4], f"{sum(single) / 3600:.2f}")
+        with (self.out / "results.csv").open() as f:
+            costs = {row["cell"]: float(row["compute_seconds"]) for row in csv.DictReader(f)}
+        self.assertEqual(costs, expected)
 
     def test_captions_say_n_and_the_score(self):
         self.assertIn("n = 1-2 seeds per point, 10 episodes per task, 1000 training steps", self.md)

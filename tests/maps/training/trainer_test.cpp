@@ -13,6 +13,7 @@
 #include "envs/portable_random.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/mt_bc.h"
+#include "maps/training/curve_cost.h"
 #include "maps/training/run_config.h"
 #include "nn/serialize.h"
 #include "tests/common/error_of.h"
@@ -204,6 +205,23 @@ TEST(Trainer, ResumingDropsCurveRowsPastTheCheckpointAndRowsCutShort) {
   // The rewrite went through a temporary that is gone.
   for (const auto& entry : fs::directory_iterator(dir))
     EXPECT_EQ(entry.path().filename().string().find("tmp"), std::string::npos) << entry.path();
+}
+
+TEST(Trainer, TheCurveCostsEveryAttemptOfAResumedRun) {
+  // 40 steps in one process, 20 more in the next: the curve's cost holds both, where the second process's clock has
+  // its own.
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  const fs::path dir = trained_40_of_60_steps(data, "curve_cost");
+  const auto first = curve_training_cost((dir / "curve.csv").string(), 40);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_TRUE(first->cpu);
+  EXPECT_GT(first->seconds, 0.0);
+  ASSERT_TRUE(train_policy(*small_maps(2), data, small_config(), dir.string(), nullptr).resumed);
+  const auto both = curve_training_cost((dir / "curve.csv").string(), 60);
+  ASSERT_TRUE(both.has_value());
+  EXPECT_GT(both->seconds, first->seconds);
+  // The resume kept the first attempt's rows as they were.
+  EXPECT_DOUBLE_EQ(curve_training_cost((dir / "curve.csv").string(), 40)->seconds, first->seconds);
 }
 
 TEST(Trainer, ResumingACurveWithoutTheCpuColumnKeepsItsColumns) {

@@ -1,0 +1,21 @@
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace maps::core {
+
+// A run's training cost as its curve.csv records it. The curve's rows survive resumes (a resumed run truncates it to
+// its checkpoint's step and appends), so they sum every attempt and count steps redone after a kill once, where a
+// process's own clock sees only its attempt and grows with pauses.
+struct CurveCost {
+  double seconds = 0.0;
+  bool cpu = false;  // the cpu_seconds column (process CPU time); false: each window's steps over its steps_per_second
+};
+
+// The cost of training up to `steps` from the curve at `curve_path`. std::nullopt when the file is missing or
+// unreadable, a window's time is not a positive number, or the rows do not end at `steps`.
+std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std::int64_t steps);
+
+}  // namespace maps::core

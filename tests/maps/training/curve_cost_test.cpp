@@ -1,0 +1,66 @@
+#include "maps/training/curve_cost.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace maps::core {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path curve_file(const std::string& name, const std::string& text) {
+  const fs::path path = fs::temp_directory_path() / ("maps_curve_cost_test_" + name + ".csv");
+  std::ofstream(path, std::ios::trunc) << text;
+  return path;
+}
+
+constexpr const char* kCpuCurve =
+    "step,bc,total,validation_bc,steps_per_second,cpu_seconds\n"
+    "20,1,1,0.5,10,2.5\n"
+    "40,1,1,0.4,10,3\n"
+    "60,1,1,0.3,10,4\n";
+
+TEST(CurveCost, SumsTheCpuColumnUpToTheStep) {
+  const auto cost = curve_training_cost(curve_file("cpu", kCpuCurve).string(), 60);
+  ASSERT_TRUE(cost.has_value());
+  EXPECT_TRUE(cost->cpu);
+  EXPECT_DOUBLE_EQ(cost->seconds, 9.5);
+  // Rows past the step are another budget's (a run extended later).
+  const auto first = curve_training_cost(curve_file("cpu", kCpuCurve).string(), 40);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_DOUBLE_EQ(first->seconds, 5.5);
+}
+
+TEST(CurveCost, WithoutTheCpuColumnEachWindowIsItsStepsOverItsSpeed) {
+  const auto cost = curve_training_cost(
+      curve_file("speed", "step,bc,total,validation_bc,steps_per_second\n20,1,1,0.5,10\n50,1,1,0.4,15\n").string(), 50);
+  ASSERT_TRUE(cost.has_value());
+  EXPECT_FALSE(cost->cpu);
+  EXPECT_DOUBLE_EQ(cost->seconds, 2.0 + 2.0);
+}
+
+TEST(CurveCost, ACurveWithWindowsLineEndingsReadsTheSame) {
+  std::string crlf;
+  for (const char c : std::string(kCpuCurve)) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  const auto cost = curve_training_cost(curve_file("crlf", crlf).string(), 60);
+  ASSERT_TRUE(cost.has_value());
+  EXPECT_DOUBLE_EQ(cost->seconds, 9.5);
+}
+
+TEST(CurveCost, ACurveThatCannotSayIsNoAnswer) {
+  EXPECT_FALSE(curve_training_cost("/nonexistent/curve.csv", 60).has_value());
+  EXPECT_FALSE(curve_training_cost(curve_file("empty", "").string(), 60).has_value());
+  // Ends before the step (an unfinished run), or between two rows.
+  EXPECT_FALSE(curve_training_cost(curve_file("short", kCpuCurve).string(), 80).has_value());
+  EXPECT_FALSE(curve_training_cost(curve_file("between", kCpuCurve).string(), 50).has_value());
+  const std::string header = "step,bc,total,validation_bc,steps_per_second,cpu_seconds\n";
+  EXPECT_FALSE(curve_training_cost(curve_file("zero", header + "20,1,1,0.5,10,0\n").string(), 20).has_value());
+  EXPECT_FALSE(curve_training_cost(curve_file("text", header + "20,1,1,0.5,10,x\n").string(), 20).has_value());
+  EXPECT_FALSE(curve_training_cost(curve_file("cut", header + "20,1,1,0.5\n").string(), 20).has_value());
+  EXPECT_FALSE(curve_training_cost(curve_file("no_time", "step,bc\n20,1\n").string(), 20).has_value());
+}
+
+}  // namespace
+}  // namespace maps::core
