@@ -3,17 +3,20 @@
 new_task grids): per (set, new task, method, demonstrations of the new task) the new task's score, mean +- 95% t
 interval over seeds; paired differences of transfer from each other method; the training cost (the best-validation
 step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside); and which modules the new
-task picks: its most used ones next to its named neighbour's in the source run, and how far its usage is (total
-variation) from the neighbour's and from every other trained task's.
+task picks: per seed its most used ones next to its named neighbour's in the source run, and how far its usage is
+(total variation) from the neighbour's, from every other trained task's and from the trained tasks' mean; per count how
+often the neighbour is the nearest trained task against chance.
 
     python3 experiments/suites/transfer_table.py results/transfer --out results/transfer/report
 
 writes OUT/transfer.md (the tables) and OUT/transfer_scores.png (score against demonstrations, per task). A
-damaged or stale result, a new-task cell whose evaluation lacks the new task, and a transfer cell whose source is not
-a finished cell are listed under "Cells left out" (and on stderr), not dropped silently."""
+damaged or stale result, a new-task cell whose evaluation lacks the new task, a transfer cell whose source is not
+a finished cell, and a transfer the module comparison cannot use are listed under "Cells left out" (and on stderr);
+failed and unfinished cells under "Cells not finished"; nothing is dropped silently."""
 import argparse
 import math
 import pathlib
+import statistics
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
@@ -87,11 +90,79 @@ def short(task):
     return task.rsplit("/", 1)[-1]
 
 
+def seconds_text(value):
+    """Seconds at a precision that keeps a short transfer's few seconds readable."""
+    return f"{value:.1f}" if value < 10 else f"{value:.0f}"
+
+
 def mean_of(values):
     """Mean of the values that are known, and how many there were; "-" when none."""
     known = [v for v in values if v is not None]
-    return (f"{mean(known):.0f}" + ("" if len(known) == len(values) else f" ({len(known)} of {len(values)})")
+    return (seconds_text(mean(known)) + ("" if len(known) == len(values) else f" ({len(known)} of {len(values)})")
             if known else "-")
+
+
+def steps_text(steps):
+    """The median best step and the range over seeds: a mean would blend seeds that kept the start (step 0) with
+    trained ones."""
+    median = statistics.median(steps)
+    return f"{median:.0f}" + (f" ({min(steps)}-{max(steps)})" if min(steps) != max(steps) else "")
+
+
+def seeds_text(seeds):
+    return ", ".join(str(s) for s in sorted(seeds))
+
+
+def not_finished_lines(suite):
+    """Failed cells with their error; unfinished ones (no result, no error) counted per grid, named when few."""
+    lines = []
+    if suite.failed:
+        lines += [f"{len(suite.failed)} failed (a rerun of the suite retries them):", ""]
+        lines += [f"- `{name}`: {stage}: {message}" for name, stage, message in sorted(suite.failed)]
+        lines.append("")
+    if suite.missing:
+        grid_of = {ident.get("name"): ident.get("grid", "-") for ident in suite.planned if isinstance(ident, dict)}
+        by_grid = {}
+        for name in suite.missing:
+            by_grid.setdefault(grid_of.get(name, "-"), []).append(name)
+        lines += [f"{len(suite.missing)} not run or still running (no result.json, no error.json):", ""]
+        for grid, names in sorted(by_grid.items()):
+            lines.append(f"- grid {grid}: {len(names)}" + (": " + ", ".join(f"`{n}`" for n in sorted(names))
+                                                          if len(names) <= 10 else ""))
+        lines.append("")
+    return lines
+
+
+def module_rows(cells, task, neighbour, by_folder, left_out):
+    """Per transfer cell of one (method, count): (cell, kept the start, the new task's usage, the neighbour's in the
+    source run, TV to each trained task, TV to the trained tasks' mean). Cells that cannot be compared go to
+    left_out with the reason."""
+    rows = []
+    for cell in cells:
+        mine = next((t.usage for t in cell.tasks if t.task == task), None)
+        source = source_of(cell, by_folder)
+        trained = {t.task: t.usage for t in source.tasks if t.usage} if source else {}
+        if not mine:
+            left_out.append((str(cell.folder), "its evaluation has no module usage for the new task: left out of the "
+                             "module comparison"))
+            continue
+        if source is None:
+            continue  # already named: its source is not a finished cell
+        if neighbour not in trained:
+            left_out.append((str(cell.folder), f"its source run has no module usage for the neighbour {neighbour}: "
+                             "left out of the module comparison"))
+            continue
+        if any(len(u) != len(mine) for u in trained.values()):
+            left_out.append((str(cell.folder), f"its usage is over {len(mine)} modules, its source run's over"
+                             f" {len(trained[neighbour])}: left out of the module comparison"))
+            continue
+        center = [statistics.mean(column) for column in zip(*trained.values())]
+        distance = {t: total_variation(mine, u) for t, u in trained.items()}
+        between = [total_variation(trained[a], trained[b]) for i, a in enumerate(sorted(trained))
+                   for b in sorted(trained)[i + 1:]]
+        rows.append((cell, cell.best_step == 0, mine, trained[neighbour], distance, total_variation(mine, center),
+                     between))
+    return rows
 
 
 def main():
@@ -127,14 +198,15 @@ def main():
         sys.exit(f"transfer_table: {args.suite} has no finished new-task cells (grids with new_task)")
 
     lines = ["# Transfer: a new task from few demonstrations", "",
-             f"Suite folder `{args.suite}`. The new task's score (HalfCheetah: return / its demonstrations' mean "
-             "return, floored at 0; MT10: success at any step), mean +- 95% t interval over seeds.", ""]
+             f"Suite folder `{args.suite}`. The new task's score (HalfCheetah: return / the mean return of all of the "
+             "new task's demonstrations in the demo file, not only the ones trained on, floored at 0; MT10: success at "
+             "any step), mean +- 95% t interval over seeds, (n) seeds.", ""]
     tasks = sorted({(s, t) for s, t, _, _ in rows})
     figure_data = {}
     for set_name, task in tasks:
         methods = ordered({m for s, t, m, _ in rows if (s, t) == (set_name, task)})
         counts = sorted({d for s, t, _, d in rows if (s, t) == (set_name, task)})
-        lines += [f"## {task}", "", "| method | " + " | ".join(f"{d} demos" for d in counts) + " |",
+        lines += [f"## {task}", "", "| method | " + " | ".join(f"{d} demo{'s' if d != 1 else ''}" for d in counts) + " |",
                   "|---|" + "---|" * len(counts)]
         for method in methods:
             cells_at = [rows.get((set_name, task, method, d), []) for d in counts]
@@ -143,9 +215,18 @@ def main():
                 + " |")
             figure_data[(task, method)] = [(d, [score_of(c, task) for c in cells]) for d, cells in zip(counts, cells_at)
                                            if cells]
+        for d in counts:
+            seeds = {m: {c.seed for c in rows.get((set_name, task, m, d), [])} for m in methods}
+            if len({frozenset(v) for v in seeds.values()}) > 1:
+                lines += ["", f"At {d} demonstration{'s' if d != 1 else ''} the methods ran different seeds ("
+                          + "; ".join(f"{name_of(m)}: {seeds_text(v) or 'none'}" for m, v in seeds.items())
+                          + "): the means above are over different seeds; the paired differences below use the seeds "
+                          "both ran."]
         transfers = [m for m in methods if base_of(m) == "transfer"]
         lines += ["", "Paired differences, transfer - method, over the seeds both ran (p: paired t test; Holm over "
-                      "one transfer's comparisons with the other methods of this task):", "",
+                      "one transfer's comparisons with the other methods of this task; the tuned transfer against the "
+                      "frozen one is not adjusted, and nothing is adjusted across the two families; p 0.000 where "
+                      "every pair differs by the same amount, which a t test cannot weigh):", "",
                   "| transfer | method | demos | pairs | difference | p | p (Holm) |", "|---|---|---|---|---|---|---|"]
         for transfer in transfers:
             comparisons = []
@@ -171,7 +252,8 @@ def main():
         cpu = bool(every) and all(c.cpu_seconds_to(c.steps) is not None for c in every)
         clock = (lambda c, step: c.cpu_seconds_to(step)) if cpu else (lambda c, step: c.training_seconds_to(step))
         unit = "CPU seconds" if cpu else "seconds"
-        lines += ["", f"Training cost, mean over seeds: the best-validation step, the {unit} of training to reach it "
+        lines += ["", f"Training cost: the best-validation step (median over seeds, range), the mean {unit} of training "
+                      "to reach it "
                       "and of the whole training (" + ("curve.csv's CPU time per validation window, which other work "
                       "on the cores does not inflate" if cpu else "curve.csv's speed per validation window, wall "
                       "time: inflated when other work shared the cores") + "; validation included, evaluation not; "
@@ -186,46 +268,71 @@ def main():
                 if cells:
                     kept = (f"{sum(c.best_step == 0 for c in cells)} of {len(cells)}"
                             if base_of(method) == "transfer" else "-")
-                    lines.append(f"| {name_of(method)} | {d} | {mean([c.best_step for c in cells]):.0f} | {kept} | "
+                    lines.append(f"| {name_of(method)} | {d} | {steps_text([c.best_step for c in cells])} | {kept} | "
                                  f"{mean_of([clock(c, c.best_step) for c in cells])} | "
                                  f"{mean_of([clock(c, c.steps) for c in cells])} |")
         held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts
                                            for cell in rows.get((set_name, task, m, d), [])) if c}.values())
         if held:
             lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
-                          f"at {held[0].demos} demonstrations): best step {mean([c.best_step for c in held]):.0f}, "
+                          f"at {held[0].demos} demonstrations): best step {steps_text([c.best_step for c in held])}, "
                           f"{mean_of([clock(c, c.best_step) for c in held])} {unit} to it, "
                           f"{mean_of([clock(c, c.steps) for c in held])} of training; one such run per "
                           "seed serves every count of the new task."]
         neighbour = NEIGHBOUR.get(task)
-        usage_lines = []
+        if neighbour is None and transfers:
+            left_out.append((f"{set_name}/{task}", "no neighbour is named for this task (NEIGHBOUR in "
+                             "transfer_table.py): no module comparison"))
+        per_seed, summary = [], []
         for method, d in ((m, d) for m in transfers for d in counts):
-            for cell in rows.get((set_name, task, method, d), []):
-                mine = next((t.usage for t in cell.tasks if t.task == task), None)
-                source = source_of(cell, by_folder)
-                trained = {t.task: t.usage for t in source.tasks if t.usage} if source else {}
-                if not mine or neighbour not in trained:
-                    continue
-                if any(len(u) != len(mine) for u in trained.values()):
-                    left_out.append((str(cell.folder), f"its usage is over {len(mine)} modules, its source run's over"
-                                     f" {len(trained[neighbour])}: left out of the module comparison"))
-                    continue
-                distance = {t: total_variation(mine, u) for t, u in trained.items()}
+            if neighbour is None:
+                break
+            compared = module_rows(rows.get((set_name, task, method, d), []), task, neighbour, by_folder, left_out)
+            for cell, kept, mine, theirs, distance, to_center, _ in sorted(compared, key=lambda r: r[0].seed):
                 nearest = min(distance, key=distance.get)
                 others = [v for t, v in distance.items() if t != neighbour]
-                usage_lines.append(
-                    f"| {name_of(method)} | {d} | {cell.seed} | {top_modules(mine)} | {top_modules(trained[neighbour])} | "
-                    f"{distance[neighbour]:.2f} | " + (f"{min(others):.2f}-{max(others):.2f}" if others else "-") +
-                    f" | {short(nearest)} ({distance[nearest]:.2f}) |")
-        if usage_lines:
-            lines += ["", f"Modules: the new task's most used modules after transfer and those {neighbour} used in the "
-                          "source run (the same modules: the numbering is the source run's); the total-variation "
-                          "distance of the new task's usage from the neighbour's and from the other trained tasks' "
-                          "(0: the same mixture; 1: no module in common); the trained task whose usage is nearest:",
-                      "", "| method | demos | seed | new task | neighbour in the source run | TV to the neighbour | "
-                          "TV to the others | nearest trained task (TV) |", "|---|---|---|---|---|---|---|---|"]
-            lines += usage_lines
+                per_seed.append(
+                    f"| {name_of(method)} | {d} | {cell.seed}{' (start)' if kept else ''} | {top_modules(mine)} | "
+                    f"{top_modules(theirs)} | {distance[neighbour]:.2f} | "
+                    + (f"{min(others):.2f}-{max(others):.2f}" if others else "-")
+                    + f" | {to_center:.2f} | {short(nearest)} ({distance[nearest]:.2f}) |")
+            trained_rows = [r for r in compared if not r[1]]
+            if compared:
+                nearest_is_neighbour = sum(min(r[4], key=r[4].get) == neighbour for r in trained_rows)
+                others_median = [statistics.median([v for t, v in r[4].items() if t != neighbour]) for r in trained_rows
+                                 if len(r[4]) > 1]
+                between = [statistics.median(r[6]) for r in trained_rows if r[6]]
+                chance = len(compared[0][4])
+                summary.append(
+                    f"| {name_of(method)} | {d} | {len(trained_rows)} of {len(compared)} | "
+                    + (f"{nearest_is_neighbour} of {len(trained_rows)} (chance 1/{chance}) | "
+                       f"{mean([r[4][neighbour] for r in trained_rows]):.2f} | "
+                       + (f"{mean(others_median):.2f}" if others_median else "-") + " | "
+                       f"{mean([r[5] for r in trained_rows]):.2f} | " + (f"{mean(between):.2f}" if between else "-")
+                       if trained_rows else "- | - | - | - | -") + " |")
+        if summary:
+            lines += ["", f"Modules: does the new task route like its neighbour {neighbour}? Total-variation distance "
+                          "(TV: 0 the same mixture of modules, 1 none in common) of the new task's module usage after "
+                          "transfer from each trained task's usage in the source run (the same modules: the numbering "
+                          "is the source run's). The new task's selector column starts as the mean of the trained "
+                          "tasks' columns, so a seed whose best checkpoint is the start (step 0) shows that starting "
+                          "point, not a choice: those seeds are left out of this summary (means over the rest). For "
+                          "scale: TV to the trained tasks' mean usage, and the trained tasks' TV from one another in "
+                          "the source run (median over pairs). Chance is 1 over the number of trained tasks.", "",
+                      "| method | demos | seeds trained | neighbour is the nearest task | TV to the neighbour | TV to "
+                      "the other tasks (median) | TV to the tasks' mean | TV between trained tasks |",
+                      "|---|---|---|---|---|---|---|---|"]
+            lines += summary
+            lines += ["", "Per seed: the new task's three most used modules and the neighbour's in the source run; "
+                          "\"(start)\": the seed kept the starting policy.", "",
+                      "| method | demos | seed | new task | neighbour in the source run | TV to the neighbour | "
+                      "TV to the others | TV to the tasks' mean | nearest trained task (TV) |",
+                      "|---|---|---|---|---|---|---|---|---|"]
+            lines += per_seed
         lines.append("")
+    unfinished = not_finished_lines(suite)
+    if unfinished:
+        lines += ["## Cells not finished", "", "The tables above count finished cells only.", ""] + unfinished
     if left_out:
         lines += ["## Cells left out", "", f"{len(left_out)} result(s) not counted above, or counted in part:", ""]
         lines += [f"- `{path}`: {reason}" for path, reason in left_out]

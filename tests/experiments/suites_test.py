@@ -24,6 +24,7 @@ sys.path.insert(0, str(SUITES))
 sys.path.insert(0, str(FIXTURE.parent))
 
 import suite_stats  # noqa: E402
+from markdown_rows import rows_of  # noqa: E402
 
 FIGURES = ["fig2_scores", "fig2_tasks_gravity", "fig2_tasks_mt10", "fig3_vs_single_bc", "fig4_ablations",
            "fig5_modules_heatmap", "fig6_module_usage", "validation"]
@@ -101,16 +102,6 @@ def run_report(*args, env_prelude=None):
                    f"import report\nsys.exit(report.main({[str(a) for a in args]!r}))"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     return done.returncode, done.stdout, done.stderr
-
-
-def rows_of(text, first_cells):
-    """The cells of every Markdown table row of `text` starting with first_cells."""
-    found = []
-    for line in text.splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if line.startswith("|") and cells[:len(first_cells)] == first_cells:
-            found.append(cells)
-    return found
 
 
 def row_of(text, first_cells):

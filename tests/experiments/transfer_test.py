@@ -185,10 +185,10 @@ class Transfer(unittest.TestCase):
                                  r"\(not adjusted\) \|")
         # The cost from the curves: seconds to the best step and of training, numbers for every cell; the source
         # run's beside.
-        self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| [01] of 1 \| \d+ \| \d+ \|")
-        self.assertRegex(report, r"\| MT-BC \(all tasks\) \| 1 \| \d+ \| - \| \d+ \| \d+ \|")
+        self.assertRegex(report, r"\| MAPS transfer \| 1 \| \d+ \| [01] of 1 \| [0-9.]+ \| [0-9.]+ \|")
+        self.assertRegex(report, r"\| MT-BC \(all tasks\) \| 1 \| \d+ \| - \| [0-9.]+ \| [0-9.]+ \|")
         self.assertRegex(report, r"MAPS transfer starts from a run without reach \(1 seeds, the other tasks at 2 "
-                                 r"demonstrations\): best step \d+, \d+ CPU seconds to it, \d+ of training")
+                                 r"demonstrations\): best step \d+, [0-9.]+ CPU seconds to it, [0-9.]+ of training")
         self.assertTrue((work() / "suite" / "report" / "transfer_scores.png").stat().st_size > 10000)
         for cell in ("transfer-new-reach_d2_s0", "mt_bc-new-reach_d2_s0"):
             result = json.loads((cells / cell / "result.json").read_text())

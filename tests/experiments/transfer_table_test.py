@@ -1,0 +1,176 @@
+#!/usr/bin/python3
+"""Tests of issue 17's tables (experiments/suites/transfer_table.py) on a suite folder written here with chosen scores,
+module usage, best steps and curves, so that every number the report prints is known: means and intervals over seeds,
+paired differences with Holm, the cost from curve.csv, the module comparison against the neighbour and chance, and the
+failed, unfinished and left-out cells. Run by ctest (tests/CMakeLists.txt)."""
+import json
+import pathlib
+import subprocess
+import sys
+import tempfile
+import unittest
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from markdown_rows import rows_of  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "experiments" / "suites" / "transfer_table.py"
+
+TASK = "gravity/0.5"  # held out; transfer_table.NEIGHBOUR names gravity/0.75
+TRAINED = {"gravity/0.75": [0.8, 0.1, 0.1], "gravity/1.0": [0.1, 0.8, 0.1], "gravity/1.25": [0.1, 0.1, 0.8]}
+# (method, demos, seed) -> (score of the new task, best step, the new task's module usage or None); None: failed.
+CELLS = {
+    ("transfer", 1, 0): (0.5, 0, [0.7, 0.2, 0.1]),  # kept the start
+    ("transfer", 1, 1): (0.6, 400, [0.6, 0.3, 0.1]),
+    ("transfer", 1, 2): (0.7, 800, [0.2, 0.7, 0.1]),
+    ("transfer", 2, 0): (0.8, 1000, [0.9, 0.05, 0.05]),
+    ("transfer", 2, 1): (0.9, 1400, [0.8, 0.1, 0.1]),
+    # ("transfer", 2, 2) is planned and has not run.
+    ("single_bc", 1, 0): (0.3, 600, None),
+    ("single_bc", 1, 1): (0.5, 1000, None),
+    ("single_bc", 1, 2): None,
+    ("single_bc", 2, 0): (0.5, 2000, None),
+    ("single_bc", 2, 1): (0.6, 2000, None),
+    ("single_bc", 2, 2): (0.7, 2000, None),
+}
+NEW_STEPS = 2000  # every new-task cell: validation every 200 steps, 0.5 CPU seconds per window
+SOURCE_STEPS = 20000  # every source: validation every 5000 steps, 100 CPU seconds per window, best at 5000
+
+
+def curve(steps, every, cpu):
+    rows = ["step,bc,total,validation_bc,steps_per_second,cpu_seconds"]
+    rows += [f"{s},0.1,0.1,0.05,100,{cpu}" for s in range(every, steps + 1, every)]
+    return "\n".join(rows) + "\n"
+
+
+def identity(method, variant, demos, seed, grid):
+    folder = f"{method}-{variant}_d{demos}_s{seed}"
+    return {"name": f"gravity/{folder}", "grid": grid, "set": "gravity", "method": method, "variant": variant,
+            "demos": demos, "subsample": 10, "seed": seed}
+
+
+def task_entry(task, score, usage):
+    entry = {"task": task, "episodes": 10, "score": score, "success_rate": 0.0, "return_mean": 1000.0 * score}
+    if usage is not None:
+        entry["module_usage"] = usage
+    return entry
+
+
+def write_cell(root, ident, config, steps, best_step, tasks, curve_text):
+    folder = root / "cells" / ident["name"]
+    folder.mkdir(parents=True)
+    (folder / "curve.csv").write_text(curve_text)
+    result = {"format": "maps-suite-cell/1", "cell": ident, "config": config,
+              "train": {"steps": steps, "best_step": best_step},
+              "eval": {"best_step": best_step, "episodes": 10, "seconds": 1.0, "tasks": tasks},
+              "wall_seconds": 1.0, "threads": 1, "host": "fixture", "finished": "2026-01-01T00:00:00Z"}
+    (folder / "result.json").write_text(json.dumps(result))
+
+
+def write_suite(root):
+    planned = []
+    for seed in range(3):
+        ident = identity("maps", "without-0.5", 10, seed, "holdout")
+        planned.append(ident)
+        write_cell(root, ident, {"method": "maps", "data": {"tasks": list(TRAINED)}}, SOURCE_STEPS, 5000,
+                   [task_entry(t, 0.9, u) for t, u in TRAINED.items()], curve(SOURCE_STEPS, 5000, 100))
+    for (method, demos, seed), outcome in CELLS.items():
+        ident = identity(method, "new-0.5", demos, seed, "new_task_gravity")
+        planned.append(ident)
+        config = {"method": method, "data": {"task_demos": {TASK: demos}}}
+        if method == "transfer":
+            config["init"] = {"run": f"../maps-without-0.5_d10_s{seed}"}
+        if outcome is None:
+            folder = root / "cells" / ident["name"]
+            folder.mkdir(parents=True)
+            (folder / "error.json").write_text(json.dumps({"stage": "train", "error": "loss is nan at step 250"}))
+            continue
+        score, best_step, usage = outcome
+        write_cell(root, ident, config, NEW_STEPS, best_step, [task_entry(TASK, score, usage)],
+                   curve(NEW_STEPS, 200, 0.5))
+    planned.append(identity("transfer", "new-0.5", 2, 2, "new_task_gravity"))
+    (root / "suite.json").write_text(json.dumps({"format": "maps-suite/1", "config": {}, "cells": planned}))
+
+
+class TransferTableTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        root = pathlib.Path(cls.tmp.name) / "suite"
+        write_suite(root)
+        cls.out = pathlib.Path(cls.tmp.name) / "report"
+        cls.proc = subprocess.run([sys.executable, str(SCRIPT), str(root), "--out", str(cls.out)],
+                                  capture_output=True, text=True)
+        cls.md = (cls.out / "transfer.md").read_text() if cls.proc.returncode == 0 else ""
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_runs_and_draws(self):
+        self.assertEqual(self.proc.returncode, 0, self.proc.stderr)
+        self.assertGreater((self.out / "transfer_scores.png").stat().st_size, 10000)
+
+    def test_scores_are_the_new_tasks_mean_and_t_interval_over_seeds(self):
+        self.assertIn("| method | 1 demo | 2 demos |", self.md)
+        # 0.5, 0.6, 0.7: t(2) 4.303 x 0.1 / sqrt(3) = 0.25; 0.8, 0.9: t(1) 12.706 x 0.0707 / sqrt(2) = 0.64.
+        self.assertEqual(rows_of(self.md, ["MAPS transfer"])[0], ["MAPS transfer", "0.60 +- 0.25 (3)",
+                                                                  "0.85 +- 0.64 (2)"])
+        self.assertEqual(rows_of(self.md, ["Single BC (new task alone)"])[0],
+                         ["Single BC (new task alone)", "0.40 +- 1.27 (2)", "0.60 +- 0.25 (3)"])
+
+    def test_different_seed_sets_are_said(self):
+        self.assertIn("At 1 demonstration the methods ran different seeds (MAPS transfer: 0, 1, 2; Single BC (new task "
+                      "alone): 0, 1)", self.md)
+        self.assertIn("At 2 demonstrations the methods ran different seeds (MAPS transfer: 0, 1; Single BC (new task "
+                      "alone): 0, 1, 2)", self.md)
+
+    def test_paired_differences_use_the_seeds_both_ran_with_holm(self):
+        rows = rows_of(self.md, ["MAPS transfer", "Single BC (new task alone)"])
+        # 1 demo, seeds 0-1: +0.2, +0.1: t = 3 on 1 df, p = 0.205; 2 demos, seeds 0-1: +0.3 twice: no spread, p 0.
+        # Holm over the two: 0 x 2, then max(0, 0.205 x 1).
+        self.assertEqual(rows, [["MAPS transfer", "Single BC (new task alone)", "1", "2", "+0.15 +- 0.64", "0.205",
+                                 "0.205"],
+                                ["MAPS transfer", "Single BC (new task alone)", "2", "2", "+0.30 +- 0.00", "0.000",
+                                 "0.000"]])
+
+    def test_cost_is_the_median_best_step_and_the_curves_cpu_seconds(self):
+        # Transfer at 1 demo: best steps 0, 400, 800 (0.5 CPU s per 200 steps: 0, 1, 2 s); 2000 steps: 5 s.
+        cost = self.md[self.md.index("Training cost"):self.md.index("MAPS transfer starts")]
+        self.assertEqual(rows_of(cost, ["MAPS transfer", "1"])[0],
+                         ["MAPS transfer", "1", "400 (0-800)", "1 of 3", "1.0", "5.0"])
+        self.assertEqual(rows_of(cost, ["MAPS transfer", "2"])[0],
+                         ["MAPS transfer", "2", "1200 (1000-1400)", "0 of 2", "3.0", "5.0"])
+        self.assertEqual(rows_of(cost, ["Single BC (new task alone)", "1"])[0],
+                         ["Single BC (new task alone)", "1", "800 (600-1000)", "-", "2.0", "5.0"])
+        self.assertEqual(rows_of(cost, ["Single BC (new task alone)", "2"])[0],
+                         ["Single BC (new task alone)", "2", "2000", "-", "5.0", "5.0"])
+        self.assertIn("MAPS transfer starts from a run without 0.5 (3 seeds, the other tasks at 10 demonstrations): "
+                      "best step 5000, 100 CPU seconds to it, 400 of training", self.md)
+
+    def test_module_summary_leaves_out_seeds_that_kept_the_start_and_gives_chance(self):
+        summary = rows_of(self.md, ["MAPS transfer", "1", "2 of 3"])
+        # Seed 1: TV 0.2 to 0.75 (nearest), 0.5 and 0.7 to the others, 0.27 to the mean; seed 2: 0.6, nearest 1.0
+        # (0.1), others 0.1 and 0.7, 0.37 to the mean. The trained tasks are 0.7 apart.
+        self.assertEqual(summary, [["MAPS transfer", "1", "2 of 3", "1 of 2 (chance 1/3)", "0.40", "0.50", "0.32",
+                                    "0.70"]])
+        self.assertEqual(rows_of(self.md, ["MAPS transfer", "2", "2 of 2"]),
+                         [["MAPS transfer", "2", "2 of 2", "2 of 2 (chance 1/3)", "0.05", "0.75", "0.52", "0.70"]])
+
+    def test_module_rows_per_seed_mark_the_start(self):
+        self.assertEqual(rows_of(self.md, ["MAPS transfer", "1", "0 (start)"]),
+                         [["MAPS transfer", "1", "0 (start)", "m0 (0.70), m1 (0.20), m2 (0.10)",
+                           "m0 (0.80), m1 (0.10), m2 (0.10)", "0.10", "0.60-0.70", "0.37", "0.75 (0.10)"]])
+        self.assertEqual(rows_of(self.md, ["MAPS transfer", "1", "2"]),
+                         [["MAPS transfer", "1", "2", "m1 (0.70), m0 (0.20), m2 (0.10)",
+                           "m0 (0.80), m1 (0.10), m2 (0.10)", "0.60", "0.10-0.70", "0.37", "1.0 (0.10)"]])
+
+    def test_failed_and_unfinished_cells_are_named(self):
+        finished = self.md[self.md.index("## Cells not finished"):]
+        self.assertIn("- `gravity/single_bc-new-0.5_d1_s2`: train: loss is nan at step 250", finished)
+        self.assertIn("- grid new_task_gravity: 1: `gravity/transfer-new-0.5_d2_s2`", finished)
+
+
+if __name__ == "__main__":
+    unittest.main()
