@@ -432,23 +432,33 @@ def zoo_routing(cells, out):
         runs = sorted((c for c in runs if c.demos == demos), key=lambda c: c.seed)
         panels.append((method, demos, runs[0]))
     tasks = task_names(mine)
-    fig, axes = plt.subplots(1, len(panels), figsize=(2.0 + 2.2 * len(panels), 0.32 * len(tasks) + 2.2),
-                             squeeze=False)
+    usages = [np.array([next(t.usage for t in run.tasks if t.task == task) for task in tasks]) for _, _, run in panels]
+    # One colour scale for every panel: usage over the uniform share (usage x the method's M; 1: uniform), since
+    # methods with 4 modules and with 10 reach different shares.
+    # Capped at 4x: past it a module carries the task either way, and the cap keeps 1.5-2x (a module used) visible.
+    relative = [u * u.shape[1] for u in usages]
+    norm = matplotlib.colors.TwoSlopeNorm(vmin=0.0, vcenter=1.0, vmax=4.0)
+    fig, axes = plt.subplots(1, len(panels), figsize=(2.4 + 2.2 * len(panels), 0.32 * len(tasks) + 2.6),
+                             squeeze=False, layout="constrained")
     rows = []
-    for ax, (method, demos, run) in zip(axes[0], panels):
-        usage = np.array([next(t.usage for t in run.tasks if t.task == task) for task in tasks])
-        image = ax.imshow(usage, vmin=0.0, vmax=max(0.5, float(usage.max())), cmap="viridis", aspect="auto")
+    for ax, (method, demos, run), usage, scaled in zip(axes[0], panels, usages, relative):
+        image = ax.imshow(scaled, norm=norm, cmap="RdBu_r", aspect="auto")
         ax.set_title(f"{name(method)}\n{demos} demos, seed {run.seed}", fontsize=9)
-        ax.set_xticks(range(usage.shape[1]), [str(m) for m in range(usage.shape[1])], fontsize=7)
-        ax.set_xlabel("module")
+        per_layer = int(run.config.get("soft_modularization", {}).get("modules", 0)) if method == \
+            "soft_modularization" else 0
+        ticks = ([f"{m // per_layer}.{m % per_layer}" for m in range(usage.shape[1])] if per_layer
+                 else [str(m) for m in range(usage.shape[1])])
+        ax.set_xticks(range(usage.shape[1]), ticks, fontsize=6 if usage.shape[1] > 10 else 7,
+                      rotation=90 if per_layer else 0)
+        ax.set_xlabel("layer.module" if per_layer else "module")
         ax.set_yticks(range(len(tasks)), [short_task(t) for t in tasks] if ax is axes[0, 0] else [], fontsize=8)
-        fig.colorbar(image, ax=ax, fraction=0.08, pad=0.03)
         for task, values in zip(tasks, usage):
             rows += [[set_name, method, demos, run.seed, task, m, float(u)] for m, u in enumerate(values)]
+    fig.colorbar(image, ax=list(axes[0]), fraction=0.03, pad=0.02, extend="max",
+                 label="usage / uniform share (1: uniform; 4: 4x or more)")
     fig.suptitle(f"Module usage per task on {set_name}, each routing method (one seed): MAPS's selector scores,\n"
                  "MOORE's and PaCo's task-weight shares, the CARE-style attention, the top-k gates, Soft"
-                 " Modularization's per-layer use", fontsize=9)
-    fig.tight_layout()
+                 " Modularization's per-layer use; red above the uniform share, blue below", fontsize=9)
     save(fig, out, "zoo_routing.png")
     write_csv(out / "zoo_routing.csv", ["set", "method", "demos", "seed", "task", "module", "usage"], rows)
     return [Figure("zoo_routing.png", f"Module usage per task on {set_name} for every method that routes, each at its"
@@ -456,7 +466,9 @@ def zoo_routing(cells, out):
                    " seeds): a column used by every task is a shared module, one used by few tasks a specific one."
                    " Usage is what each method records (docs/zoo.md): MAPS's mean selector score, MOORE's and PaCo's"
                    " |w| shares (constant within a task), the mean CARE-style attention, the mean top-k gate, Soft"
-                   " Modularization's mean per-layer use (modules layer-major).")]
+                   " Modularization's mean per-layer use (columns layer.module). Colours are usage over the uniform"
+                   " share (usage x the method's module count; red above 1, blue below, the darkest red 4x or more),"
+                   " one scale for every panel; zoo_routing.csv has the usage itself.")]
 
 
 def log_ticks(ax):

@@ -7,21 +7,25 @@ For every grid of the config that runs none of --seeds, and every (set, demos) o
 than MAPS is paired with MAPS over the seeds both finished (MAPS of the same grid where the grid has it, else base
 MAPS at that set and count, as report.md pairs a variant). A method gets more seeds where the 95% interval of its
 paired difference includes 0, or where fewer than 2 pairs finished. MAPS gets them too wherever a method it pairs
-with does.
+with does. A grid's cells are the ones suite.json plans for it (a result copied from another suite may name that
+suite's grid), and a method is judged once its own cells and its MAPS partner's have finished (a failed cell holds
+back its method only).
 
 Without --write it prints the settings and the grids it would add. With --write it appends those grids to the config,
-named <grid>_seeds_<a>_<b>, so `maps suite run` runs them after everything else. A grid of that name already in the
-config is not added again. The pairing is the report's (suite_stats.paired, significance); a setting whose cells
+named <grid>_seeds_<a>_<b> (with _1, _2, ... where one grid's new cells need several: a grid is a product of sets,
+methods and counts, and only the cells asked for are added), so `maps suite run` runs them after everything else. A
+grid that has such grids in the config already is not judged again. The pairing is the report's (suite_stats.paired, significance); a method whose cells
 have not all finished is listed as not ready and gets nothing, so run this when the first seeds are done."""
 import argparse
 import copy
 import json
 import pathlib
+import re
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, load_suite, maps_partner  # noqa: E402
+from suite_results import SuiteError, is_keep_only, label, load_suite, maps_partner  # noqa: E402
 from suite_stats import fmt, paired, significance  # noqa: E402
 
 
@@ -48,11 +52,19 @@ def cell_names(set_name, method, variants, demos, seeds):
             for v in (variants or [None]) for seed in seeds}
 
 
+def planned_label(ident):
+    """The label a planned cell's result will have: a keep-only variant of a setting without base cells stands for
+    the base (suite_results.stands_for_base), so its MAPS is the base MAPS partner."""
+    method, variant = str(ident.get("method", "")), str(ident.get("variant", "base") or "base")
+    return method if variant == "base" or is_keep_only(variant) else label(method, variant)
+
+
 def decide(suite, config, new_seeds):
     """(lines to print, grids to add)."""
-    finished = {c.name for c in suite.cells}
+    finished = {c.name: c for c in suite.cells}
     planned = planned_names(suite)
     everywhere = set().union(*planned.values()) if planned else set()
+    idents = [i for i in suite.planned if isinstance(i, dict)]
     maps_by = {}  # (set, demos, label) -> MAPS cells, label "maps" or "maps (variant)"
     for c in suite.cells:
         if c.method == "maps":
@@ -61,37 +73,47 @@ def decide(suite, config, new_seeds):
     needs_maps = set()  # (set, demos, variant or None): a MAPS reference from another grid needs the new seeds
     for grid in config.get("grids", []):
         name = grid.get("name", "")
-        if set(new_seeds) & set(grid.get("seeds", [])) or name.endswith("_seeds_" + "_".join(map(str, new_seeds))):
+        if set(new_seeds) & set(grid.get("seeds", [])) or re.search(r"_seeds_" + "_".join(map(str, new_seeds)) + r"(_\d+)?$", name):
             continue  # it runs (some of) those seeds already, or it is a grid this tool added
-        mine = [c for c in suite.cells if c.grid == name]
         for set_name in grid.get("sets", []):
             for demos in grid_demos(config, grid, set_name):
-                here = [c for c in mine if c.set == set_name and c.demos == demos]
-                unfinished = sorted(n for n in planned.get(name, ()) if n not in finished
-                                    and n.startswith(set_name + "/") and f"_d{demos}_" in n)
-                if unfinished:
-                    lines.append(f"- {name}, {set_name} at {demos}: not ready ({len(unfinished)} cells not finished"
-                                 f" (failed or to run), e.g. {unfinished[0]})")
-                    continue
-                by_label = {}
-                for c in here:
-                    by_label.setdefault(c.label, []).append(c)
+                # The grid's cells by the names suite.json plans for it (a result copied from another suite may
+                # name another grid), per method and variant.
+                mine = {}
+                for ident in idents:
+                    if ident.get("grid") == name and ident.get("set") == set_name and ident.get("demos") == demos:
+                        key = (str(ident.get("method", "")), str(ident.get("variant", "base") or "base"))
+                        mine.setdefault(key, []).append(str(ident.get("name", "")))
                 in_grid = "maps" in grid.get("methods", [])
-                for label, cells in sorted(by_label.items()):
-                    if cells[0].method == "maps":
+                for (method, variant_name), names in sorted(mine.items()):
+                    if method == "maps":
                         continue
-                    variant = cells[0].variant if cells[0].variant not in ("", "base") else None
-                    reference = maps_partner(label, lambda maps_label: (set_name, demos, maps_label) in maps_by)
+                    cells = [finished[n] for n in names if n in finished]
+                    method_label = cells[0].label if cells else planned_label({"method": method,
+                                                                               "variant": variant_name})
+                    reference = maps_partner(method_label, lambda maps_label: (set_name, demos, maps_label) in maps_by)
+                    # A method is judged once its cells and its MAPS partner's (in whichever grid) have all finished:
+                    # one failed cell holds back that method, not the setting's others.
+                    waiting = sorted(n for n in names if n not in finished)
+                    waiting += sorted(str(i.get("name")) for i in idents if i.get("method") == "maps"
+                                      and i.get("set") == set_name and i.get("demos") == demos
+                                      and i.get("name") not in finished and planned_label(i) == reference)
+                    if waiting:
+                        lines.append(f"- {name}, {set_name} at {demos}: {method_label}: not ready ({len(waiting)} cells"
+                                     f" not finished (failed or to run), e.g. {waiting[0]})")
+                        continue
+                    variant = variant_name if variant_name != "base" else None
                     diffs = paired(cells, maps_by.get((set_name, demos, reference), []), lambda c: c.mean_score)
                     overlaps = len(diffs) < 2 or significance(diffs) == 0
                     text = fmt(diffs, signed=True) if diffs else "no pairs"
-                    lines.append(f"- {name}, {set_name} at {demos}: {label} - {reference} {text} ({len(diffs)} pairs):"
-                                 f" {'more seeds' if overlaps else 'separated, stays'}")
+                    lines.append(f"- {name}, {set_name} at {demos}: {method_label} - {reference} {text}"
+                                 f" ({len(diffs)} pairs): {'more seeds' if overlaps else 'separated, stays'}")
                     if not overlaps:
                         continue
-                    if not cell_names(set_name, cells[0].method, [variant], demos, new_seeds) <= everywhere:
-                        wanted.setdefault((name, set_name, demos), set()).add(cells[0].method)
-                    ref_variant = variant if reference != "maps" else None
+                    if not cell_names(set_name, method, [variant], demos, new_seeds) <= everywhere:
+                        wanted.setdefault((name, set_name, demos), set()).add(method)
+                    ref_variant = reference[len("maps ("):-1] if reference != "maps" else (
+                        variant if variant and is_keep_only(variant) else None)
                     if cell_names(set_name, "maps", [ref_variant], demos, new_seeds) <= everywhere:
                         continue
                     if in_grid and ref_variant in [None] + list(grid.get("variants") or []):
@@ -108,25 +130,27 @@ def decide(suite, config, new_seeds):
                          " runs it alone; add its seeds by hand")
             continue
         wanted.setdefault((home["name"], set_name, demos), set()).add("maps")
-    grids, existing = [], {g.get("name") for g in config.get("grids", [])}
+    grids, existing = [], [str(g.get("name", "")) for g in config.get("grids", [])]
     suffix = "_seeds_" + "_".join(map(str, new_seeds))
-    by_grid = {}
-    for (name, set_name, demos), methods in wanted.items():
-        by_grid.setdefault(name, []).append((set_name, demos, methods))
     for grid in config.get("grids", []):
         name = grid.get("name", "")
-        if name not in by_grid or name + suffix in existing:
-            continue
-        new = copy.deepcopy(grid)
-        new["name"] = name + suffix
-        order = list(grid.get("methods", []))
-        new["methods"] = [m for m in order if any(m in methods for _, _, methods in by_grid[name])]
-        new["sets"] = [s for s in grid.get("sets", []) if any(s == set_name for set_name, _, _ in by_grid[name])]
-        new["demos"] = {s: sorted({d for set_name, d, _ in by_grid[name] if set_name == s}) for s in new["sets"]}
-        new["seeds"] = list(new_seeds)
-        # One grid covers its sets x demos x methods: it may add a few cells the rule did not ask for (a method
-        # flagged at one count runs at the grid's other flagged counts too); the list above says which were asked.
-        grids.append(new)
+        if any(e == name + suffix or e.startswith(name + suffix + "_") for e in existing):
+            continue  # added by an earlier run
+        # Exactly the cells asked for: one new grid per set and set of methods, over the counts that asked for it
+        # (a grid is a product of its sets, methods and counts; one grid for all would add cells nobody asked for).
+        parts = {}
+        for (grid_name, set_name, demos), methods in wanted.items():
+            if grid_name == name:
+                parts.setdefault((set_name, frozenset(methods)), []).append(demos)
+        ordered = sorted(parts.items(), key=lambda item: (grid.get("sets", []).index(item[0][0]), sorted(item[1])))
+        for index, ((set_name, methods), counts) in enumerate(ordered):
+            new = copy.deepcopy(grid)
+            new["name"] = name + suffix + (f"_{index + 1}" if len(ordered) > 1 else "")
+            new["methods"] = [m for m in grid.get("methods", []) if m in methods]
+            new["sets"] = [set_name]
+            new["demos"] = {set_name: sorted(counts)}
+            new["seeds"] = list(new_seeds)
+            grids.append(new)
     return lines, grids
 
 

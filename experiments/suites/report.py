@@ -29,7 +29,8 @@ import tables
 from suite_results import SuiteError, load_suite, score_name, success_scored
 from suite_stats import vs_single_bc
 
-OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv"]
+OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
+             "zoo_routing.png", "zoo_routing.csv"]
 RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
                   "success_at_end", "return_mean", "return_unclipped_cost", "best_step", "steps", "wall_seconds", "compute_seconds", "grid", "cell"]
 

@@ -13,6 +13,7 @@ import csv
 import json
 import math
 import pathlib
+import re
 from collections import Counter, namedtuple
 from dataclasses import dataclass, field
 
@@ -68,10 +69,13 @@ class Cell:
     last_checkpoint: float = None
     # eval.json's seconds (one evaluator thread in a suite); None when not recorded.
     eval_seconds: float = None
+    # A keep-only variant's cell (is_keep_only) where no base cell of its setting and seed exists: it trained as the
+    # base does, so it is labelled, grouped, drawn and paired as the base method (load_suite sets this).
+    stands_for_base: bool = False
 
     @property
     def label(self):
-        return label(self.method, self.variant)
+        return self.method if self.stands_for_base else label(self.method, self.variant)
 
     @property
     def key(self):
@@ -199,6 +203,12 @@ def label(method, variant):
     return method if variant in ("", "base", None) else f"{method} ({variant})"
 
 
+def is_keep_only(variant):
+    """Whether a variant only keeps more checkpoints (named keep<N>: train.keep_every N, evaluated by the paper's
+    rule too): its training and best-validation checkpoint are the base's."""
+    return re.fullmatch(r"keep\d+", variant or "") is not None
+
+
 def maps_partner(method_label, ran):
     """The MAPS label a method's cells are paired with: MAPS under the same variant where that ran (ran(label) is
     true), else base MAPS, so a control such as the wide MT-BC pairs with base MAPS."""
@@ -319,6 +329,9 @@ def load_suite(root):
         name = ident.get("name") if isinstance(ident, dict) else None
         if name and name not in seen:
             suite.missing.append(name)
+    with_base = {(c.set, c.method, c.demos, c.subsample, c.seed) for c in suite.cells if c.variant in ("", "base")}
+    for c in suite.cells:
+        c.stands_for_base = is_keep_only(c.variant) and (c.set, c.method, c.demos, c.subsample, c.seed) not in with_base
     if not suite.cells:
         raise SuiteError(f"{root}: no finished cells (no readable cells/*/*/result.json; {len(planned)} planned,"
                          f" {len(suite.failed)} failed, {len(suite.damaged)} damaged)")

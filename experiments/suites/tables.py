@@ -180,7 +180,21 @@ USAGE_MEANING = {"maps": "mean selector score", "moore": "share |w_k,i| / sum |w
 ROUTING_NOTE = {"soft_modularization": "Soft Modularization's modules are its L layers' n modules, each layer's shares"
                 " summing to 1/L: a state's top score is at most 1/L and its entropy at least ln L however decisive"
                 " each layer's routing is; read its numbers against its own uniform reference, not against another"
-                " method's."}
+                " method's.",
+                "moore": "MOORE's and PaCo's usage is the share of |w| (the task weights have signs): two tasks that"
+                " weigh the same modules with opposite signs look alike here.",
+                "paco": "PaCo's usage is the share of |w| over its parameter sets (the weights have signs), and its"
+                " parameter sets start identical, so shares say little until training has set them apart."}
+
+
+def routing_note(method, cell):
+    """ROUTING_NOTE's text, and for the top-k MoE the bounds its gate sets (from the cell's config)."""
+    if method == "top_k_moe":
+        k = int(cell.config.get("top_k_moe", {}).get("top_k", 2))
+        return (f"The top-k MoE's gate keeps k = {k} experts per state (the others' gate is 0): a state's entropy is at"
+                f" most ln {k} = {math.log(k):.2f} and its top score at least 1/{k} = {1 / k:.2f} however it routes;"
+                " uniform over the kept experts is its reference, not uniform over all of them.")
+    return ROUTING_NOTE.get(method, "")
 
 
 def usage_tables(cells):
@@ -207,13 +221,15 @@ def usage_tables(cells):
         lines += table(["task"] + [f"m{i}" for i in range(modules)] + ["top module, all seeds"], rows)
         lines += ["", f"Routing ({len(runs)} seeds, each computed per seed, then mean +- 95% CI; uniform over"
                   f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f})"
-                  + (f". {ROUTING_NOTE[method]}" if method in ROUTING_NOTE else "") + ":", ""]
+                  + (f". {routing_note(method, runs[0])}" if routing_note(method, runs[0]) else "") + ":", ""]
         rows = [[short_task(task), fmt(tv), fmt(entropy) if entropy else "-", fmt(top) if top else "-"]
                 for task, (tv, entropy, top) in routing(runs, tasks).items()]
         lines += table(["task", "usage distance from the tasks' mean usage (TV)", "per-state entropy (nats)",
                         "per-state top score"], rows)
         lines += ["", f"Task division per seed (a task uses a module whose share of its usage is >= {USED_FACTOR:g}/"
-                  f"{modules}; shared: used by two or more tasks, specific: by one):", ""]
+                  f"{modules}; shared: used by two or more tasks, specific: by one; counts of this method's {modules}"
+                  " modules: with fewer modules than tasks most are shared whatever the routing, so compare methods"
+                  " by these counts as shares of their own M, not by the counts):", ""]
         lines += table(["seed", "shared modules", "specific modules", "unused modules", "tasks using both kinds",
                         "modules per task"], division_rows(runs, modules))
     return lines

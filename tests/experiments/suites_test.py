@@ -9,6 +9,7 @@ import filecmp
 import json
 import math
 import pathlib
+import re
 import shutil
 import statistics
 import subprocess
@@ -23,6 +24,7 @@ REPORT = SUITES / "report.py"
 sys.path.insert(0, str(SUITES))
 sys.path.insert(0, str(FIXTURE.parent))
 
+import suite_results  # noqa: E402
 import suite_stats  # noqa: E402
 from markdown_rows import rows_of  # noqa: E402
 
@@ -360,6 +362,13 @@ class ZooRouting(unittest.TestCase):
             moore_dir = suite_dir / "cells" / "mt10" / "moore_d5_s0"
             moore_dir.mkdir()
             (moore_dir / "result.json").write_text(json.dumps(result))
+            # A top-k MoE keeping 2 of 4 experts per state: its routing is read against ln 2 and 1/2.
+            result["cell"].update(name="mt10/top_k_moe_d5_s0", method="top_k_moe")
+            result["config"]["method"] = result["eval"]["method"] = "top_k_moe"
+            result["config"]["top_k_moe"] = {"experts": 4, "top_k": 2}
+            top_k_dir = suite_dir / "cells" / "mt10" / "top_k_moe_d5_s0"
+            top_k_dir.mkdir()
+            (top_k_dir / "result.json").write_text(json.dumps(result))
             out = pathlib.Path(tmp) / "report"
             code, _, stderr = run_report(suite_dir, out)
             self.assertEqual(code, 0, stderr)
@@ -374,7 +383,11 @@ class ZooRouting(unittest.TestCase):
             self.assertEqual(row_of(division, ["0"]), ["0", "0", "2", "2", "0 of 2", "1-1"])
             with (out / "zoo_routing.csv").open() as f:
                 rows = list(csv.DictReader(f))
-            self.assertEqual({r["method"] for r in rows}, {"maps", "moore"})
+            self.assertEqual({r["method"] for r in rows}, {"maps", "moore", "top_k_moe"})
+            self.assertIn("The top-k MoE's gate keeps k = 2 experts per state (the others' gate is 0): a state's entropy"
+                          " is at most ln 2 = 0.69 and its top score at least 1/2 = 0.50", md)
+            self.assertIn("MOORE's and PaCo's usage is the share of |w|", md)
+            self.assertIn("compare methods by these counts as shares of their own M", md)
             self.assertEqual(len([r for r in rows if r["method"] == "moore"]), 2 * 4)
         # The plain fixture has MAPS alone: no zoo figure.
         with tempfile.TemporaryDirectory() as tmp:
@@ -722,19 +735,25 @@ class MoreSeeds(unittest.TestCase):
             self.assertIn("- controls, gravity at 5: mt_bc (w430) - maps -0.05 +- 0.64 (2 pairs): more seeds", stdout)
             self.assertIn("- paper_protocol, mt10 at 5: mt_bc (paper_protocol) - maps (paper_protocol) -0.05 +- 0.64"
                           " (2 pairs): more seeds", stdout)
-            # A failed or unfinished cell holds its setting back; a grid that runs seed 2 already is not judged.
-            self.assertIn("- comparison, gravity at 10: not ready (1 cells not finished (failed or to run), e.g."
+            # A failed or unfinished cell holds its method back, not the setting's others; a grid that runs seed 2
+            # already is not judged.
+            self.assertIn("- comparison, gravity at 10: mt_bc: not ready (1 cells not finished (failed or to run), e.g."
                           " gravity/mt_bc_d10_s1)", stdout)
-            self.assertIn("- comparison, mt10 at 10: not ready (1 cells not finished", stdout)
+            self.assertIn("- comparison, gravity at 10: single_bc - maps -0.15 +- 1.27 (2 pairs): more seeds", stdout)
+            self.assertIn("- comparison, mt10 at 10: mt_bc: not ready (1 cells not finished", stdout)
             self.assertNotIn("five_seeds", stdout)
             self.assertEqual(json.loads(config.read_text()), self.CONFIG)  # not written without --write
             code, stdout, stderr = self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
             self.assertEqual(code, 0, stderr)
             grids = {g["name"]: g for g in json.loads(config.read_text())["grids"]}
-            added = grids["comparison_seeds_2_3"]
-            self.assertEqual(added["seeds"], [2, 3])
-            self.assertEqual(added["methods"], ["maps", "single_bc", "mt_bc"])
-            self.assertEqual(added["demos"], {"gravity": [5], "mt10": [5]})
+            # Exactly the cells asked for: at 10 demos MT-BC is not ready, so only Single BC and its MAPS get seeds.
+            added = [(g["sets"], g["methods"], g["demos"]) for name, g in grids.items()
+                     if name.startswith("comparison_seeds_2_3")]
+            self.assertEqual(added, [(["gravity"], ["maps", "single_bc", "mt_bc"], {"gravity": [5]}),
+                                     (["gravity"], ["maps", "single_bc"], {"gravity": [10]}),
+                                     (["mt10"], ["maps", "single_bc", "mt_bc"], {"mt10": [5]}),
+                                     (["mt10"], ["maps", "single_bc"], {"mt10": [10]})])
+            self.assertEqual(grids["comparison_seeds_2_3_1"]["seeds"], [2, 3])
             # The width control has no MAPS of its own: base MAPS's grid (comparison) runs MAPS there.
             self.assertEqual(grids["controls_seeds_2_3"]["methods"], ["mt_bc"])
             self.assertEqual(grids["controls_seeds_2_3"]["variants"], ["w430"])
@@ -742,6 +761,64 @@ class MoreSeeds(unittest.TestCase):
             # A second run adds nothing twice.
             self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
             self.assertEqual(len(json.loads(config.read_text())["grids"]), len(grids))
+
+    def test_a_grids_cells_are_the_ones_its_suite_plans_and_keep_only_variants_pair_as_base(self):
+        # Results copied from another suite name that suite's grid: they are judged under the grid that plans them.
+        # MT10's base cells become keep500 cells (train.keep_every only): they stand for the base, paired with MAPS.
+        with tempfile.TemporaryDirectory() as tmp:
+            suite_dir = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite_dir)
+            for path in suite_dir.glob("cells/*/*/result.json"):
+                result = json.loads(path.read_text())
+                result["cell"]["grid"] = "the_study_grid"
+                path.write_text(json.dumps(result))
+            suite = json.loads((suite_dir / "suite.json").read_text())
+            for cell in suite["cells"]:
+                if cell["name"].startswith("mt10/") and cell["variant"] == "base" and cell["grid"] == "comparison":
+                    old = suite_dir / "cells" / cell["name"]
+                    cell.update(variant="keep500", grid="comparison_mt10")
+                    cell["name"] = cell["name"].replace("_d", "-keep500_d", 1)
+                    if old.exists():
+                        result_path = old / "result.json"
+                        if result_path.exists():
+                            result = json.loads(result_path.read_text())
+                            result["cell"].update(name=cell["name"], variant="keep500")
+                            result_path.write_text(json.dumps(result))
+                        old.rename(suite_dir / "cells" / cell["name"])
+            (suite_dir / "suite.json").write_text(json.dumps(suite))
+            beside = suite_dir / "cells" / "gravity" / "maps-keep500_d5_s0"
+            beside.mkdir()
+            result = json.loads((suite_dir / "cells" / "gravity" / "maps_d5_s0" / "result.json").read_text())
+            result["cell"].update(name="gravity/maps-keep500_d5_s0", variant="keep500")
+            (beside / "result.json").write_text(json.dumps(result))
+            config = pathlib.Path(tmp) / "c.json"
+            comparison = self.CONFIG["grids"][0]
+            config.write_text(json.dumps(dict(self.CONFIG, grids=[
+                dict(comparison, sets=["gravity"]),
+                dict(comparison, name="comparison_mt10", sets=["mt10"], variants=["keep500"])])))
+            code, stdout, stderr = self.run_tool(suite_dir, config, "--seeds", "2,3")
+            self.assertEqual(code, 0, stderr)
+            self.assertIn("- comparison, gravity at 5: single_bc - maps -0.15 +- 1.91 (2 pairs): more seeds", stdout)
+            self.assertIn("- comparison_mt10, mt10 at 5: single_bc - maps -0.10 +- 1.27 (2 pairs): more seeds",
+                          stdout)
+            grids = json.loads(re.search(r"grids to add \(\d+\):\n(.*)", stdout, re.S).group(1))
+            # MAPS's new seeds are its keep500 cells, in the grid that runs them.
+            mt10 = next(g for g in grids if g["sets"] == ["mt10"] and g["demos"] == {"mt10": [5]})
+            self.assertEqual((mt10["name"], mt10["methods"], mt10["variants"]),
+                             ("comparison_mt10_seeds_2_3_1", ["maps", "single_bc", "mt_bc"], ["keep500"]))
+            loaded = suite_results.load_suite(suite_dir)
+            labels = {c.name: c.label for c in loaded.cells}
+            self.assertEqual(labels["mt10/maps-keep500_d5_s0"], "maps")
+            self.assertEqual(labels["mt10/single_bc-keep500_d5_s1"], "single_bc")
+            # Beside a base cell of the same setting and seed, a keep-only cell is a variant as before.
+            self.assertEqual(labels["gravity/maps-keep500_d5_s0"], "maps (keep500)")
+            out = pathlib.Path(tmp) / "report"
+            code, _, stderr = run_report(suite_dir, out)
+            self.assertEqual(code, 0, stderr)
+            with (out / "fig2_scores.csv").open() as f:
+                drawn = {(r["set"], r["method"], r["demos"]) for r in csv.DictReader(f)}
+            self.assertIn(("mt10", "maps", "5"), drawn)
+            self.assertIn(("mt10", "single_bc", "10"), drawn)
 
     def test_bad_input_is_named(self):
         with tempfile.TemporaryDirectory() as tmp:
