@@ -63,7 +63,7 @@ bool same_numbers(const Json& a, const Json& b) {
 
 struct CellState {
   std::string state, detail;
-  double cost_seconds = -1.0;  // a finished cell's (cost_of; -1: not finished or not recorded)
+  double cost_seconds = -1.0;  // a finished cell's (set_cost; -1: not finished or not recorded)
   bool cost_from_curve = false;
 };
 

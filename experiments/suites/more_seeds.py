@@ -14,8 +14,9 @@ back its method only).
 Without --write it prints the settings and the grids it would add. With --write it appends those grids to the config,
 named <grid>_seeds_<a>_<b> (with _1, _2, ... where one grid's new cells need several: a grid is a product of sets,
 methods and counts, and only the cells asked for are added), so `maps suite run` runs them after everything else. A
-grid that has such grids in the config already is not judged again. The pairing is the report's (suite_stats.paired, significance); a method whose cells
-have not all finished is listed as not ready and gets nothing, so run this when the first seeds are done."""
+grid that has such grids in the config already is not judged again. The pairing is the report's (suite_stats.paired,
+significance); a method whose cells have not all finished is listed as not ready and gets nothing, so run this when
+the first seeds are done."""
 import argparse
 import copy
 import json
@@ -52,11 +53,11 @@ def cell_names(set_name, method, variants, demos, seeds):
             for v in (variants or [None]) for seed in seeds}
 
 
-def planned_label(ident):
+def planned_label(method, variant):
     """The label a planned cell's result will have: a keep-only variant of a setting without base cells stands for
     the base (suite_results.stands_for_base), so its MAPS is the base MAPS partner."""
-    method, variant = str(ident.get("method", "")), str(ident.get("variant", "base") or "base")
-    return method if variant == "base" or is_keep_only(variant) else label(method, variant)
+    variant = str(variant or "base")
+    return str(method) if variant == "base" or is_keep_only(variant) else label(str(method), variant)
 
 
 def decide(suite, config, new_seeds):
@@ -73,7 +74,8 @@ def decide(suite, config, new_seeds):
     needs_maps = set()  # (set, demos, variant or None): a MAPS reference from another grid needs the new seeds
     for grid in config.get("grids", []):
         name = grid.get("name", "")
-        if set(new_seeds) & set(grid.get("seeds", [])) or re.search(r"_seeds_" + "_".join(map(str, new_seeds)) + r"(_\d+)?$", name):
+        added_here = re.search("_seeds_" + "_".join(map(str, new_seeds)) + r"(_\d+)?$", name)
+        if set(new_seeds) & set(grid.get("seeds", [])) or added_here:
             continue  # it runs (some of) those seeds already, or it is a grid this tool added
         for set_name in grid.get("sets", []):
             for demos in grid_demos(config, grid, set_name):
@@ -89,15 +91,15 @@ def decide(suite, config, new_seeds):
                     if method == "maps":
                         continue
                     cells = [finished[n] for n in names if n in finished]
-                    method_label = cells[0].label if cells else planned_label({"method": method,
-                                                                               "variant": variant_name})
+                    method_label = cells[0].label if cells else planned_label(method, variant_name)
                     reference = maps_partner(method_label, lambda maps_label: (set_name, demos, maps_label) in maps_by)
                     # A method is judged once its cells and its MAPS partner's (in whichever grid) have all finished:
                     # one failed cell holds back that method, not the setting's others.
                     waiting = sorted(n for n in names if n not in finished)
                     waiting += sorted(str(i.get("name")) for i in idents if i.get("method") == "maps"
                                       and i.get("set") == set_name and i.get("demos") == demos
-                                      and i.get("name") not in finished and planned_label(i) == reference)
+                                      and i.get("name") not in finished
+                                      and planned_label(i.get("method"), i.get("variant")) == reference)
                     if waiting:
                         lines.append(f"- {name}, {set_name} at {demos}: {method_label}: not ready ({len(waiting)} cells"
                                      f" not finished (failed or to run), e.g. {waiting[0]})")

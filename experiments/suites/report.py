@@ -32,7 +32,8 @@ from suite_stats import vs_single_bc
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
              "zoo_routing.png", "zoo_routing.csv"]
 RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
-                  "success_at_end", "return_mean", "return_unclipped_cost", "best_step", "steps", "wall_seconds", "compute_seconds", "grid", "cell"]
+                  "success_at_end", "return_mean", "return_unclipped_cost", "best_step", "steps", "wall_seconds",
+                  "compute_seconds", "grid", "cell"]
 
 
 def write_results_csv(suite, path):
@@ -42,11 +43,11 @@ def write_results_csv(suite, path):
         writer = csv.writer(f)
         writer.writerow(RESULT_COLUMNS)
         for c in cells:
+            cost = c.compute_seconds()[0]  # reads the cell's curve.csv: once per cell, not per task row
             for t in c.tasks:
                 writer.writerow([c.set, c.method, c.variant, "" if c.modules is None else c.modules, c.demos,
                                  c.subsample, c.seed, t.task, t.score, t.success, t.success_at_end, t.return_mean,
-                                 t.return_unclipped_cost, c.best_step, c.steps, c.wall_seconds,
-                                 c.compute_seconds()[0], c.grid, c.name])
+                                 t.return_unclipped_cost, c.best_step, c.steps, c.wall_seconds, cost, c.grid, c.name])
 
 
 def embed(figures):

@@ -219,9 +219,10 @@ def usage_tables(cells):
             rows.append([short_task(task)] + [f"{u:.2f}" for u in runs[0].tasks[i].usage]
                         + [span_fixed(tops, 2, collapse=False)])
         lines += table(["task"] + [f"m{i}" for i in range(modules)] + ["top module, all seeds"], rows)
+        note = routing_note(method, runs[0])
         lines += ["", f"Routing ({len(runs)} seeds, each computed per seed, then mean +- 95% CI; uniform over"
                   f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f})"
-                  + (f". {routing_note(method, runs[0])}" if routing_note(method, runs[0]) else "") + ":", ""]
+                  + (f". {note}" if note else "") + ":", ""]
         rows = [[short_task(task), fmt(tv), fmt(entropy) if entropy else "-", fmt(top) if top else "-"]
                 for task, (tv, entropy, top) in routing(runs, tasks).items()]
         lines += table(["task", "usage distance from the tasks' mean usage (TV)", "per-state entropy (nats)",
@@ -426,7 +427,8 @@ def compute_table(cells):
     rows = [[grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}", f"{sum(seconds) / len(seconds) / 60:.1f}"]
             for (grid, set_name, label), seconds in sorted(by.items())]
     total = sum(s for seconds in by.values() for s in seconds if s == s)
-    sources = {"cpu": "training's CPU seconds from curve.csv", "windows": "training's wall seconds per curve.csv window",
+    sources = {"cpu": "training's CPU seconds from curve.csv",
+               "windows": "training's wall seconds per curve.csv window",
                "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
     counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
     return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell"], rows)

@@ -18,6 +18,7 @@ import math
 import pathlib
 import statistics
 import sys
+from collections import namedtuple
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
@@ -133,10 +134,15 @@ def not_finished_lines(suite):
     return lines
 
 
+# One transfer cell's routing against its source run: kept_start (best step 0), usage (the new task's),
+# neighbour_usage (in the source run), distance (TV to each trained task), to_center (TV to the trained tasks' mean
+# usage), between (the trained tasks' TV from one another, every pair).
+ModuleRow = namedtuple("ModuleRow", "cell kept_start usage neighbour_usage distance to_center between")
+
+
 def module_rows(cells, task, neighbour, by_folder, left_out):
-    """Per transfer cell of one (method, count): (cell, kept the start, the new task's usage, the neighbour's in the
-    source run, TV to each trained task, TV to the trained tasks' mean). Cells that cannot be compared go to
-    left_out with the reason."""
+    """A ModuleRow per transfer cell of one (method, count). Cells that cannot be compared go to left_out with the
+    reason."""
     rows = []
     for cell in cells:
         mine = next((t.usage for t in cell.tasks if t.task == task), None)
@@ -160,8 +166,8 @@ def module_rows(cells, task, neighbour, by_folder, left_out):
         distance = {t: total_variation(mine, u) for t, u in trained.items()}
         between = [total_variation(trained[a], trained[b]) for i, a in enumerate(sorted(trained))
                    for b in sorted(trained)[i + 1:]]
-        rows.append((cell, cell.best_step == 0, mine, trained[neighbour], distance, total_variation(mine, center),
-                     between))
+        rows.append(ModuleRow(cell, cell.best_step == 0, mine, trained[neighbour], distance,
+                              total_variation(mine, center), between))
     return rows
 
 
@@ -206,7 +212,8 @@ def main():
     for set_name, task in tasks:
         methods = ordered({m for s, t, m, _ in rows if (s, t) == (set_name, task)})
         counts = sorted({d for s, t, _, d in rows if (s, t) == (set_name, task)})
-        lines += [f"## {task}", "", "| method | " + " | ".join(f"{d} demo{'s' if d != 1 else ''}" for d in counts) + " |",
+        lines += [f"## {task}", "",
+                  "| method | " + " | ".join(f"{d} demo{'s' if d != 1 else ''}" for d in counts) + " |",
                   "|---|" + "---|" * len(counts)]
         for method in methods:
             cells_at = [rows.get((set_name, task, method, d), []) for d in counts]
@@ -252,9 +259,8 @@ def main():
         cpu = bool(every) and all(c.cpu_seconds_to(c.steps) is not None for c in every)
         clock = (lambda c, step: c.cpu_seconds_to(step)) if cpu else (lambda c, step: c.training_seconds_to(step))
         unit = "CPU seconds" if cpu else "seconds"
-        lines += ["", f"Training cost: the best-validation step (median over seeds, range), the mean {unit} of training "
-                      "to reach it "
-                      "and of the whole training (" + ("curve.csv's CPU time per validation window, which other work "
+        lines += ["", "Training cost: the best-validation step (median over seeds, range), the mean "
+                      f"{unit} of training to reach it and of the whole training (" + ("curve.csv's CPU time per validation window, which other work "
                       "on the cores does not inflate" if cpu else "curve.csv's speed per validation window, wall "
                       "time: inflated when other work shared the cores") + "; validation included, evaluation not; "
                       "a resumed run counts the attempt that wrote each kept row), one thread; \"kept the start\": the "
@@ -288,27 +294,28 @@ def main():
             if neighbour is None:
                 break
             compared = module_rows(rows.get((set_name, task, method, d), []), task, neighbour, by_folder, left_out)
-            for cell, kept, mine, theirs, distance, to_center, _ in sorted(compared, key=lambda r: r[0].seed):
-                nearest = min(distance, key=distance.get)
-                others = [v for t, v in distance.items() if t != neighbour]
+            for r in sorted(compared, key=lambda r: r.cell.seed):
+                nearest = min(r.distance, key=r.distance.get)
+                others = [v for t, v in r.distance.items() if t != neighbour]
                 per_seed.append(
-                    f"| {name_of(method)} | {d} | {cell.seed}{' (start)' if kept else ''} | {top_modules(mine)} | "
-                    f"{top_modules(theirs)} | {distance[neighbour]:.2f} | "
+                    f"| {name_of(method)} | {d} | {r.cell.seed}{' (start)' if r.kept_start else ''} | "
+                    f"{top_modules(r.usage)} | {top_modules(r.neighbour_usage)} | {r.distance[neighbour]:.2f} | "
                     + (f"{min(others):.2f}-{max(others):.2f}" if others else "-")
-                    + f" | {to_center:.2f} | {short(nearest)} ({distance[nearest]:.2f}) |")
-            trained_rows = [r for r in compared if not r[1]]
+                    + f" | {r.to_center:.2f} | {short(nearest)} ({r.distance[nearest]:.2f}) |")
+            trained_rows = [r for r in compared if not r.kept_start]
             if compared:
-                nearest_is_neighbour = sum(min(r[4], key=r[4].get) == neighbour for r in trained_rows)
-                others_median = [statistics.median([v for t, v in r[4].items() if t != neighbour]) for r in trained_rows
-                                 if len(r[4]) > 1]
-                between = [statistics.median(r[6]) for r in trained_rows if r[6]]
-                chance = len(compared[0][4])
+                nearest_is_neighbour = sum(min(r.distance, key=r.distance.get) == neighbour for r in trained_rows)
+                others_median = [statistics.median([v for t, v in r.distance.items() if t != neighbour])
+                                 for r in trained_rows if len(r.distance) > 1]
+                between = [statistics.median(r.between) for r in trained_rows if r.between]
+                chance = len(compared[0].distance)
                 summary.append(
                     f"| {name_of(method)} | {d} | {len(trained_rows)} of {len(compared)} | "
                     + (f"{nearest_is_neighbour} of {len(trained_rows)} (chance 1/{chance}) | "
-                       f"{mean([r[4][neighbour] for r in trained_rows]):.2f} | "
+                       f"{mean([r.distance[neighbour] for r in trained_rows]):.2f} | "
                        + (f"{mean(others_median):.2f}" if others_median else "-") + " | "
-                       f"{mean([r[5] for r in trained_rows]):.2f} | " + (f"{mean(between):.2f}" if between else "-")
+                       f"{mean([r.to_center for r in trained_rows]):.2f} | "
+                       + (f"{mean(between):.2f}" if between else "-")
                        if trained_rows else "- | - | - | - | -") + " |")
         if summary:
             lines += ["", f"Modules: does the new task route like its neighbour {neighbour}? Total-variation distance "
