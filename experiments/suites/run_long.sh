@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
 # The project's long suites: the study (issue 14, docs/results.md), transfer (issue 17, docs/transfer.md), the zoo
 # (issue 19, docs/zoo.md), each resuming where it stopped (a finished one returns at once).
-# Usage: experiments/suites/run_long.sh [JOBS] (default 2): JOBS runners of one job each, side by side. Runner 0 takes
-# the suites in issue order, runner 1 in reverse order, the others in issue order again. Two runners on one suite
-# share it (a cell another process holds is skipped, a transfer cell waits for its source), so the shorter last suite
-# (the zoo, about 8 CPU-hours against transfer's 40) finishes first instead of waiting for the longer, and then its
-# runner joins the other. Each runner appends its progress to results/<name>.log.
+# Usage: experiments/suites/run_long.sh [JOBS] (default 2): JOBS runners of one job each, side by side. Runner 1
+# takes the zoo first, every other runner the study first; then all take the zoo, then transfer. Two runners on one
+# suite share it (a cell another process holds is skipped, a transfer cell waits for its source). The zoo (about 8
+# CPU-hours left on 2026-11-27, against transfer's 49) goes before transfer because it is the shorter: both cores on
+# it close its issue sooner, and transfer ends no later (the same CPU-hours on the same two cores). Each runner
+# appends its progress to results/<name>.log.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 jobs="${1:-2}"
@@ -28,7 +29,7 @@ for ((i = 0; i < jobs; i++)); do
   if ((i == 1)); then
     runner "$i" zoo transfer study &
   else
-    runner "$i" study transfer zoo &
+    runner "$i" study zoo transfer &
   fi
   sleep 2  # the runners take their first cells one after the other
 done

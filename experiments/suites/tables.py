@@ -211,22 +211,27 @@ def usage_tables(cells):
         tasks = task_names(runs)
         modules = len(runs[0].tasks[0].usage)
         lines += ["", f"{who}, {key.demos} demos, k = {key.subsample}: module usage ({meaning} over the"
-                  f" task's evaluation states) of seed {runs[0].seed}, and the range over the {len(runs)} seeds of"
-                  f" the most used module's share:", ""]
+                  f" task's evaluation states) of seed {runs[0].seed}"
+                  + (f", and the range over the {len(runs)} seeds of the most used module's share:" if len(runs) > 1
+                     else " (the only seed finished):"), ""]
         rows = []
         for i, task in enumerate(tasks):
             tops = [max(c.tasks[i].usage) for c in runs]
             rows.append([short_task(task)] + [f"{u:.2f}" for u in runs[0].tasks[i].usage]
-                        + [span_fixed(tops, 2, collapse=False)])
-        lines += table(["task"] + [f"m{i}" for i in range(modules)] + ["top module, all seeds"], rows)
+                        + ([span_fixed(tops, 2, collapse=False)] if len(runs) > 1 else []))
+        lines += table(["task"] + [f"m{i}" for i in range(modules)]
+                       + (["top module, all seeds"] if len(runs) > 1 else []), rows)
         note = routing_note(method, runs[0])
-        lines += ["", f"Routing ({len(runs)} seeds, each computed per seed, then mean +- 95% CI; uniform over"
-                  f" {modules} modules: entropy {math.log(modules):.2f}, top score {1 / modules:.2f})"
-                  + (f". {note}" if note else "") + ":", ""]
+        over = (f"{len(runs)} seeds, each computed per seed, then mean +- 95% CI" if len(runs) > 1
+                else f"seed {runs[0].seed} only")
+        lines += ["", f"Routing ({over}; uniform over {modules} modules: entropy {math.log(modules):.2f}, top score"
+                  f" {1 / modules:.2f}):", ""]
         rows = [[short_task(task), fmt(tv), fmt(entropy) if entropy else "-", fmt(top) if top else "-"]
                 for task, (tv, entropy, top) in routing(runs, tasks).items()]
         lines += table(["task", "usage distance from the tasks' mean usage (TV)", "per-state entropy (nats)",
                         "per-state top score"], rows)
+        if note:
+            lines += ["", note]
         lines += ["", f"Task division per seed (a task uses a module whose share of its usage is >= {USED_FACTOR:g}/"
                   f"{modules}; shared: used by two or more tasks, specific: by one; counts of this method's {modules}"
                   " modules: with fewer modules than tasks most are shared whatever the routing, so compare methods"

@@ -374,6 +374,12 @@ class ZooRouting(unittest.TestCase):
             self.assertEqual(code, 0, stderr)
             md = (out / "report.md").read_text()
             self.assertIn("MOORE, 5 demos, k = 1: module usage (share |w_k,i| / sum |w_k|", md)
+            # One seed: no range over seeds, no interval, and the wording says so.
+            moore_usage = md[md.index("MOORE, 5 demos"):md.index("Task division", md.index("MOORE, 5 demos"))]
+            self.assertIn("of seed 0 (the only seed finished):", moore_usage)
+            self.assertIn("Routing (seed 0 only; uniform over 4 modules: entropy 1.39, top score 0.25):", moore_usage)
+            self.assertNotIn("top module, all seeds", moore_usage)
+            self.assertNotIn("1 seeds", md)
             self.assertIn("![](zoo_routing.png)", md)
             # The same task-division measure as MAPS's: each task uses one module of its own (share 0.7 >= 1.5/4).
             moore_part = md[md.index("MOORE, 5 demos"):]
