@@ -27,6 +27,7 @@ import claims
 import suite_results
 import tables
 from suite_results import SuiteError, load_suite, score_name, success_scored
+from routing_summary import routing_summary
 from suite_stats import vs_single_bc
 
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
@@ -107,6 +108,10 @@ def report_lines(suite, draw):
     lines += section("Fig. 3: against Single BC", body, "No Single BC cells to compare with in this suite.")
     lines += section("The paper's claims", claims.claims_table(cells, tables.table),
                      "No MAPS cells: none of the paper's claims can be checked.")
+    if {c.method for c in cells} - set(claims.COMPARED):
+        # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
+        lines += section("Against MAPS, every set", per_set(suite, tables.paired_table, []),
+                         "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds).")
 
     task_figures = {f.file: f for f in draw("fig2_tasks")}
     for set_name in suite.sets():
@@ -148,9 +153,10 @@ def report_lines(suite, draw):
                      "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
                      "No MAPS cells with module usage in this suite.")
+    summary = routing_summary(cells)
     zoo = draw("zoo_routing")
-    if zoo:
-        lines += section("Routing of every method (the zoo)", embed(zoo), "")
+    if zoo or summary:
+        lines += section("Routing of every method (the zoo)", summary + embed(zoo), "")
     lines += section("Validation curves", embed(draw("validation")), "No validation curves (curve.csv) in this suite.")
     lines += section("Compute", tables.compute_table(cells), "")
     if draw.failed:

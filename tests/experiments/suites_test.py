@@ -395,11 +395,25 @@ class ZooRouting(unittest.TestCase):
             self.assertIn("MOORE's and PaCo's usage is the share of |w|", md)
             self.assertIn("compare methods by these counts as shares of their own M", md)
             self.assertEqual(len([r for r in rows if r["method"] == "moore"]), 2 * 4)
+            # The summary table: one row per routing method and setting. MOORE's two tasks each lean on a module of
+            # their own (0.7 against the mean's 0.4): TV 0.3 each, both modules specific, none shared.
+            summary = between(md, "## Routing of every method (the zoo)", "![](zoo_routing.png)")
+            moore = row_of(summary, ["mt10", "5", "1", "MOORE"])
+            self.assertEqual(moore[4:7], ["1", "4", "0.30"])
+            self.assertEqual(moore[-3:], ["0 of 4", "2 of 4", "0 of 2"])
+            self.assertEqual(row_of(summary, ["mt10", "5", "1", "MAPS"])[5], "10")
+            self.assertIn("- The top-k MoE's gate keeps k = 2 experts per state", summary)
+            # Every set's paired differences from MAPS in one section, the zoo's methods among them.
+            against = between(md, "## Against MAPS, every set", "\n## ")
+            self.assertEqual(row_of(against, ["moore", "maps", "5"])[4], "1")
         # The plain fixture has MAPS alone: no zoo figure.
         with tempfile.TemporaryDirectory() as tmp:
             code, _, stderr = run_report(FIXTURE, pathlib.Path(tmp) / "report")
             self.assertEqual(code, 0, stderr)
             self.assertFalse((pathlib.Path(tmp) / "report" / "zoo_routing.png").exists())
+            md = (pathlib.Path(tmp) / "report" / "report.md").read_text()
+            self.assertNotIn("## Routing of every method", md)
+            self.assertNotIn("## Against MAPS, every set", md)
 
 
 class CheckpointRule(unittest.TestCase):

@@ -1,0 +1,69 @@
+"""One table of every routing method's routing per setting, for comparing methods at a glance (the zoo, docs/zoo.md):
+the per-set usage tables of tables.usage_tables give the per-task detail this summarises."""
+import math
+
+from suite_results import groups
+from suite_stats import division, fmt, mean, span, usage_distances
+from tables import ROUTED_NAMES, routing_note, table
+
+
+def routed(cells):
+    """{GroupKey: cells} of the base methods that record module usage, in report order."""
+    return {key: [c for c in runs if c.has_usage] for key, runs in groups(cells).items()
+            if key.label == runs[0].method and any(c.has_usage for c in runs)}
+
+
+def per_seed_mean(runs, value):
+    """value(task) averaged over each run's tasks: one number per seed (seeds lacking it are skipped)."""
+    out = []
+    for c in runs:
+        values = [value(t) for t in c.tasks if value(t) is not None]
+        if values:
+            out.append(mean(values))
+    return out
+
+
+def summary_rows(runs, modules):
+    tv = [mean(usage_distances(c)) for c in runs]
+    entropy = per_seed_mean(runs, lambda t: t.entropy)
+    top = per_seed_mean(runs, lambda t: t.top_score)
+    shared, specific, both = [], [], []
+    for c in runs:
+        s, p, b, _ = division(c)
+        shared.append(len(s))
+        specific.append(len(p))
+        both.append(b)
+    tasks = len(runs[0].tasks)
+    return [fmt(tv), f"{fmt(entropy) if entropy else '-'} ({math.log(modules):.2f})",
+            f"{fmt(top) if top else '-'} ({1 / modules:.2f})", f"{span(sorted(shared))} of {modules}",
+            f"{span(sorted(specific))} of {modules}", f"{span(sorted(both))} of {tasks}"]
+
+
+def routing_summary(cells):
+    """Per set: a row per (routing method, demos) with seeds, M and the routing measures over seeds; the caveats of
+    the methods present after the table. [] without two or more routing methods (MAPS alone: the usage tables
+    say it all)."""
+    by_key = routed(cells)
+    if len({key.label for key in by_key}) < 2:
+        return []
+    rows, notes = [], {}
+    order = list(ROUTED_NAMES)
+    for key in sorted(by_key, key=lambda k: (k.set, k.demos, k.subsample,
+                                              order.index(k.label) if k.label in order else len(order), k.label)):
+        runs = by_key[key]
+        modules = len(runs[0].tasks[0].usage)
+        rows.append([key.set, key.demos, key.subsample, ROUTED_NAMES.get(key.label, key.label), len(runs), modules]
+                    + summary_rows(runs, modules))
+        note = routing_note(key.label, runs[0])
+        if note:
+            notes[key.label] = note
+    lines = ["Each method's routing per setting, over its seeds: the tasks' usage distance from their mean usage (TV,"
+             " mean over tasks; 0: every task routes alike), the per-state entropy and top score (mean over tasks;"
+             " in brackets the value of uniform routing over M, ln M and 1/M), and the task division (a task uses a"
+             " module whose share of its usage is >= 1.5/M; shared: used by two or more tasks, specific: by one;"
+             " range over seeds). Mean +- 95% CI over seeds. The per-set sections give each task's usage.", ""]
+    lines += table(["set", "demos", "k", "method", "seeds", "M", "TV from the tasks' mean", "per-state entropy (ln M)",
+                    "per-state top score (1/M)", "shared modules", "specific modules", "tasks using both"], rows)
+    if notes:
+        lines += [""] + [f"- {note}" for note in notes.values()]
+    return lines
