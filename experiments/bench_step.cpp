@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
+#include "experiments/provenance.h"
 #include "maps/policies/maps_flops.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/training/run_config.h"
@@ -254,7 +255,8 @@ int run_bench_step(const BenchStepOptions& options) {
                         {"ratio_to_gemm", gflops / gemm},
                         {"own_gemm_gflops", own_gemm},
                         {"ratio_to_own_gemm", gflops / own_gemm},
-                        {"float32_gemm_kernel", ag::float32_gemm_kernel()}};
+                        {"float32_gemm_kernel", ag::float32_gemm_kernel()},
+                        {"cpu", cpu_model()}};
   if (options.vs_pytorch) {
     const nlohmann::json peer = run_peer(s.name, options.threads, options.seconds);
     if (!peer.is_null()) {
@@ -274,6 +276,7 @@ int run_bench_step(const BenchStepOptions& options) {
       static_cast<long long>(s.shape.num_tasks), static_cast<long long>(s.per_task),
       static_cast<long long>(s.shape.observation_size), static_cast<long long>(s.shape.action_size),
       static_cast<long long>(policy.parameter_count()), options.threads, options.threads == 1 ? "" : "s");
+  std::cout << "  CPU: " << cpu_model() << "\n";
   std::snprintf(line, sizeof line, "  %.3f ms/step (median of %zu), %.3f GFLOP/step, %.1f GFLOP/s", step_seconds * 1e3,
                 times.size(), flops * 1e-9, gflops);
   std::cout << line << "\n";

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "autograd/ops.h"
 #include "experiments/run_folder.h"
 #include "experiments/version.h"
 
@@ -80,6 +81,29 @@ std::string sha256_of_file(const std::string& path) {
   return text;
 }
 
+std::string cpu_model_from(std::istream& cpuinfo) {
+  std::string line;
+  while (std::getline(cpuinfo, line)) {
+    if (line.rfind("model name", 0) != 0) continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const auto begin = line.find_first_not_of(" \t", colon + 1);
+    if (begin == std::string::npos) return "";
+    const auto end = line.find_last_not_of(" \t\r");
+    return line.substr(begin, end - begin + 1);
+  }
+  return "";
+}
+
+std::string cpu_model() {
+  static const std::string model = [] {
+    std::ifstream cpuinfo("/proc/cpuinfo");
+    const std::string found = cpuinfo ? cpu_model_from(cpuinfo) : std::string();
+    return found.empty() ? std::string("unknown") : found;
+  }();
+  return model;
+}
+
 nlohmann::json provenance_record(const nlohmann::json& extra) {
   char host[256] = {};
   if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
@@ -90,7 +114,9 @@ nlohmann::json provenance_record(const nlohmann::json& extra) {
                         {"started_utc", utc_now()},
                         {"command_line", command_line()},
                         {"working_directory", error ? std::string() : cwd.string()},
-                        {"host", std::string(host)}};
+                        {"host", std::string(host)},
+                        {"cpu", cpu_model()},
+                        {"float32_gemm_kernel", ag::float32_gemm_kernel()}};
   record.update(extra);
   return record;
 }

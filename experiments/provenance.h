@@ -1,5 +1,6 @@
 #pragma once
 
+#include <istream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -15,7 +16,14 @@ const std::string& command_line();
 // file when it cannot be read.
 std::string sha256_of_file(const std::string& path);
 
-// {"tool_version", "git_commit", "started_utc" (ISO 8601), "command_line", "working_directory", "host"} plus `extra`.
+// The CPU's model name as /proc/cpuinfo gives it ("AMD EPYC", "Intel(R) Xeon(R) Processor"), "unknown" where it
+// cannot be read: speed and CPU-time figures mean little without it, and "host" names a VM, not its CPU.
+std::string cpu_model();
+// The first "model name" line's value in a /proc/cpuinfo text, "" without one.
+std::string cpu_model_from(std::istream& cpuinfo);
+
+// {"tool_version", "git_commit", "started_utc" (ISO 8601), "command_line", "working_directory", "host", "cpu",
+// "float32_gemm_kernel"} plus `extra`.
 nlohmann::json provenance_record(const nlohmann::json& extra = nlohmann::json::object());
 
 // Appends `record` to DIR/provenance.json (written atomically). A damaged file is an error naming it.

@@ -18,8 +18,10 @@
 #include <stdexcept>
 #include <thread>
 
+#include "autograd/ops.h"
 #include "envs/demo_file.h"
 #include "experiments/parallel_tasks.h"
+#include "experiments/provenance.h"
 #include "experiments/run_folder.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
@@ -76,6 +78,30 @@ Attempt failed_stage(const fs::path& dir, const std::string& stage, int code, co
   return attempt;
 }
 
+// Where each `maps train` process on the folder ran (its provenance.json records, which are not kept with the
+// results): training's CPU time in curve.csv spans them all, and their CPUs may differ.
+Json training_attempts(const fs::path& dir) {
+  Json attempts = Json::array();
+  const fs::path path = dir / "provenance.json";
+  if (!fs::exists(path)) return attempts;
+  Json records;
+  try {
+    records = read_json_file(path.string());
+  } catch (const std::exception& e) {
+    // maps train refuses a damaged provenance.json, so this is a file changed since: say so, keep the result.
+    return Json::array({{{"error", std::string("unreadable ") + path.string() + ": " + e.what()}}});
+  }
+  if (!records.is_array()) return attempts;
+  for (const auto& record : records) {
+    if (!record.is_object() || record.value("subcommand", "") != "train") continue;
+    Json attempt = Json::object();
+    for (const char* key : {"started_utc", "git_commit", "cpu", "float32_gemm_kernel", "threads"})
+      if (record.contains(key)) attempt[key] = record[key];
+    attempts.push_back(attempt);
+  }
+  return attempts;
+}
+
 // One attempt: train (resuming), evaluate, write result.json.
 Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, double& seconds) {
   const auto start = std::chrono::steady_clock::now();
@@ -99,6 +125,9 @@ Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, do
               {"wall_seconds", seconds},
               {"threads", threads},
               {"host", host_name()},
+              {"cpu", cpu_model()},
+              {"float32_gemm_kernel", ag::float32_gemm_kernel()},
+              {"training_attempts", training_attempts(dir)},
               {"finished", utc_now()}};
   if (!same_run_config(result["config"], cell.request))
     return {"the run folder's config.json is not the cell's run config (the folder was changed while it ran)"};

@@ -72,6 +72,9 @@ class Cell:
     # A keep-only variant's cell (is_keep_only) where no base cell of its setting and seed exists: it trained as the
     # base does, so it is labelled, grouped, drawn and paired as the base method (load_suite sets this).
     stands_for_base: bool = False
+    # The CPUs the cell's processes ran on: its training attempts' and its evaluation's (result.json's "cpu" and
+    # "training_attempts", recorded since 2026-11-27); empty where not recorded.
+    cpus: tuple = ()
 
     @property
     def label(self):
@@ -269,7 +272,13 @@ def read_cell(path):
                 config, int(train["steps"]), int(ev.get("best_step", train.get("best_step"))),
                 int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
                 float(result.get("wall_seconds", float("nan"))), tasks, best_over, last[0] if last else None,
-                optional_float(ev.get("seconds")))
+                optional_float(ev.get("seconds")), cpus=cpus_of(result))
+
+
+def cpus_of(result):
+    """The distinct CPU models a result.json names (its training attempts' and its own), in first-seen order."""
+    named = [a.get("cpu") for a in result.get("training_attempts", []) if isinstance(a, dict)] + [result.get("cpu")]
+    return tuple(dict.fromkeys(str(c) for c in named if c))
 
 
 def read_error(path):

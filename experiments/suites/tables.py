@@ -439,4 +439,18 @@ def compute_table(cells):
     return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell"], rows)
             + ["", f"In all: {total / 3600:.1f} CPU-hours over {len(cells)} finished cells (training, validation and"
                    " evaluation; one thread each). Training counts every attempt of a resumed cell (steps redone after"
-                   f" a kill once) and the evaluation its own seconds. Cells counted: {counted}."])
+                   f" a kill once) and the evaluation its own seconds. Cells counted: {counted}.", "",
+               machines_line(cells)])
+
+
+def machines_line(cells):
+    """Which CPUs the cells ran on: a CPU-second differs between them (docs/performance.md)."""
+    on = {}
+    for c in cells:
+        key = " + ".join(c.cpus) if c.cpus else None
+        on[key] = on.get(key, 0) + 1
+    named = "; ".join(f"{cpu}: {n}" for cpu, n in sorted(((k, n) for k, n in on.items() if k), key=lambda kn: -kn[1]))
+    unknown = on.get(None, 0)
+    return ("Machines (the CPU models each cell's training and evaluation ran on, from result.json; a cell resumed on"
+            " another kind names both): " + (named or "none recorded")
+            + (f"; not recorded (finished before result.json named its CPU): {unknown}" if unknown else "") + ".")

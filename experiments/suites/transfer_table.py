@@ -24,6 +24,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from suite_results import SuiteError, load_suite, order, METHOD_ORDER  # noqa: E402
 from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
+from tables import machines_line  # noqa: E402
 
 # The trained task each new task is nearest to (its neighbour in the set's parameter, or its counterpart).
 NEIGHBOUR = {"gravity/0.5": "gravity/0.75", "gravity/1.5": "gravity/1.25", "modified/big_foot": "modified/original",
@@ -259,6 +260,7 @@ def main():
         cpu = bool(every) and all(c.cpu_seconds_to(c.steps) is not None for c in every)
         clock = (lambda c, step: c.cpu_seconds_to(step)) if cpu else (lambda c, step: c.training_seconds_to(step))
         unit = "CPU seconds" if cpu else "seconds"
+        lines += ["", machines_line(every)]
         lines += ["", "Training cost: the best-validation step (median over seeds, range), the mean "
                       f"{unit} of training to reach it and of the whole training (" + ("curve.csv's CPU time per validation window, which other work "
                       "on the cores does not inflate" if cpu else "curve.csv's speed per validation window, wall "

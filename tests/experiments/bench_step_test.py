@@ -26,6 +26,17 @@ def registered_methods():
     return [line.split()[0] for line in lines if line.startswith("  ") and line.split()]
 
 
+def cpu_model():
+    """The first "model name" of /proc/cpuinfo, as maps reads it ("unknown" without one)."""
+    try:
+        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name") and ":" in line:
+                return line.split(":", 1)[1].strip() or "unknown"
+    except OSError:
+        pass
+    return "unknown"
+
+
 class BenchStep(unittest.TestCase):
     def test_json_has_the_issue_keys_and_they_agree(self):
         done = run("bench", "step", "--set", "mt10", "--seconds", "0.2", "--json")
@@ -39,6 +50,9 @@ class BenchStep(unittest.TestCase):
         self.assertAlmostEqual(result["ratio_to_own_gemm"], result["gflops"] / result["own_gemm_gflops"], places=9)
         self.assertEqual(result["states"], 320)
         self.assertGreaterEqual(result["steps_timed"], 10)
+        # A speed figure names its CPU: /proc/cpuinfo's first model name.
+        self.assertEqual(result["cpu"], cpu_model())
+        self.assertIn(result["float32_gemm_kernel"], ("maps AVX-512", "maps AVX2", "Eigen"))
 
     def test_text_output_names_the_set_and_the_ceiling(self):
         done = run("bench", "step", "--set", "gravity", "--seconds", "0.1")
@@ -46,6 +60,7 @@ class BenchStep(unittest.TestCase):
         self.assertIn("set gravity: 640 states (5 tasks x 128)", done.stdout)
         self.assertIn("Eigen float32 GEMM 1024^3", done.stdout)
         self.assertIn("maps's own float32 GEMM 1024^3", done.stdout)
+        self.assertIn(f"  CPU: {cpu_model()}\n", done.stdout)
 
     def test_every_method_has_a_step_and_the_counted_work_agrees_with_maps_analytic_count(self):
         methods = registered_methods()

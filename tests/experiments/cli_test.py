@@ -111,6 +111,9 @@ class Tool(unittest.TestCase):
             self.assertRegex(record["started_utc"], r"^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\dZ$")
             self.assertIn("train --config", record["command_line"])
             self.assertTrue(record["tool_version"])
+            # The machine's CPU and float32 kernel: CPU-time figures of runs on different machines differ.
+            self.assertTrue(record["cpu"])
+            self.assertIn(record["float32_gemm_kernel"], ("maps AVX-512", "maps AVX2", "Eigen"))
         self.assertGreaterEqual(records[0]["threads"], 1)  # --threads 0: one per core
         self.assertEqual(records[1]["overrides"], ["train.steps=150"])
         log = (out / "train.log").read_text()

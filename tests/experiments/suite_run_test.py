@@ -249,6 +249,21 @@ class SuiteTest(unittest.TestCase):
         self.assertEqual(results(out), results(self.reference))
         for path in out.glob("cells/*/*"):
             self.assertFalse(list(path.glob("*.tmp")), f"temporary files left in {path}")
+        # result.json names the machine, and every training process of the cell (kept without provenance.json):
+        # one each uninterrupted, more where a kill made a cell resume.
+        attempts = {"reference": [], "killed": []}
+        for folder, counts in ((self.reference, attempts["reference"]), (out, attempts["killed"])):
+            for path in sorted(folder.glob("cells/*/*/result.json")):
+                result = json.loads(path.read_text())
+                self.assertTrue(result["cpu"])
+                self.assertIn(result["float32_gemm_kernel"], ("maps AVX-512", "maps AVX2", "Eigen"))
+                for attempt in result["training_attempts"]:
+                    self.assertEqual(attempt["cpu"], result["cpu"])
+                    self.assertRegex(attempt["started_utc"], r"^\d{4}-\d\d-\d\dT")
+                counts.append(len(result["training_attempts"]))
+        self.assertEqual(attempts["reference"], [1] * 9)
+        self.assertTrue(all(n >= 1 for n in attempts["killed"]), attempts)
+        self.assertGreater(sum(attempts["killed"]), 9, "no cell recorded its resumed training")
 
     def test_damaged_cells_are_redone_not_trusted(self):
         out = self.dir / "damaged"

@@ -26,6 +26,7 @@ sys.path.insert(0, str(FIXTURE.parent))
 
 import suite_results  # noqa: E402
 import suite_stats  # noqa: E402
+import tables  # noqa: E402
 from markdown_rows import rows_of  # noqa: E402
 
 FIGURES = ["fig2_scores", "fig2_tasks_gravity", "fig2_tasks_mt10", "fig3_vs_single_bc", "fig4_ablations",
@@ -318,6 +319,27 @@ class Report(unittest.TestCase):
         with (self.out / "results.csv").open() as f:
             costs = {row["cell"]: float(row["compute_seconds"]) for row in csv.DictReader(f)}
         self.assertEqual(costs, expected)
+
+    def test_compute_names_the_machines(self):
+        # The fixture predates result.json's "cpu": every cell is "not recorded".
+        self.assertIn("Machines (the CPU models each cell's training and evaluation ran on, from result.json; a cell"
+                      " resumed on another kind names both): none recorded; not recorded (finished before result.json"
+                      f" named its CPU): {len(list(FIXTURE.glob('cells/*/*/result.json')))}.",
+                      self.md[self.md.index("## Compute"):])
+        with tempfile.TemporaryDirectory() as tmp:
+            suite_dir = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite_dir)
+            paths = sorted(suite_dir.glob("cells/*/*/result.json"))
+            for i, path in enumerate(paths[:3]):
+                result = json.loads(path.read_text())
+                # Two cells trained and evaluated on one CPU; the third resumed on another kind of machine.
+                result["cpu"] = "CPU B" if i == 2 else "CPU A"
+                result["training_attempts"] = [{"cpu": "CPU A", "started_utc": "2026-11-27T00:00:00Z"}]
+                path.write_text(json.dumps(result))
+            line = tables.machines_line(suite_results.load_suite(suite_dir).cells)
+        self.assertIn("ran on, from result.json; a cell resumed on another kind names both): CPU A: 2;"
+                      f" CPU A + CPU B: 1; not recorded (finished before result.json named its CPU): {len(paths) - 3}.",
+                      line)
 
     def test_captions_say_n_and_the_score(self):
         self.assertIn("n = 1-2 seeds per point, 10 episodes per task, 1000 training steps", self.md)

@@ -64,7 +64,8 @@ def write_cell(root, ident, config, steps, best_step, tasks, curve_text):
     result = {"format": "maps-suite-cell/1", "cell": ident, "config": config,
               "train": {"steps": steps, "best_step": best_step},
               "eval": {"best_step": best_step, "episodes": 10, "seconds": 1.0, "tasks": tasks},
-              "wall_seconds": 1.0, "threads": 1, "host": "fixture", "finished": "2026-01-01T00:00:00Z"}
+              "wall_seconds": 1.0, "threads": 1, "host": "fixture", "cpu": "Fixture CPU",
+              "training_attempts": [{"cpu": "Fixture CPU"}], "finished": "2026-01-01T00:00:00Z"}
     (folder / "result.json").write_text(json.dumps(result))
 
 
@@ -138,6 +139,9 @@ class TransferTableTest(unittest.TestCase):
     def test_cost_is_the_median_best_step_and_the_curves_cpu_seconds(self):
         # Transfer at 1 demo: best steps 0, 400, 800 (0.5 CPU s per 200 steps: 0, 1, 2 s); 2000 steps: 5 s.
         cost = self.md[self.md.index("Training cost"):self.md.index("MAPS transfer starts")]
+        # CPU seconds are a machine's: the section names the CPUs its cells (and transfer's sources) ran on.
+        before = self.md[:self.md.index("Training cost")]
+        self.assertRegex(before[before.rindex("Machines ("):], r"names both\): Fixture CPU: \d+\.\n")
         self.assertEqual(rows_of(cost, ["MAPS transfer", "1"])[0],
                          ["MAPS transfer", "1", "400 (0-800)", "1 of 3", "1.0", "5.0"])
         self.assertEqual(rows_of(cost, ["MAPS transfer", "2"])[0],
