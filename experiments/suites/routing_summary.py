@@ -2,15 +2,8 @@
 the per-set usage tables of tables.usage_tables give the per-task detail this summarises."""
 import math
 
-from suite_results import groups
-from suite_stats import division, fmt, mean, span, usage_distances
-from tables import ROUTED_NAMES, routing_note, table
-
-
-def routed(cells):
-    """{GroupKey: cells} of the base methods that record module usage, in report order."""
-    return {key: [c for c in runs if c.has_usage] for key, runs in groups(cells).items()
-            if key.label == runs[0].method and any(c.has_usage for c in runs)}
+from suite_stats import fmt, mean, span, usage_distances
+from tables import ROUTED_NAMES, division_counts, routed, routing_note, table
 
 
 def per_seed_mean(runs, value):
@@ -27,12 +20,7 @@ def summary_rows(runs, modules):
     tv = [mean(usage_distances(c)) for c in runs]
     entropy = per_seed_mean(runs, lambda t: t.entropy)
     top = per_seed_mean(runs, lambda t: t.top_score)
-    shared, specific, both = [], [], []
-    for c in runs:
-        s, p, b, _ = division(c)
-        shared.append(len(s))
-        specific.append(len(p))
-        both.append(b)
+    _, shared, specific, both, _, _ = zip(*division_counts(runs))
     tasks = len(runs[0].tasks)
     return [fmt(tv), f"{fmt(entropy) if entropy else '-'} ({math.log(modules):.2f})",
             f"{fmt(top) if top else '-'} ({1 / modules:.2f})", f"{span(sorted(shared))} of {modules}",

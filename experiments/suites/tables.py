@@ -197,14 +197,17 @@ def routing_note(method, cell):
     return ROUTING_NOTE.get(method, "")
 
 
+def routed(cells):
+    """{GroupKey: the cells with module usage} of the base methods (no variants) that record it, in report order."""
+    return {key: [c for c in runs if c.has_usage] for key, runs in groups(cells).items()
+            if key.label == runs[0].method and any(c.has_usage for c in runs)}
+
+
 def usage_tables(cells):
     """Every routing method's per-task module usage (lowest seed) and routing (per seed, then mean +- CI): MAPS's,
     and the zoo's (docs/zoo.md), base methods only (no variants)."""
     lines = []
-    for key, runs in groups(cells).items():
-        runs = [c for c in runs if c.has_usage]
-        if not runs or key.label != runs[0].method:
-            continue
+    for key, runs in routed(cells).items():
         method = runs[0].method
         who = ROUTED_NAMES.get(method, method)
         meaning = USAGE_MEANING.get(method, "mean routing share")
@@ -241,14 +244,19 @@ def usage_tables(cells):
     return lines
 
 
-def division_rows(runs, modules):
-    rows = []
+def division_counts(runs):
+    """Per run, by seed: (seed, shared modules, specific modules, tasks using both, tasks, each task's module count)."""
+    out = []
     for c in sorted(runs, key=lambda c: c.seed):
         shared, specific, both, used = division(c)
-        per_task = [len(mods) for mods in used.values()]
-        rows.append([c.seed, len(shared), len(specific), modules - len(shared) - len(specific),
-                     f"{both} of {len(used)}", f"{min(per_task)}-{max(per_task)}"])
-    return rows
+        out.append((c.seed, len(shared), len(specific), both, len(used), [len(mods) for mods in used.values()]))
+    return out
+
+
+def division_rows(runs, modules):
+    return [[seed, shared, specific, modules - shared - specific, f"{both} of {tasks}",
+             f"{min(per_task)}-{max(per_task)}"]
+            for seed, shared, specific, both, tasks, per_task in division_counts(runs)]
 
 
 def percent(count, total):
