@@ -5,7 +5,8 @@
 # takes the zoo first, every other runner the study first; then all take the zoo, then transfer. Two runners on one
 # suite share it (a cell another process holds is skipped, a transfer cell waits for its source). The zoo (about 8
 # CPU-hours left on 2026-11-27, against transfer's 49) goes before transfer because it is the shorter: both cores on
-# it close its issue sooner, and transfer ends no later (the same CPU-hours on the same two cores). Each runner
+# it close its issue sooner, and transfer ends about as late (the same CPU-hours on the same two cores; a
+# transfer cell waiting for its source can leave a core idle meanwhile). Each runner
 # appends its progress to results/<name>.log.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."

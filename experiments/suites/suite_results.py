@@ -276,9 +276,14 @@ def read_cell(path):
 
 
 def cpus_of(result):
-    """The distinct CPU models a result.json names (its training attempts' and its own), in first-seen order."""
-    named = [a.get("cpu") for a in result.get("training_attempts", []) if isinstance(a, dict)] + [result.get("cpu")]
-    return tuple(dict.fromkeys(str(c) for c in named if c))
+    """The distinct CPU models a result.json names (its training attempts' and its own), sorted; "unknown" for an
+    attempt that names none (a provenance record older than the "cpu" key, an unreadable provenance.json). () for a
+    result.json older than the "cpu" key."""
+    if not result.get("cpu"):
+        return ()
+    attempts = result.get("training_attempts") or []
+    named = [str(a.get("cpu") or "unknown") if isinstance(a, dict) else "unknown" for a in attempts]
+    return tuple(sorted(set(named + [str(result["cpu"])])))
 
 
 def read_error(path):

@@ -216,7 +216,7 @@ def usage_tables(cells):
         lines += ["", f"{who}, {key.demos} demos, k = {key.subsample}: module usage ({meaning} over the"
                   f" task's evaluation states) of seed {runs[0].seed}"
                   + (f", and the range over the {len(runs)} seeds of the most used module's share:" if len(runs) > 1
-                     else " (the only seed finished):"), ""]
+                     else " (the only seed with module usage):"), ""]
         rows = []
         for i, task in enumerate(tasks):
             tops = [max(c.tasks[i].usage) for c in runs]

@@ -256,7 +256,9 @@ def main():
                     lines.append(f"| {name_of(transfer)} | {name_of(transfers[0])} | {d} | {len(diffs)} | "
                                  f"{fmt(diffs, signed=True)} | {fmt_p(paired_p(diffs))} | (not adjusted) |")
         every = [c for m in methods for d in counts for c in rows.get((set_name, task, m, d), [])]
-        every += [s for s in (source_of(c, by_folder) for c in every if c.method == "transfer") if s]
+        sources = (source_of(c, by_folder) for c in every if c.method == "transfer")
+        # One source serves a seed's transfers at every count: each cell once.
+        every += list({s.folder: s for s in sources if s}.values())
         cpu = bool(every) and all(c.cpu_seconds_to(c.steps) is not None for c in every)
         clock = (lambda c, step: c.cpu_seconds_to(step)) if cpu else (lambda c, step: c.training_seconds_to(step))
         unit = "CPU seconds" if cpu else "seconds"

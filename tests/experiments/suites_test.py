@@ -337,6 +337,13 @@ class Report(unittest.TestCase):
                 result["training_attempts"] = [{"cpu": "CPU A", "started_utc": "2026-11-27T00:00:00Z"}]
                 path.write_text(json.dumps(result))
             line = tables.machines_line(suite_results.load_suite(suite_dir).cells)
+            # A training attempt that names no CPU (a provenance record older than the key, an unreadable file) is
+            # an unknown machine, not left out; a result.json older than the key names nothing.
+            self.assertEqual(suite_results.cpus_of({"cpu": "CPU B", "training_attempts": [{"started_utc": "x"},
+                                                                                         {"error": "unreadable"}]}),
+                             ("CPU B", "unknown"))
+            self.assertEqual(suite_results.cpus_of({"cpu": "CPU A", "training_attempts": None}), ("CPU A",))
+            self.assertEqual(suite_results.cpus_of({"host": "vm"}), ())
         self.assertIn("ran on, from result.json; a cell resumed on another kind names both): CPU A: 2;"
                       f" CPU A + CPU B: 1; not recorded (finished before result.json named its CPU): {len(paths) - 3}.",
                       line)
@@ -398,7 +405,7 @@ class ZooRouting(unittest.TestCase):
             self.assertIn("MOORE, 5 demos, k = 1: module usage (share |w_k,i| / sum |w_k|", md)
             # One seed: no range over seeds, no interval, and the wording says so.
             moore_usage = md[md.index("MOORE, 5 demos"):md.index("Task division", md.index("MOORE, 5 demos"))]
-            self.assertIn("of seed 0 (the only seed finished):", moore_usage)
+            self.assertIn("of seed 0 (the only seed with module usage):", moore_usage)
             self.assertIn("Routing (seed 0 only; uniform over 4 modules: entropy 1.39, top score 0.25):", moore_usage)
             self.assertNotIn("top module, all seeds", moore_usage)
             self.assertNotIn("1 seeds", md)
