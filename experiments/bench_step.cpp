@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
+#include "experiments/cpu_model.h"
 #include "experiments/provenance.h"
 #include "maps/policies/maps_flops.h"
 #include "maps/policies/maps_policy.h"

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "autograd/ops.h"
+#include "experiments/cpu_model.h"
 #include "experiments/run_folder.h"
 #include "experiments/version.h"
 
@@ -79,29 +80,6 @@ std::string sha256_of_file(const std::string& path) {
     text += hex[digest[i] & 15];
   }
   return text;
-}
-
-std::string cpu_model_from(std::istream& cpuinfo) {
-  std::string line;
-  while (std::getline(cpuinfo, line)) {
-    if (line.rfind("model name", 0) != 0) continue;
-    const auto colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    const auto begin = line.find_first_not_of(" \t", colon + 1);
-    if (begin == std::string::npos) return "";
-    const auto end = line.find_last_not_of(" \t\r");
-    return line.substr(begin, end - begin + 1);
-  }
-  return "";
-}
-
-std::string cpu_model() {
-  static const std::string model = [] {
-    std::ifstream cpuinfo("/proc/cpuinfo");
-    const std::string found = cpuinfo ? cpu_model_from(cpuinfo) : std::string();
-    return found.empty() ? std::string("unknown") : found;
-  }();
-  return model;
 }
 
 nlohmann::json provenance_record(const nlohmann::json& extra) {

@@ -1,6 +1,5 @@
 #pragma once
 
-#include <istream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -15,12 +14,6 @@ const std::string& command_line();
 // The SHA-256 of a file's bytes as 64 lowercase hex digits (the value `sha256sum FILE` prints). Throws naming the
 // file when it cannot be read.
 std::string sha256_of_file(const std::string& path);
-
-// The CPU's model name as /proc/cpuinfo gives it ("AMD EPYC", "Intel(R) Xeon(R) Processor"), "unknown" where it
-// cannot be read: speed and CPU-time figures mean little without it, and "host" names a VM, not its CPU.
-std::string cpu_model();
-// The first "model name" line's value in a /proc/cpuinfo text, "" without one.
-std::string cpu_model_from(std::istream& cpuinfo);
 
 // {"tool_version", "git_commit", "started_utc" (ISO 8601), "command_line", "working_directory", "host", "cpu",
 // "float32_gemm_kernel"} plus `extra`.

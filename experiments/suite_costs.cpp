@@ -15,6 +15,7 @@
 
 #include "envs/source_folders.h"
 #include "envs/task_sets.h"
+#include "experiments/cpu_model.h"
 #include "experiments/run_folder.h"
 #include "experiments/suite_folder.h"
 #include "experiments/suite_run.h"
@@ -217,20 +218,6 @@ int run_suite_plan(const SuitePlanOptions& options) {
               costs.json.value("cpu", std::string("an unnamed CPU")).c_str());
   return 0;
 }
-
-namespace {
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("model name", 0) == 0) {
-      const auto colon = line.find(':');
-      if (colon != std::string::npos) return line.substr(line.find_first_not_of(' ', colon + 1));
-    }
-  return "unknown CPU";
-}
-
-}  // namespace
 
 int run_suite_calibrate(const SuiteCalibrateOptions& options) {
   const std::string out = options.out.empty() ? default_costs_path().string() : options.out;

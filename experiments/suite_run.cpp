@@ -20,11 +20,13 @@
 
 #include "autograd/ops.h"
 #include "envs/demo_file.h"
+#include "experiments/cpu_model.h"
 #include "experiments/parallel_tasks.h"
 #include "experiments/provenance.h"
 #include "experiments/run_folder.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
+#include "experiments/training_attempts.h"
 
 namespace maps::experiments {
 
@@ -76,30 +78,6 @@ Attempt failed_stage(const fs::path& dir, const std::string& stage, int code, co
   // "checkpoint <path>: ...") failed on the folder's state; anything else would fail again from nothing.
   attempt.unreadable_state = code > 0 && code < 128 && said.find("checkpoint ") != std::string::npos;
   return attempt;
-}
-
-// Where each `maps train` process on the folder ran (its provenance.json records, which are not kept with the
-// results): training's CPU time in curve.csv spans them all, and their CPUs may differ.
-Json training_attempts(const fs::path& dir) {
-  Json attempts = Json::array();
-  const fs::path path = dir / "provenance.json";
-  if (!fs::exists(path)) return attempts;
-  Json records;
-  try {
-    records = read_json_file(path.string());
-  } catch (const std::exception& e) {
-    // maps train refuses a damaged provenance.json, so this is a file changed since: say so, keep the result.
-    return Json::array({{{"error", std::string("unreadable ") + path.string() + ": " + e.what()}}});
-  }
-  if (!records.is_array()) return attempts;
-  for (const auto& record : records) {
-    if (!record.is_object() || record.value("subcommand", "") != "train") continue;
-    Json attempt = Json::object();
-    for (const char* key : {"started_utc", "git_commit", "cpu", "float32_gemm_kernel", "threads"})
-      if (record.contains(key)) attempt[key] = record[key];
-    attempts.push_back(attempt);
-  }
-  return attempts;
 }
 
 // One attempt: train (resuming), evaluate, write result.json.

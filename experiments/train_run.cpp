@@ -94,6 +94,7 @@ int run_train(const TrainRunOptions& options) {
     append_provenance(options.out, provenance_record({{"subcommand", "train"},
                                                       {"config_file", options.config_path},
                                                       {"overrides", options.overrides},
+                                                      {"start_step", core::trained_steps(options.out)},
                                                       {"steps", config.train.steps},
                                                       {"threads", options.threads},
                                                       {"demo_file", config.data_file},

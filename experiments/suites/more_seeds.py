@@ -13,8 +13,9 @@ back its method only).
 
 Without --write it prints the settings and the grids it would add. With --write it appends those grids to the config,
 named <grid>_seeds_<a>_<b> (with _1, _2, ... where one grid's new cells need several: a grid is a product of sets,
-methods and counts, and only the cells asked for are added), so `maps suite run` runs them after everything else. A
-grid that has such grids in the config already is not judged again. The pairing is the report's (suite_stats.paired,
+methods and counts, and only the cells asked for are added; or where an earlier run added some of the grid's), so
+`maps suite run` runs them after everything else. Cells the config or suite.json plan already are never added again,
+so a second run adds only the settings the first could not judge yet (not ready then). The pairing is the report's (suite_stats.paired,
 significance); a method whose cells have not all finished is listed as not ready and gets nothing, so run this when
 the first seeds are done."""
 import argparse
@@ -64,7 +65,14 @@ def decide(suite, config, new_seeds):
     """(lines to print, grids to add)."""
     finished = {c.name: c for c in suite.cells}
     planned = planned_names(suite)
+    # Cells planned already: suite.json's, and those of the config's grids that suite.json has not planned yet (an
+    # earlier --write before `maps suite run`), so that a second run adds nothing twice.
     everywhere = set().union(*planned.values()) if planned else set()
+    for grid in config.get("grids", []):
+        for set_name in grid.get("sets", []):
+            for demos in grid_demos(config, grid, set_name):
+                for method in grid.get("methods", []):
+                    everywhere |= cell_names(set_name, method, grid.get("variants"), demos, grid.get("seeds", []))
     idents = [i for i in suite.planned if isinstance(i, dict)]
     maps_by = {}  # (set, demos, label) -> MAPS cells, label "maps" or "maps (variant)"
     for c in suite.cells:
@@ -77,6 +85,7 @@ def decide(suite, config, new_seeds):
         added_here = re.search("_seeds_" + "_".join(map(str, new_seeds)) + r"(_\d+)?$", name)
         if set(new_seeds) & set(grid.get("seeds", [])) or added_here:
             continue  # it runs (some of) those seeds already, or it is a grid this tool added
+        grid_seeds = set(grid.get("seeds", []))
         for set_name in grid.get("sets", []):
             for demos in grid_demos(config, grid, set_name):
                 # The grid's cells by the names suite.json plans for it (a result copied from another suite may
@@ -99,6 +108,7 @@ def decide(suite, config, new_seeds):
                     waiting += sorted(str(i.get("name")) for i in idents if i.get("method") == "maps"
                                       and i.get("set") == set_name and i.get("demos") == demos
                                       and i.get("name") not in finished
+                                      and (not grid_seeds or i.get("seed") in grid_seeds)
                                       and planned_label(i.get("method"), i.get("variant")) == reference)
                     if waiting:
                         lines.append(f"- {name}, {set_name} at {demos}: {method_label}: not ready ({len(waiting)} cells"
@@ -132,12 +142,10 @@ def decide(suite, config, new_seeds):
                          " runs it alone; add its seeds by hand")
             continue
         wanted.setdefault((home["name"], set_name, demos), set()).add("maps")
-    grids, existing = [], [str(g.get("name", "")) for g in config.get("grids", [])]
+    grids, existing = [], {str(g.get("name", "")) for g in config.get("grids", [])}
     suffix = "_seeds_" + "_".join(map(str, new_seeds))
     for grid in config.get("grids", []):
         name = grid.get("name", "")
-        if any(e == name + suffix or e.startswith(name + suffix + "_") for e in existing):
-            continue  # added by an earlier run
         # Exactly the cells asked for: one new grid per set and set of methods, over the counts that asked for it
         # (a grid is a product of its sets, methods and counts; one grid for all would add cells nobody asked for).
         parts = {}
@@ -145,9 +153,16 @@ def decide(suite, config, new_seeds):
             if grid_name == name:
                 parts.setdefault((set_name, frozenset(methods)), []).append(demos)
         ordered = sorted(parts.items(), key=lambda item: (grid.get("sets", []).index(item[0][0]), sorted(item[1])))
-        for index, ((set_name, methods), counts) in enumerate(ordered):
+        # Numbered where several, or where an earlier run added this grid's first ones (its cells are not asked again).
+        numbered = len(ordered) > 1 or any(e == name + suffix or e.startswith(name + suffix + "_") for e in existing)
+        index = 0
+        for (set_name, methods), counts in ordered:
             new = copy.deepcopy(grid)
-            new["name"] = name + suffix + (f"_{index + 1}" if len(ordered) > 1 else "")
+            new["name"] = name + suffix
+            while numbered and (new["name"] == name + suffix or new["name"] in existing):
+                index += 1
+                new["name"] = f"{name}{suffix}_{index}"
+            existing.add(new["name"])
             new["methods"] = [m for m in grid.get("methods", []) if m in methods]
             new["sets"] = [set_name]
             new["demos"] = {set_name: sorted(counts)}

@@ -16,14 +16,22 @@ def per_seed_mean(runs, value):
     return out
 
 
+def over_seeds(values, seeds, uniform):
+    """mean +- CI with the uniform reference in brackets, and how many seeds it is over when fewer than the row's."""
+    if not values:
+        return f"- ({uniform:.2f})"
+    fewer = f", {len(values)} of {seeds} seeds" if len(values) < seeds else ""
+    return f"{fmt(values)} ({uniform:.2f}{fewer})"
+
+
 def summary_rows(runs, modules):
     tv = [mean(usage_distances(c)) for c in runs]
     entropy = per_seed_mean(runs, lambda t: t.entropy)
     top = per_seed_mean(runs, lambda t: t.top_score)
     _, shared, specific, both, _, _ = zip(*division_counts(runs))
     tasks = len(runs[0].tasks)
-    return [fmt(tv), f"{fmt(entropy) if entropy else '-'} ({math.log(modules):.2f})",
-            f"{fmt(top) if top else '-'} ({1 / modules:.2f})", f"{span(sorted(shared))} of {modules}",
+    return [fmt(tv), over_seeds(entropy, len(runs), math.log(modules)), over_seeds(top, len(runs), 1 / modules),
+            f"{span(sorted(shared))} of {modules}",
             f"{span(sorted(specific))} of {modules}", f"{span(sorted(both))} of {tasks}"]
 
 
@@ -34,7 +42,7 @@ def routing_summary(cells):
     by_key = routed(cells)
     if len({key.label for key in by_key}) < 2:
         return []
-    rows, notes = [], {}
+    rows, notes = [], {}  # notes: each distinct text once (a method at two settings, e.g. two k, may need two)
     order = list(ROUTED_NAMES)
     for key in sorted(by_key, key=lambda k: (k.set, k.demos, k.subsample,
                                               order.index(k.label) if k.label in order else len(order), k.label)):
@@ -44,14 +52,16 @@ def routing_summary(cells):
                     + summary_rows(runs, modules))
         note = routing_note(key.label, runs[0])
         if note:
-            notes[key.label] = note
+            notes[note] = None
     lines = ["Each method's routing per setting, over its seeds: the tasks' usage distance from their mean usage (TV,"
              " mean over tasks; 0: every task routes alike), the per-state entropy and top score (mean over tasks;"
              " in brackets the value of uniform routing over M, ln M and 1/M), and the task division (a task uses a"
              " module whose share of its usage is >= 1.5/M; shared: used by two or more tasks, specific: by one;"
-             " range over seeds). Mean +- 95% CI over seeds. The per-set sections give each task's usage.", ""]
+             " range over seeds). Mean +- 95% CI over seeds. The per-set sections give each task's usage. Rows are not"
+             " paired: each is over its own seeds, and the seed counts may differ (seeds 3-4 were added where"
+             " more_seeds.py found an interval too wide), so compare rows by their intervals, not seed by seed.", ""]
     lines += table(["set", "demos", "k", "method", "seeds", "M", "TV from the tasks' mean", "per-state entropy (ln M)",
                     "per-state top score (1/M)", "shared modules", "specific modules", "tasks using both"], rows)
     if notes:
-        lines += [""] + [f"- {note}" for note in notes.values()]
+        lines += [""] + [f"- {note}" for note in notes]
     return lines

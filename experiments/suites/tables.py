@@ -432,31 +432,52 @@ def checkpoint_rule_pairs(cells):
 def compute_table(cells):
     """CPU time per grid and method: each finished cell's cost (Cell.compute_seconds: training over every attempt from
     curve.csv, plus evaluation; each cell runs on one thread), summed."""
-    by, hows = {}, {}
+    by, hows, on = {}, {}, {}
     for c in cells:
         seconds, how = c.compute_seconds()
-        by.setdefault((c.grid or "-", c.set, c.label), []).append(seconds)
+        key = (c.grid or "-", c.set, c.label)
+        by.setdefault(key, []).append(seconds)
         hows[how] = hows.get(how, 0) + 1
-    rows = [[grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}", f"{sum(seconds) / len(seconds) / 60:.1f}"]
+        on.setdefault(key, []).append(c)
+    rows = [[grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}", f"{sum(seconds) / len(seconds) / 60:.1f}",
+             machine_counts(on[(grid, set_name, label)])]
             for (grid, set_name, label), seconds in sorted(by.items())]
     total = sum(s for seconds in by.values() for s in seconds if s == s)
     sources = {"cpu": "training's CPU seconds from curve.csv",
                "windows": "training's wall seconds per curve.csv window",
                "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
     counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
-    return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell"], rows)
+    mixed = len({" + ".join(c.cpus) for c in cells if c.cpus}) > 1
+    return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell", "machines"], rows)
             + ["", f"In all: {total / 3600:.1f} CPU-hours over {len(cells)} finished cells (training, validation and"
                    " evaluation; one thread each). Training counts every attempt of a resumed cell (steps redone after"
-                   f" a kill once) and the evaluation its own seconds. Cells counted: {counted}.", "",
+                   f" a kill once) and the evaluation its own seconds. Cells counted: {counted}. Machines: the CPUs"
+                   " the group's cells ran on (cells each; ?: not recorded)."
+                   + (" The CPU-hours of different machines are summed as they are, though a CPU-second differs"
+                      " between them (docs/performance.md): compare rows' costs only where the machines column"
+                      " agrees." if mixed else ""), "",
                machines_line(cells)])
 
 
-def machines_line(cells):
-    """Which CPUs the cells ran on: a CPU-second differs between them (docs/performance.md)."""
+def cpu_counts(cells):
+    """{the CPUs a cell ran on joined with " + ", or None where not recorded: cells}."""
     on = {}
     for c in cells:
         key = " + ".join(c.cpus) if c.cpus else None
         on[key] = on.get(key, 0) + 1
+    return on
+
+
+def machine_counts(cells):
+    """The compute table's machines cell: each CPU (most cells first) with its count, "?" for unrecorded ones."""
+    on = cpu_counts(cells)
+    named = sorted(((k, n) for k, n in on.items() if k), key=lambda kn: (-kn[1], kn[0]))
+    return ", ".join([f"{cpu} ({n})" for cpu, n in named] + ([f"? ({on[None]})"] if on.get(None) else []))
+
+
+def machines_line(cells):
+    """Which CPUs the cells ran on: a CPU-second differs between them (docs/performance.md)."""
+    on = cpu_counts(cells)
     named = "; ".join(f"{cpu}: {n}" for cpu, n in sorted(((k, n) for k, n in on.items() if k), key=lambda kn: -kn[1]))
     unknown = on.get(None, 0)
     return ("Machines (the CPU models each cell's training and evaluation ran on, from result.json; a cell resumed on"

@@ -260,6 +260,10 @@ class SuiteTest(unittest.TestCase):
                 for attempt in result["training_attempts"]:
                     self.assertEqual(attempt["cpu"], result["cpu"])
                     self.assertRegex(attempt["started_utc"], r"^\d{4}-\d\d-\d\dT")
+                    self.assertLess(attempt["start_step"], attempt["steps"], "an attempt that trained nothing")
+                starts = [attempt["start_step"] for attempt in result["training_attempts"]]
+                self.assertEqual(starts, sorted(starts), path)
+                self.assertEqual(starts[0], 0, path)
                 counts.append(len(result["training_attempts"]))
         self.assertEqual(attempts["reference"], [1] * 9)
         self.assertTrue(all(n >= 1 for n in attempts["killed"]), attempts)

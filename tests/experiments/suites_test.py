@@ -312,7 +312,7 @@ class Report(unittest.TestCase):
         row = row_of(compute, ["ablation", "mt10", "maps (no_explore)"])
         ablation = [seconds for name, seconds in expected.items() if name.startswith("mt10/maps-no_explore")]
         self.assertEqual(row[3:], [str(len(ablation)), f"{sum(ablation) / 3600:.2f}",
-                                   f"{sum(ablation) / len(ablation) / 60:.1f}"])
+                                   f"{sum(ablation) / len(ablation) / 60:.1f}", f"? ({len(ablation)})"])
         row = row_of(compute, ["comparison", "mt10", "single_bc"])
         single = [seconds for name, seconds in expected.items() if name.startswith("mt10/single_bc_")]
         self.assertEqual(row[4], f"{sum(single) / 3600:.2f}")
@@ -336,7 +336,15 @@ class Report(unittest.TestCase):
                 result["cpu"] = "CPU B" if i == 2 else "CPU A"
                 result["training_attempts"] = [{"cpu": "CPU A", "started_utc": "2026-11-27T00:00:00Z"}]
                 path.write_text(json.dumps(result))
-            line = tables.machines_line(suite_results.load_suite(suite_dir).cells)
+            cells = suite_results.load_suite(suite_dir).cells
+            line = tables.machines_line(cells)
+            compute = "\n".join(tables.compute_table(cells))
+            machines = [row_of(compute, [c.grid, c.set, c.label])[6] for c in cells
+                        if c.folder in {p.parent for p in paths[:3]}]
+            self.assertTrue(any(m.startswith("CPU A (") for m in machines), machines)
+            self.assertTrue(any("CPU A + CPU B (1)" in m for m in machines), machines)
+            self.assertIn("compare rows' costs only where the machines column agrees", compute)
+            self.assertNotIn("machines column agrees", "\n".join(tables.compute_table(cells[:1])))
             # A training attempt that names no CPU (a provenance record older than the key, an unreadable file) is
             # an unknown machine, not left out; a result.json older than the key names nothing.
             self.assertEqual(suite_results.cpus_of({"cpu": "CPU B", "training_attempts": [{"started_utc": "x"},
@@ -435,6 +443,16 @@ class ZooRouting(unittest.TestCase):
             # Every set's paired differences from MAPS in one section, the zoo's methods among them.
             against = between(md, "## Against MAPS, every set", "\n## ")
             self.assertEqual(row_of(against, ["moore", "maps", "5"])[4], "1")
+            self.assertNotIn("more_seeds.py", against)  # no seeds were added after the first ones
+            # Seeds added where the first seeds' interval included 0: the section says the p values are not nominal.
+            suite["config"]["grids"]["comparison_seeds_3_4"] = {"seeds": [3, 4]}  # the fixture's older format
+            (suite_dir / "suite.json").write_text(json.dumps(suite))
+            code, _, stderr = run_report(suite_dir, out)
+            self.assertEqual(code, 0, stderr)
+            against = between((out / "report.md").read_text(), "## Against MAPS, every set", "\n## ")
+            self.assertIn("grids comparison_seeds_3_4 were added by more_seeds.py after the first seeds finished",
+                          against)
+            self.assertIn("not as nominal tests", against)
         # The plain fixture has MAPS alone: no zoo figure.
         with tempfile.TemporaryDirectory() as tmp:
             code, _, stderr = run_report(FIXTURE, pathlib.Path(tmp) / "report")
@@ -802,6 +820,8 @@ class MoreSeeds(unittest.TestCase):
                                      (["gravity"], ["maps", "single_bc"], {"gravity": [10]}),
                                      (["mt10"], ["maps", "single_bc", "mt_bc"], {"mt10": [5]}),
                                      (["mt10"], ["maps", "single_bc"], {"mt10": [10]})])
+            self.assertEqual([name for name in grids if name.startswith("comparison_seeds")],
+                             [f"comparison_seeds_2_3_{i}" for i in range(1, 5)])
             self.assertEqual(grids["comparison_seeds_2_3_1"]["seeds"], [2, 3])
             # The width control has no MAPS of its own: base MAPS's grid (comparison) runs MAPS there.
             self.assertEqual(grids["controls_seeds_2_3"]["methods"], ["mt_bc"])
@@ -809,6 +829,42 @@ class MoreSeeds(unittest.TestCase):
             self.assertEqual(grids["paper_protocol_seeds_2_3"]["methods"], ["maps", "mt_bc"])
             # A second run adds nothing twice.
             self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
+            self.assertEqual(len(json.loads(config.read_text())["grids"]), len(grids))
+
+    def test_a_later_run_adds_the_settings_that_were_not_ready(self):
+        # The first run adds what it can judge; MT-BC at Gravity 10 waits for its failed seed 1. Once that cell has
+        # finished (and suite.json plans MAPS's new seeds there, unfinished), a second run judges MT-BC over the
+        # grid's seeds 0-1 only and adds its seeds alone, in a grid numbered after the first run's.
+        with tempfile.TemporaryDirectory() as tmp:
+            config = pathlib.Path(tmp) / "c.json"
+            config.write_text(json.dumps(self.CONFIG))
+            code, _, stderr = self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
+            self.assertEqual(code, 0, stderr)
+            first = [g["name"] for g in json.loads(config.read_text())["grids"]]
+            suite_dir = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite_dir)
+            failed = suite_dir / "cells" / "gravity" / "mt_bc_d10_s1"
+            result = json.loads((suite_dir / "cells" / "gravity" / "mt_bc_d10_s0" / "result.json").read_text())
+            result["cell"].update(name="gravity/mt_bc_d10_s1", seed=1)
+            result["config"]["seed"] = 1
+            (failed / "error.json").unlink(missing_ok=True)
+            (failed / "result.json").write_text(json.dumps(result))
+            suite = json.loads((suite_dir / "suite.json").read_text())
+            maps_s2 = json.loads(json.dumps(next(c for c in suite["cells"] if c["name"] == "gravity/maps_d10_s1")))
+            maps_s2.update(index=len(suite["cells"]), name="gravity/maps_d10_s2", seed=2,
+                           grid="comparison_seeds_2_3_2")
+            suite["cells"].append(maps_s2)
+            (suite_dir / "suite.json").write_text(json.dumps(suite))
+            code, stdout, stderr = self.run_tool(suite_dir, config, "--seeds", "2,3", "--write")
+            self.assertEqual(code, 0, stderr)
+            self.assertRegex(stdout, r"- comparison, gravity at 10: mt_bc - maps [-+]\d\.\d\d \+- \d+\.\d\d"
+                                     r" \(2 pairs\): more seeds")
+            grids = json.loads(config.read_text())["grids"]
+            self.assertEqual([g["name"] for g in grids[:len(first)]], first)  # the first run's grids unchanged
+            self.assertEqual([(g["name"], g["methods"], g["demos"]) for g in grids[len(first):]],
+                             [("comparison_seeds_2_3_5", ["mt_bc"], {"gravity": [10]})])
+            # Nothing twice: a third run adds nothing.
+            self.run_tool(suite_dir, config, "--seeds", "2,3", "--write")
             self.assertEqual(len(json.loads(config.read_text())["grids"]), len(grids))
 
     def test_a_grids_cells_are_the_ones_its_suite_plans_and_keep_only_variants_pair_as_base(self):
