@@ -83,25 +83,28 @@ def section(title, body, empty):
 
 
 def per_set(suite, make, intro):
-    """Each set's table from make(cells) under a heading; [] when no set has one."""
+    """Each set's table from make(cells) under a heading, after the intro lines (or intro(set name)'s); [] when no set
+    has one."""
     lines = []
     for set_name in suite.sets():
         table = make(suite.cells_of(set_name))
         if table:
-            lines += [f"### {set_name}", ""] + intro + table + [""]
+            lines += [f"### {set_name}", ""] + (intro(set_name) if callable(intro) else intro) + table + [""]
     return lines
 
 
 ADDED_SEEDS_GRID = re.compile(r"_seeds_\d+(_\d+)+$")  # more_seeds.py's names: <grid>_seeds_3_4, <grid>_seeds_3_4_1
 
 
-def adaptive_seeds_caveat(suite):
-    """When more_seeds.py added seeds after looking at the first ones, the p values are not the nominal ones: say so."""
+def adaptive_seeds_caveat(suite, set_name):
+    """When more_seeds.py added seeds on the set after looking at the first ones, the p values are not the nominal
+    ones: say so."""
     grids = suite.config.get("grids", [])
-    # A list of named grids; suites written before that format keyed them by name.
-    names = ([str(g.get("name", "")) for g in grids if isinstance(g, dict)] if isinstance(grids, list)
-             else [str(name) for name in grids] if isinstance(grids, dict) else [])
-    added = sorted(name for name in names if ADDED_SEEDS_GRID.search(name))
+    # A list of named grids; suites written before that format keyed them by name. A grid without "sets" runs all.
+    named = ([(str(g.get("name", "")), g) for g in grids if isinstance(g, dict)] if isinstance(grids, list)
+             else [(str(name), g) for name, g in grids.items()] if isinstance(grids, dict) else [])
+    added = sorted(name for name, grid in named if ADDED_SEEDS_GRID.search(name)
+                   and set_name in (grid.get("sets") or [set_name] if isinstance(grid, dict) else [set_name]))
     if not added:
         return []
     return [f"Some settings have more seeds than others: grids {', '.join(added)} were added by more_seeds.py after"
@@ -130,7 +133,8 @@ def report_lines(suite, draw):
                      "No MAPS cells: none of the paper's claims can be checked.")
     if {c.method for c in cells} - set(claims.COMPARED):
         # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
-        lines += section("Against MAPS, every set", per_set(suite, tables.paired_table, adaptive_seeds_caveat(suite)),
+        caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
+        lines += section("Against MAPS, every set", per_set(suite, tables.paired_table, caveat),
                          "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds).")
 
     task_figures = {f.file: f for f in draw("fig2_tasks")}
