@@ -1,9 +1,9 @@
 #include "experiments/training_attempts.h"
 
 #include <exception>
+#include <fstream>
+#include <stdexcept>
 #include <string>
-
-#include "experiments/run_folder.h"
 
 namespace maps::experiments {
 
@@ -13,7 +13,9 @@ nlohmann::json training_attempts(const std::filesystem::path& dir) {
   if (!std::filesystem::exists(path)) return attempts;
   nlohmann::json records;
   try {
-    records = read_json_file(path.string());
+    std::ifstream in(path);
+    if (!in) throw std::runtime_error("cannot open it");
+    records = nlohmann::json::parse(in);
   } catch (const std::exception& e) {
     // maps train refuses a damaged provenance.json, so this is a file changed since: say so, keep the result.
     return nlohmann::json::array({{{"error", std::string("unreadable ") + path.string() + ": " + e.what()}}});
@@ -21,9 +23,11 @@ nlohmann::json training_attempts(const std::filesystem::path& dir) {
   if (!records.is_array())
     return nlohmann::json::array({{{"error", path.string() + " is not a JSON array of provenance records"}}});
   for (const auto& record : records) {
-    if (!record.is_object() || record.value("subcommand", "") != "train") continue;
-    const auto& start = record.find("start_step");
-    const auto& steps = record.find("steps");
+    if (!record.is_object()) continue;
+    const auto subcommand = record.find("subcommand");
+    if (subcommand == record.end() || !subcommand->is_string() || *subcommand != "train") continue;
+    const auto start = record.find("start_step");
+    const auto steps = record.find("steps");
     if (start != record.end() && steps != record.end() && start->is_number_integer() && steps->is_number_integer() &&
         start->get<long long>() >= steps->get<long long>())
       continue;

@@ -78,7 +78,7 @@ def decide(suite, config, new_seeds):
     for c in suite.cells:
         if c.method == "maps":
             maps_by.setdefault((c.set, c.demos, c.label), []).append(c)
-    lines, wanted = [], {}  # wanted[(grid name, set, demos)] = set of methods
+    lines, wanted = [], {}  # wanted[(grid name, set, demos, variant name or "base")] = set of methods
     needs_maps = set()  # (set, demos, variant or None): a MAPS reference from another grid needs the new seeds
     for grid in config.get("grids", []):
         name = grid.get("name", "")
@@ -96,12 +96,18 @@ def decide(suite, config, new_seeds):
                         key = (str(ident.get("method", "")), str(ident.get("variant", "base") or "base"))
                         mine.setdefault(key, []).append(str(ident.get("name", "")))
                 in_grid = "maps" in grid.get("methods", [])
+                grid_variants = [None if v == "base" else v for v in (grid.get("variants") or ["base"])]
+                # MAPS's labels at this setting that finished, or that suite.json plans (a MAPS variant not finished
+                # yet is still the partner the report will pair with: wait for it rather than judge against base).
+                maps_labels = {label for (s_, d_, label) in maps_by if (s_, d_) == (set_name, demos)}
+                maps_labels |= {planned_label(i.get("method"), i.get("variant")) for i in idents
+                                if i.get("method") == "maps" and i.get("set") == set_name and i.get("demos") == demos}
                 for (method, variant_name), names in sorted(mine.items()):
                     if method == "maps":
                         continue
                     cells = [finished[n] for n in names if n in finished]
                     method_label = cells[0].label if cells else planned_label(method, variant_name)
-                    reference = maps_partner(method_label, lambda maps_label: (set_name, demos, maps_label) in maps_by)
+                    reference = maps_partner(method_label, lambda maps_label: maps_label in maps_labels)
                     # A method is judged once its cells and its MAPS partner's (in whichever grid) have all finished:
                     # one failed cell holds back that method, not the setting's others.
                     waiting = sorted(n for n in names if n not in finished)
@@ -123,13 +129,13 @@ def decide(suite, config, new_seeds):
                     if not overlaps:
                         continue
                     if not cell_names(set_name, method, [variant], demos, new_seeds) <= everywhere:
-                        wanted.setdefault((name, set_name, demos), set()).add(method)
+                        wanted.setdefault((name, set_name, demos, variant or "base"), set()).add(method)
                     ref_variant = reference[len("maps ("):-1] if reference != "maps" else (
                         variant if variant and is_keep_only(variant) else None)
                     if cell_names(set_name, "maps", [ref_variant], demos, new_seeds) <= everywhere:
                         continue
-                    if in_grid and ref_variant in [None] + list(grid.get("variants") or []):
-                        wanted.setdefault((name, set_name, demos), set()).add("maps")
+                    if in_grid and ref_variant in grid_variants:
+                        wanted.setdefault((name, set_name, demos, ref_variant or "base"), set()).add("maps")
                     else:
                         needs_maps.add((set_name, demos, ref_variant))
     # A grid without its MAPS reference: the grid that runs that MAPS there runs its new seeds too.
@@ -141,22 +147,26 @@ def decide(suite, config, new_seeds):
             lines.append(f"- MAPS{f' ({variant})' if variant else ''} at {set_name} {demos}: no grid of the config"
                          " runs it alone; add its seeds by hand")
             continue
-        wanted.setdefault((home["name"], set_name, demos), set()).add("maps")
+        wanted.setdefault((home["name"], set_name, demos, variant or "base"), set()).add("maps")
     grids, existing = [], {str(g.get("name", "")) for g in config.get("grids", [])}
     suffix = "_seeds_" + "_".join(map(str, new_seeds))
     for grid in config.get("grids", []):
         name = grid.get("name", "")
-        # Exactly the cells asked for: one new grid per set and set of methods, over the counts that asked for it
-        # (a grid is a product of its sets, methods and counts; one grid for all would add cells nobody asked for).
+        # Exactly the cells asked for: one new grid per set, variant and set of methods, over the counts that asked
+        # for it (a grid is a product of its sets, methods, variants and counts; one grid for all would add cells
+        # nobody asked for).
         parts = {}
-        for (grid_name, set_name, demos), methods in wanted.items():
+        for (grid_name, set_name, demos, variant), methods in wanted.items():
             if grid_name == name:
-                parts.setdefault((set_name, frozenset(methods)), []).append(demos)
-        ordered = sorted(parts.items(), key=lambda item: (grid.get("sets", []).index(item[0][0]), sorted(item[1])))
+                parts.setdefault((set_name, variant, frozenset(methods)), []).append(demos)
+        variants = list(grid.get("variants") or ["base"])
+        ordered = sorted(parts.items(), key=lambda item: (grid.get("sets", []).index(item[0][0]),
+                                                          variants.index(item[0][1]) if item[0][1] in variants
+                                                          else len(variants), sorted(item[1])))
         # Numbered where several, or where an earlier run added this grid's first ones (its cells are not asked again).
         numbered = len(ordered) > 1 or any(e == name + suffix or e.startswith(name + suffix + "_") for e in existing)
         index = 0
-        for (set_name, methods), counts in ordered:
+        for (set_name, variant, methods), counts in ordered:
             new = copy.deepcopy(grid)
             new["name"] = name + suffix
             while numbered and (new["name"] == name + suffix or new["name"] in existing):
@@ -165,6 +175,8 @@ def decide(suite, config, new_seeds):
             existing.add(new["name"])
             new["methods"] = [m for m in grid.get("methods", []) if m in methods]
             new["sets"] = [set_name]
+            if "variants" in grid:
+                new["variants"] = [variant]
             new["demos"] = {set_name: sorted(counts)}
             new["seeds"] = list(new_seeds)
             grids.append(new)

@@ -93,25 +93,29 @@ def per_set(suite, make, intro):
     return lines
 
 
-ADDED_SEEDS_GRID = re.compile(r"_seeds_\d+(_\d+)+$")  # more_seeds.py's names: <grid>_seeds_3_4, <grid>_seeds_3_4_1
+ADDED_SEEDS_GRID = re.compile(r"_seeds_\d+(_\d+)*$")  # more_seeds.py's names: <grid>_seeds_3_4, <grid>_seeds_3_4_1
+
+
+def added_seed_grids(suite, set_name=None):
+    """The grids more_seeds.py added (by their names) that have a finished cell on the set (on any set without one),
+    from suite.json's plan: a copied result may name another suite's grid."""
+    finished = {c.name for c in suite.cells}
+    return sorted({str(i.get("grid")) for i in suite.planned if isinstance(i, dict)
+                   and ADDED_SEEDS_GRID.search(str(i.get("grid", ""))) and i.get("name") in finished
+                   and (set_name is None or i.get("set") == set_name)})
 
 
 def adaptive_seeds_caveat(suite, set_name):
     """When more_seeds.py added seeds on the set after looking at the first ones, the p values are not the nominal
     ones: say so."""
-    grids = suite.config.get("grids", [])
-    # A list of named grids; suites written before that format keyed them by name. A grid without "sets" runs all.
-    named = ([(str(g.get("name", "")), g) for g in grids if isinstance(g, dict)] if isinstance(grids, list)
-             else [(str(name), g) for name, g in grids.items()] if isinstance(grids, dict) else [])
-    added = sorted(name for name, grid in named if ADDED_SEEDS_GRID.search(name)
-                   and set_name in (grid.get("sets") or [set_name] if isinstance(grid, dict) else [set_name]))
+    added = added_seed_grids(suite, set_name)
     if not added:
         return []
     return [f"Some settings have more seeds than others: grids {', '.join(added)} were added by more_seeds.py after"
             " the first seeds finished, where a difference's interval included 0. Choosing where to add seeds from"
             " the results makes a p below 0.05 more likely than 5% when there is no difference, so read these p"
-            " values (Holm too) as indicative, not as nominal tests; a setting that kept its first seeds was tested once,"
-            " at the nominal level.", ""]
+            " values (Holm too) as indicative, not as nominal tests; a setting that kept its first seeds was tested"
+            " once, at the nominal level.", ""]
 
 
 def report_lines(suite, draw):
@@ -131,6 +135,10 @@ def report_lines(suite, draw):
     lines += section("Fig. 3: against Single BC", body, "No Single BC cells to compare with in this suite.")
     lines += section("The paper's claims", claims.claims_table(cells, tables.table),
                      "No MAPS cells: none of the paper's claims can be checked.")
+    if added_seed_grids(suite) and any(c.method == "maps" for c in cells):
+        lines += ["", "Where a claim's comparisons include seeds that more_seeds.py added after the first seeds"
+                  f" ({', '.join(added_seed_grids(suite))}), its p values and so its verdict are indicative, not"
+                  " nominal tests (\"Against MAPS, every set\" says why)."]
     if {c.method for c in cells} - set(claims.COMPARED):
         # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
         caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
@@ -147,6 +155,7 @@ def report_lines(suite, draw):
             rules = tables.success_rules_table(mine)
             lines += [""] + rules if rules else []
         paired = tables.paired_table(mine)
+        paired = adaptive_seeds_caveat(suite, set_name) + paired if paired else paired
         lines += ["", "### Paired differences from MAPS", ""] + (paired or [
             "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds)."])
         pooling = tables.pooling_table(mine)
@@ -177,7 +186,7 @@ def report_lines(suite, draw):
                      "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
                      "No MAPS cells with module usage in this suite.")
-    summary = routing_summary(cells)
+    summary = routing_summary(cells, seeds_added=bool(added_seed_grids(suite)))
     zoo = draw("zoo_routing")
     if zoo or summary:
         lines += section("Routing of every method (the zoo)", summary + embed(zoo), "")

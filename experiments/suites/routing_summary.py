@@ -35,10 +35,10 @@ def summary_rows(runs, modules):
             f"{span(sorted(specific))} of {modules}", f"{span(sorted(both))} of {tasks}"]
 
 
-def routing_summary(cells):
+def routing_summary(cells, seeds_added=False):
     """Per set: a row per (routing method, demos) with seeds, M and the routing measures over seeds; the caveats of
     the methods present after the table. [] without two or more routing methods (MAPS alone: the usage tables
-    say it all)."""
+    say it all). seeds_added: more_seeds.py added seeds to some settings (the rows' seed counts then differ)."""
     by_key = routed(cells)
     if len({key.label for key in by_key}) < 2:
         return []
@@ -58,8 +58,10 @@ def routing_summary(cells):
              " in brackets the value of uniform routing over M, ln M and 1/M), and the task division (a task uses a"
              " module whose share of its usage is >= 1.5/M; shared: used by two or more tasks, specific: by one;"
              " range over seeds). Mean +- 95% CI over seeds. The per-set sections give each task's usage. Rows are not"
-             " paired: each is over its own seeds, and the seed counts may differ (seeds 3-4 were added where"
-             " more_seeds.py found an interval too wide), so compare rows by their intervals, not seed by seed.", ""]
+             " paired: each is over its own seeds" + (" (more_seeds.py added seeds where a difference from MAPS had"
+                                                      " an interval including 0, so the rows' seed counts differ)"
+                                                      if seeds_added else "")
+             + "; compare rows by their intervals, not seed by seed.", ""]
     lines += table(["set", "demos", "k", "method", "seeds", "M", "TV from the tasks' mean", "per-state entropy (ln M)",
                     "per-state top score (1/M)", "shared modules", "specific modules", "tasks using both"], rows)
     if notes:

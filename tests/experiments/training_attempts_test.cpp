@@ -61,7 +61,7 @@ TEST_F(TrainingAttempts, AProcessThatTrainedNothingIsLeftOut) {
 TEST_F(TrainingAttempts, RecordsFromBeforeTheStartStepAreKeptAndOtherSubcommandsSkipped) {
   Json old = train_record("CPU A", 0, 20000);
   old.erase("start_step");
-  write_provenance(Json::array({old, {{"subcommand", "transfer"}, {"cpu", "CPU C"}}, 17}).dump());
+  write_provenance(Json::array({old, {{"subcommand", "transfer"}, {"cpu", "CPU C"}}, 17, {{"subcommand", 3}}}).dump());
   const Json attempts = training_attempts(dir_);
   ASSERT_EQ(attempts.size(), 1U);
   EXPECT_EQ(attempts[0]["cpu"], "CPU A");
