@@ -32,11 +32,14 @@ from suite_stats import fmt, paired, significance  # noqa: E402
 
 
 def grid_demos(config, grid, set_name):
-    """The demo counts a grid runs on a set: its own (a list, or per set), else the set's."""
+    """The demo counts a grid runs on a set: its own (a list, or per set), else the set's (as `maps suite` reads a
+    grid whose per-set counts do not name the set)."""
     demos = grid.get("demos")
+    if isinstance(demos, dict):
+        demos = demos.get(set_name)
     if demos is None:
         demos = config.get("sets", {}).get(set_name, {}).get("demos", [])
-    return list(demos.get(set_name, [])) if isinstance(demos, dict) else list(demos)
+    return list(demos)
 
 
 def planned_names(suite):

@@ -24,6 +24,7 @@ REPORT = SUITES / "report.py"
 sys.path.insert(0, str(SUITES))
 sys.path.insert(0, str(FIXTURE.parent))
 
+import more_seeds  # noqa: E402
 import routing_summary  # noqa: E402
 import suite_results  # noqa: E402
 import suite_stats  # noqa: E402
@@ -977,6 +978,13 @@ class MoreSeeds(unittest.TestCase):
                 drawn = {(r["set"], r["method"], r["demos"]) for r in csv.DictReader(f)}
             self.assertIn(("mt10", "maps", "5"), drawn)
             self.assertIn(("mt10", "single_bc", "10"), drawn)
+
+    def test_counts_as_maps_suite_reads_them(self):
+        sets = {"sets": {"gravity": {"demos": [5, 25]}, "mt10": {"demos": [2]}}}
+        self.assertEqual(more_seeds.grid_demos(sets, {"demos": {"mt10": [14]}}, "mt10"), [14])
+        self.assertEqual(more_seeds.grid_demos(sets, {"demos": {"mt10": [14]}}, "gravity"), [5, 25])  # the set's
+        self.assertEqual(more_seeds.grid_demos(sets, {"demos": [10]}, "gravity"), [10])
+        self.assertEqual(more_seeds.grid_demos(sets, {}, "mt10"), [2])
 
     def test_bad_input_is_named(self):
         with tempfile.TemporaryDirectory() as tmp:
