@@ -138,7 +138,8 @@ def report_lines(suite, draw):
     if added_seed_grids(suite) and any(c.method == "maps" for c in cells):
         lines += ["", "Where a claim's comparisons include seeds that more_seeds.py added after the first seeds"
                   f" ({', '.join(added_seed_grids(suite))}), its p values and so its verdict are indicative, not"
-                  " nominal tests (\"Against MAPS, every set\" says why)."]
+                  " nominal tests: choosing where to add seeds from the results makes a p below 0.05 more likely than"
+                  " 5% when there is no difference."]
     if {c.method for c in cells} - set(claims.COMPARED):
         # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
         caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
