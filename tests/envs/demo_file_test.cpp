@@ -3,7 +3,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <hdf5.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,30 +17,22 @@
 #include <tuple>
 #include <vector>
 
+#include "tests/common/temp_folder.h"
+
 namespace maps::envs {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-// A fresh folder per test, removed afterwards.
-class DemoFileTest : public ::testing::Test {
+class DemoFileTest : public TempFolderTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("maps_envs_demo_file_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  DemoFileTest() : TempFolderTest("maps_envs_demo_file_") {}
   std::vector<std::string> listing() const {
     std::vector<std::string> names;
     for (const auto& entry : fs::directory_iterator(dir_)) names.push_back(entry.path().filename().string());
     return names;
   }
-
-  fs::path dir_;
 };
 
 Demonstration make_demo(int steps, int obs_dim, int act_dim, const std::string& task, std::int64_t task_index,

@@ -1,9 +1,10 @@
 #include "experiments/training_attempts.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <fstream>
+
+#include "tests/common/temp_folder.h"
 
 namespace maps::experiments {
 namespace {
@@ -11,18 +12,10 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-class TrainingAttempts : public ::testing::Test {
+class TrainingAttempts : public TempFolderTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("maps_training_attempts_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
+  TrainingAttempts() : TempFolderTest("maps_training_attempts_") {}
   void write_provenance(const std::string& text) const { std::ofstream(dir_ / "provenance.json") << text; }
-
-  fs::path dir_;
 };
 
 Json train_record(const std::string& cpu, long long start_step, long long steps) {

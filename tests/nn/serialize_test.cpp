@@ -1,27 +1,18 @@
-#include <unistd.h>
-
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 
 #include "nn_test_util.h"
+#include "tests/common/temp_folder.h"
 
 namespace nntest {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh folder per test, removed afterwards.
-class Serialize : public ::testing::Test {
+class Serialize : public TempFolderTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("maps_nn_serialize_" + std::to_string(::getpid()) + "_" +
-                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  Serialize() : TempFolderTest("maps_nn_serialize_") {}
 
   static std::string read(const std::string& p) {
     std::ifstream in(p, std::ios::binary);
@@ -31,8 +22,6 @@ class Serialize : public ::testing::Test {
     std::ofstream out(p, std::ios::binary | std::ios::trunc);
     out << bytes;
   }
-
-  fs::path dir_;
 };
 
 std::shared_ptr<nn::MLP> make_mlp(std::uint64_t seed, std::vector<std::int64_t> sizes = {3, 5, 2}) {
