@@ -1,9 +1,9 @@
 #include "experiments/training_attempts.h"
 
 #include <exception>
-#include <fstream>
-#include <stdexcept>
 #include <string>
+
+#include "experiments/run_folder.h"
 
 namespace maps::experiments {
 
@@ -13,9 +13,7 @@ nlohmann::json training_attempts(const std::filesystem::path& dir) {
   if (!std::filesystem::exists(path)) return attempts;
   nlohmann::json records;
   try {
-    std::ifstream in(path);
-    if (!in) throw std::runtime_error("cannot open it");
-    records = nlohmann::json::parse(in);
+    records = read_json_file(path.string());
   } catch (const std::exception& e) {
     // maps train refuses a damaged provenance.json, so this is a file changed since: say so, keep the result.
     return nlohmann::json::array({{{"error", std::string("unreadable ") + path.string() + ": " + e.what()}}});

@@ -100,11 +100,12 @@ def decide(suite, config, new_seeds):
                         mine.setdefault(key, []).append(str(ident.get("name", "")))
                 in_grid = "maps" in grid.get("methods", [])
                 grid_variants = [None if v == "base" else v for v in (grid.get("variants") or ["base"])]
+                maps_planned = [i for i in idents if i.get("method") == "maps" and i.get("set") == set_name
+                                and i.get("demos") == demos]
                 # MAPS's labels at this setting that finished, or that suite.json plans (a MAPS variant not finished
                 # yet is still the partner the report will pair with: wait for it rather than judge against base).
                 maps_labels = {label for (s_, d_, label) in maps_by if (s_, d_) == (set_name, demos)}
-                maps_labels |= {planned_label(i.get("method"), i.get("variant")) for i in idents
-                                if i.get("method") == "maps" and i.get("set") == set_name and i.get("demos") == demos}
+                maps_labels |= {planned_label(i.get("method"), i.get("variant")) for i in maps_planned}
                 for (method, variant_name), names in sorted(mine.items()):
                     if method == "maps":
                         continue
@@ -114,9 +115,7 @@ def decide(suite, config, new_seeds):
                     # A method is judged once its cells and its MAPS partner's (in whichever grid) have all finished:
                     # one failed cell holds back that method, not the setting's others.
                     waiting = sorted(n for n in names if n not in finished)
-                    waiting += sorted(str(i.get("name")) for i in idents if i.get("method") == "maps"
-                                      and i.get("set") == set_name and i.get("demos") == demos
-                                      and i.get("name") not in finished
+                    waiting += sorted(str(i.get("name")) for i in maps_planned if i.get("name") not in finished
                                       and (not grid_seeds or i.get("seed") in grid_seeds)
                                       and planned_label(i.get("method"), i.get("variant")) == reference)
                     if waiting:

@@ -135,9 +135,10 @@ def report_lines(suite, draw):
     lines += section("Fig. 3: against Single BC", body, "No Single BC cells to compare with in this suite.")
     lines += section("The paper's claims", claims.claims_table(cells, tables.table),
                      "No MAPS cells: none of the paper's claims can be checked.")
-    if added_seed_grids(suite) and any(c.method == "maps" for c in cells):
+    added = added_seed_grids(suite)
+    if added and any(c.method == "maps" for c in cells):
         lines += ["", "Where a claim's comparisons include seeds that more_seeds.py added after the first seeds"
-                  f" ({', '.join(added_seed_grids(suite))}), its p values and so its verdict are indicative, not"
+                  f" ({', '.join(added)}), its p values and so its verdict are indicative, not"
                   " nominal tests: choosing where to add seeds from the results makes a p below 0.05 more likely than"
                   " 5% when there is no difference."]
     if {c.method for c in cells} - set(claims.COMPARED):
@@ -187,7 +188,7 @@ def report_lines(suite, draw):
                      "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
                      "No MAPS cells with module usage in this suite.")
-    summary = routing_summary(cells, seeds_added=bool(added_seed_grids(suite)))
+    summary = routing_summary(cells, seeds_added=bool(added))
     zoo = draw("zoo_routing")
     if zoo or summary:
         lines += section("Routing of every method (the zoo)", summary + embed(zoo), "")

@@ -432,22 +432,22 @@ def checkpoint_rule_pairs(cells):
 def compute_table(cells):
     """CPU time per grid and method: each finished cell's cost (Cell.compute_seconds: training over every attempt from
     curve.csv, plus evaluation; each cell runs on one thread), summed."""
-    by, hows, on = {}, {}, {}
+    by, hows = {}, {}  # by[(grid, set, label)] = [(seconds, cell), ...]
     for c in cells:
         seconds, how = c.compute_seconds()
-        key = (c.grid or "-", c.set, c.label)
-        by.setdefault(key, []).append(seconds)
+        by.setdefault((c.grid or "-", c.set, c.label), []).append((seconds, c))
         hows[how] = hows.get(how, 0) + 1
-        on.setdefault(key, []).append(c)
-    rows = [[grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}", f"{sum(seconds) / len(seconds) / 60:.1f}",
-             machine_counts(on[(grid, set_name, label)])]
-            for (grid, set_name, label), seconds in sorted(by.items())]
-    total = sum(s for seconds in by.values() for s in seconds if s == s)
+    rows = []
+    for (grid, set_name, label), costs in sorted(by.items(), key=lambda item: item[0]):
+        seconds = [s for s, _ in costs]
+        rows.append([grid, set_name, label, len(seconds), f"{sum(seconds) / 3600:.2f}",
+                     f"{sum(seconds) / len(seconds) / 60:.1f}", machine_counts([c for _, c in costs])])
+    total = sum(s for costs in by.values() for s, _ in costs if s == s)
     sources = {"cpu": "training's CPU seconds from curve.csv",
                "windows": "training's wall seconds per curve.csv window",
                "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
     counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
-    mixed = len({" + ".join(c.cpus) for c in cells if c.cpus}) > 1
+    mixed = len([cpus for cpus in cpu_counts(cells) if cpus]) > 1
     return (table(["grid", "set", "method", "cells", "CPU-hours", "minutes per cell", "machines"], rows)
             + ["", f"In all: {total / 3600:.1f} CPU-hours over {len(cells)} finished cells (training, validation and"
                    " evaluation; one thread each). Training counts every attempt of a resumed cell (steps redone after"

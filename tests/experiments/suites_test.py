@@ -822,6 +822,13 @@ class MoreSeeds(unittest.TestCase):
                               capture_output=True, text=True, timeout=120)
         return done.returncode, done.stdout, done.stderr
 
+    def assert_a_repeat_adds_nothing(self, suite, config):
+        grids = json.loads(config.read_text())["grids"]
+        code, stdout, stderr = self.run_tool(suite, config, "--seeds", "2,3", "--write")
+        self.assertEqual(code, 0, stderr)
+        self.assertIn("no grids to add", stdout)
+        self.assertEqual(json.loads(config.read_text())["grids"], grids)
+
     def test_overlapping_settings_get_the_new_seeds_with_their_maps(self):
         with tempfile.TemporaryDirectory() as tmp:
             config = pathlib.Path(tmp) / "c.json"
@@ -860,10 +867,7 @@ class MoreSeeds(unittest.TestCase):
             self.assertEqual(grids["paper_protocol_seeds_2_3"]["methods"], ["maps", "mt_bc"])
             self.assertEqual(grids["paper_protocol_seeds_2_3"]["variants"], ["paper_protocol"])
             # A second run adds nothing twice.
-            code, stdout, stderr = self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
-            self.assertEqual(code, 0, stderr)
-            self.assertIn("no grids to add", stdout)
-            self.assertEqual(len(json.loads(config.read_text())["grids"]), len(grids))
+            self.assert_a_repeat_adds_nothing(FIXTURE, config)
 
     def test_a_later_run_adds_the_settings_that_were_not_ready(self):
         # The first run adds what it can judge; MT-BC at Gravity 10 waits for its failed seed 1. Once that cell has
@@ -898,10 +902,7 @@ class MoreSeeds(unittest.TestCase):
             self.assertEqual([(g["name"], g["methods"], g["demos"]) for g in grids[len(first):]],
                              [("comparison_seeds_2_3_5", ["mt_bc"], {"gravity": [10]})])
             # Nothing twice: a third run adds nothing.
-            code, stdout, stderr = self.run_tool(suite_dir, config, "--seeds", "2,3", "--write")
-            self.assertEqual(code, 0, stderr)
-            self.assertIn("no grids to add", stdout)
-            self.assertEqual(len(json.loads(config.read_text())["grids"]), len(grids))
+            self.assert_a_repeat_adds_nothing(suite_dir, config)
 
     def test_a_variant_waits_for_its_own_maps_rather_than_judging_against_base(self):
         # The paper-protocol grid's MAPS cells not finished yet: MT-BC under that protocol is paired with them once
