@@ -11,7 +11,9 @@ keep examples of markers off lines of their own. A block whose section is missin
 report.md is an error, so a renamed section cannot leave a stale table behind silently; so are a comment line
 that is nearly a marker (indented, spaces missing: it would leave its block stale) and unpaired markers. The page
 keeps its line endings (CRLF stays CRLF). Relative links and images in a section (report.md's figures, next to it)
-are rewritten to be relative to the page's folder, so they still resolve there.
+are rewritten to be relative to the page's folder, so they still resolve there. A section's own headings are moved
+to nest under the page's heading above the block (report.md's "### gravity" becomes "#### gravity" under a page's
+"### Scores"), so the page's outline stays a tree.
 
     python3 experiments/suites/sync_doc.py results/study/report/report.md docs/results.md
 """
@@ -31,6 +33,32 @@ CLOSER = re.compile(r"^<!-- /report\.md -->[ \t]*$", re.M)
 RELATIVE_LINK = re.compile(r"(\]\()(?![a-z][a-z0-9+.-]*:|/|#)([^)\s]+)(\))", re.I)
 # A line that is a report.md comment but not a marker (indented, spaces missing): an error, not a block left stale.
 NEAR_MISS = re.compile(r"^[ \t]*<!--[ \t]*(/[ \t]*report\.md[ \t]*|report\.md[ \t]*:.*)-->[ \t]*$")
+HEADING = re.compile(r"^(#{1,6})(?= )")
+FENCE = re.compile(r"^[ \t]*(```|~~~)")
+
+
+def headings(text):
+    """The (line index, level) of each markdown heading of text, outside fenced code blocks."""
+    found, fenced = [], False
+    for index, line in enumerate(text.split("\n")):
+        if FENCE.match(line):
+            fenced = not fenced
+        elif not fenced and (match := HEADING.match(line)):
+            found.append((index, len(match.group(1))))
+    return found
+
+
+def nest(body, page_before):
+    """body with its headings moved so that its shallowest is one level below the last heading of page_before
+    (unchanged where the page has no heading above the block or the body has none); levels stay within 1-6."""
+    above, inside = headings(page_before), headings(body)
+    if not above or not inside:
+        return body
+    shift = above[-1][1] + 1 - min(level for _, level in inside)
+    lines = body.split("\n")
+    for index, level in inside:
+        lines[index] = "#" * max(1, min(6, level + shift)) + lines[index][level:]
+    return "\n".join(lines)
 
 
 def sections(report_text):
@@ -67,7 +95,7 @@ def sync(report_text, doc_text, link_prefix=""):
             raise ValueError(f"the page's block '{title}' has no section '## {title}' in report.md "
                              f"(its sections: {', '.join(sorted(available)) or 'none'})")
         refreshed.append(title)
-        return f"{match.group(1)}{available[title]}\n{match.group(4)}"
+        return f"{match.group(1)}{nest(available[title], doc_text[:match.start()])}\n{match.group(4)}"
 
     for number, line in enumerate(doc_text.split("\n"), 1):
         if NEAR_MISS.match(line) and not (OPENER.fullmatch(line) or CLOSER.fullmatch(line)):

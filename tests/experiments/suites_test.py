@@ -644,6 +644,24 @@ class SyncDoc(unittest.TestCase):
         self.assertEqual(sync_doc.sync(self.REPORT, block + "<!-- report.md tables below are generated -->\n")[1],
                          ["Cells"])
 
+    def test_a_sections_headings_nest_under_the_pages_heading_above_the_block(self):
+        import sync_doc
+        report = ("## Against MAPS\n\nintro\n\n### gravity\n\n| a |\n\n#### detail\n\n```\n### not a heading\n```\n"
+                  "\n### mt10\n\n| b |\n")
+        page = "# Page\n\n### Scores\n\ntext\n<!-- report.md: Against MAPS -->\nold\n<!-- /report.md -->\n"
+        text, _ = sync_doc.sync(report, page)
+        block = text.split("<!-- report.md: Against MAPS -->\n")[1].split("<!-- /report.md -->")[0]
+        self.assertEqual([line for line in block.split("\n") if line.startswith("#")],
+                         ["#### gravity", "##### detail", "### not a heading", "#### mt10"])
+        self.assertEqual(sync_doc.sync(report, text)[0], text)  # idempotent
+        # Under a '#' heading the section's '###' rise to '##'; with no heading above, they stay as written.
+        self.assertIn("\n## gravity\n", sync_doc.sync(report, page.replace("### Scores", "# Scores"))[0])
+        self.assertIn("\n### gravity\n", sync_doc.sync(report, page.split("text\n", 1)[1])[0])
+        # Levels stay within markdown's six.
+        deep = sync_doc.sync(report, page.replace("### Scores", "###### Scores"))[0]
+        self.assertIn("\n###### gravity\n", deep)
+        self.assertIn("\n###### detail\n", deep)
+
     def test_relative_links_are_rewritten_for_the_pages_folder(self):
         import sync_doc
         report = ("## Fig. 5\n\n![](fig5.png) and [cells](cells/x.json), [web](https://a.b/c), [top](#fig-5), "
