@@ -49,9 +49,10 @@ def headings(text):
 
 
 def nest(body, page_before):
-    """body with its headings moved so that its shallowest is one level below the last heading of page_before
-    (unchanged where the page has no heading above the block or the body has none); levels stay within 1-6."""
-    above, inside = headings(page_before), headings(body)
+    """body with its headings moved so that its shallowest is one level below the page's last heading in
+    page_before, earlier blocks' headings not counted (unchanged where the page has no heading above the block or
+    the body has none); levels stay within 1-6."""
+    above, inside = headings(BLOCK.sub("", page_before)), headings(body)
     if not above or not inside:
         return body
     shift = above[-1][1] + 1 - min(level for _, level in inside)

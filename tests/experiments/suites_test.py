@@ -661,6 +661,10 @@ class SyncDoc(unittest.TestCase):
         deep = sync_doc.sync(report, page.replace("### Scores", "###### Scores"))[0]
         self.assertIn("\n###### gravity\n", deep)
         self.assertIn("\n###### detail\n", deep)
+        # A block right after another nests under the page's heading, not under the first block's last heading.
+        twice = page + "<!-- report.md: Against MAPS -->\nold\n<!-- /report.md -->\n"
+        second = sync_doc.sync(report, twice)[0].split("<!-- /report.md -->\n")[1]
+        self.assertIn("\n#### gravity\n", second)
 
     def test_relative_links_are_rewritten_for_the_pages_folder(self):
         import sync_doc
