@@ -662,7 +662,7 @@ class SyncDoc(unittest.TestCase):
         self.assertIn("\n###### gravity\n", deep)
         self.assertIn("\n###### detail\n", deep)
         # A block right after another nests under the page's heading, not under the first block's last heading.
-        twice = page + "<!-- report.md: Against MAPS -->\nold\n<!-- /report.md -->\n"
+        twice = text + "<!-- report.md: Against MAPS -->\nold\n<!-- /report.md -->\n"
         second = sync_doc.sync(report, twice)[0].split("<!-- /report.md -->\n")[1]
         self.assertIn("\n#### gravity\n", second)
 
