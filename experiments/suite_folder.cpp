@@ -4,6 +4,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -184,7 +185,23 @@ bool cell_is_locked(const fs::path& dir) {
 void clear_cell(const fs::path& dir) {
   if (!fs::exists(dir)) return;
   for (const auto& entry : fs::directory_iterator(dir))
-    if (entry.path().filename() != ".lock") fs::remove_all(entry.path());
+    if (entry.path().filename() != ".lock" && entry.path().filename() != kReplacedFolder) fs::remove_all(entry.path());
+}
+
+fs::path retire_cell(const fs::path& dir) {
+  std::string stamp = "unknown";
+  try {
+    stamp = read_json_file((dir / "result.json").string()).value("finished", stamp);
+  } catch (const std::exception&) {
+  }
+  std::replace(stamp.begin(), stamp.end(), ':', '-');
+  fs::path kept = dir / kReplacedFolder / stamp;
+  for (int n = 2; fs::exists(kept); ++n) kept = dir / kReplacedFolder / (stamp + "-" + std::to_string(n));
+  fs::create_directories(kept);
+  for (const char* name : {"result.json", "curve.csv"})
+    if (fs::exists(dir / name)) fs::rename(dir / name, kept / name);
+  clear_cell(dir);
+  return kept;
 }
 
 std::string tail_of(const fs::path& path, int lines) {

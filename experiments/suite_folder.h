@@ -15,6 +15,7 @@
 //       result.json                      written last, atomically: the cell is finished (maps-suite-cell/1)
 //       error.json                       the last failure (stage, error, the log's tail)
 //       .lock                            flock-ed by the process running the cell (released when it dies)
+//       replaced/<time>/                 result.json and curve.csv of an earlier run of the cell (retire_cell)
 // A result counts only when it parses, has the format, and names this cell with this run config; anything else
 // in a cell folder is resumable work or damage, never a result.
 namespace maps::experiments {
@@ -61,8 +62,14 @@ class CellLock {
 // Whether some process holds dir/.lock now (a running cell).
 bool cell_is_locked(const std::filesystem::path& dir);
 
-// Removes everything in dir but .lock (a damaged cell is redone from nothing).
+// Earlier results of a cell that was run again (retire_cell), each in a folder named for when it finished.
+inline constexpr const char* kReplacedFolder = "replaced";
+
+// Removes everything in dir but .lock and replaced/ (a damaged cell is redone from nothing).
 void clear_cell(const std::filesystem::path& dir);
+// Moves a finished cell's result.json and curve.csv to dir/replaced/<its "finished" time>/ and clears the rest: the
+// cell is to be run again and its earlier result stays on record. Returns that folder. The caller holds the lock.
+std::filesystem::path retire_cell(const std::filesystem::path& dir);
 
 // The last `lines` lines of a text file ("" when missing).
 std::string tail_of(const std::filesystem::path& path, int lines);

@@ -13,6 +13,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <set>
 #include <stdexcept>
@@ -80,6 +82,36 @@ Attempt failed_stage(const fs::path& dir, const std::string& stage, int code, co
   return attempt;
 }
 
+// The folder of the cell a transfer cell starts from (init.run, relative to its own folder); empty when none.
+fs::path source_dir(const fs::path& dir, const SuiteCell& cell) {
+  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
+  return relative.empty() ? fs::path() : (dir / relative).lexically_normal();
+}
+
+// What the cell's earlier runs came to (replaced/*/result.json), for comparison with this one.
+Json replaced_results(const fs::path& dir) {
+  Json list = Json::array();
+  if (!fs::is_directory(dir / kReplacedFolder)) return list;
+  std::vector<fs::path> folders;
+  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) folders.push_back(entry.path());
+  std::sort(folders.begin(), folders.end());
+  for (const auto& folder : folders) {
+    Json entry{{"folder", (fs::path(kReplacedFolder) / folder.filename()).string()}};
+    try {
+      const Json old = read_json_file((folder / "result.json").string());
+      for (const char* key : {"finished", "cpu", "float32_gemm_kernel"})
+        if (old.contains(key)) entry[key] = old[key];
+      entry["best_step"] = old.at("train").at("best_step");
+      entry["best_validation_bc"] = old.at("train").value("best_validation_bc", Json());
+      entry["mean_score"] = old.at("eval").at("mean_score");
+    } catch (const std::exception& e) {
+      entry["unreadable"] = e.what();
+    }
+    list.push_back(entry);
+  }
+  return list;
+}
+
 // One attempt: train (resuming), evaluate, write result.json.
 Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, double& seconds) {
   const auto start = std::chrono::steady_clock::now();
@@ -107,6 +139,16 @@ Attempt attempt_cell(const fs::path& dir, const SuiteCell& cell, int threads, do
               {"float32_gemm_kernel", ag::float32_gemm_kernel()},
               {"training_attempts", training_attempts(dir)},
               {"finished", utc_now()}};
+  if (const fs::path source = source_dir(dir, cell); !source.empty()) {
+    // Which run of the source it started from, should the source be run again later (retire_cell).
+    Json finished;
+    try {
+      finished = read_json_file((source / "result.json").string()).value("finished", Json());
+    } catch (const std::exception&) {
+    }
+    result["source"] = {{"cell", source.filename().string()}, {"finished", finished}};
+  }
+  if (Json replaces = replaced_results(dir); !replaces.empty()) result["replaces"] = replaces;
   if (!same_run_config(result["config"], cell.request))
     return {"the run folder's config.json is not the cell's run config (the folder was changed while it ran)"};
   write_json_file((dir / "result.json").string(), result);
@@ -154,23 +196,28 @@ int run_self(const std::vector<std::string>& args, const fs::path& log) {
 }
 
 // A transfer cell starts from another cell's best checkpoint (init.run, a sibling folder): it waits while that cell
-// runs (here or in another process), and fails, naming it, when the source failed or is neither finished nor
-// running (its shard not run yet). Returns "" when the source is finished (or there is none).
+// runs (here or in another process), and fails, naming it, when the source failed, is neither finished nor running
+// (its shard not run yet), or finished without its checkpoint (run_suite retires such a source first). Returns ""
+// when the source is finished (or there is none).
 std::string wait_for_source(const fs::path& dir, const SuiteCell& cell) {
-  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
-  if (relative.empty()) return "";
-  const fs::path source = (dir / relative).lexically_normal();
+  const fs::path source = source_dir(dir, cell);
+  if (source.empty()) return "";
   const auto start = std::chrono::steady_clock::now();
   bool announced = false;
   for (;;) {
-    if (fs::exists(source / "result.json")) return "";
+    if (fs::exists(source / "result.json")) {
+      if (fs::exists(source / "best.ckpt")) return "";
+      return "its source cell " + source.string() +
+             " is finished but its best.ckpt is gone (checkpoints are not kept with the results): rerun the suite, "
+             "which trains it again, with every cell that starts from it, before the others";
+    }
     // A running source is waited for even when an error.json of an earlier attempt is still there; a worker that
     // has just taken the source may not hold its lock (nor have cleared that error.json) yet: allow it a moment
     // (a few seconds when the source has failed, so that a failed source's dependants do not each wait long).
     const bool failed = fs::exists(source / "error.json");
     if (!cell_is_locked(source) && seconds_since(start) > (failed ? 5.0 : 30.0)) {
       // It may have finished between the checks above (writing result.json, then releasing its lock).
-      if (fs::exists(source / "result.json")) return "";
+      if (fs::exists(source / "result.json")) continue;  // checked at the top
       if (failed) return "its source cell " + source.string() + " failed (see its error.json)";
       return "its source cell " + source.string() +
              " is neither finished nor running: run the suite (or that cell's shard) so that it finishes first";
@@ -249,6 +296,47 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
   return outcome;
 }
 
+void retire_sources_without_checkpoint(const fs::path& out, const std::vector<const SuiteCell*>& cells) {
+  std::map<fs::path, std::vector<const SuiteCell*>> dependants;
+  std::map<fs::path, const SuiteCell*> by_dir;
+  for (const auto* cell : cells) {
+    const fs::path dir = cell_dir(out, *cell).lexically_normal();
+    by_dir[dir] = cell;
+    if (const fs::path source = source_dir(dir, *cell); !source.empty()) dependants[source].push_back(cell);
+  }
+  for (const auto& [source, cells_from_it] : dependants) {
+    const auto found = by_dir.find(source);
+    if (found == by_dir.end() || fs::exists(source / "best.ckpt") || !read_result(source, *found->second)) continue;
+    const bool some_left = std::any_of(cells_from_it.begin(), cells_from_it.end(), [&](const SuiteCell* cell) {
+      return !read_result(cell_dir(out, *cell), *cell);
+    });
+    if (!some_left) continue;
+    // Every cell of the group is taken before any is moved, so that a process running one of them stops this.
+    std::vector<std::unique_ptr<CellLock>> locks;
+    std::vector<fs::path> group{source};
+    for (const auto* cell : cells_from_it) group.push_back(cell_dir(out, *cell).lexically_normal());
+    bool all_held = true;
+    for (const auto& dir : group) {
+      fs::create_directories(dir);
+      locks.push_back(std::make_unique<CellLock>(dir));
+      all_held = all_held && locks.back()->held();
+    }
+    if (!all_held) continue;  // another process is at it
+    int redone = 0;
+    for (std::size_t i = 0; i < group.size(); ++i)
+      if (read_result(group[i], i == 0 ? *found->second : *cells_from_it[i - 1])) {
+        retire_cell(group[i]);
+        ++redone;
+      }
+    std::printf(
+        "suite: %s is finished but its best.ckpt is gone (checkpoints are not kept with the results), and "
+        "cells that start from it are left: it and the %d finished ones that started from it run again "
+        "(their results so far are kept in their %s/ folders)\n",
+        found->second->name.c_str(), redone - 1, kReplacedFolder);
+  }
+  std::fflush(stdout);
+}
+
 void ensure_demo_files(const Suite& suite, const std::vector<const SuiteCell*>& cells, int threads) {
   std::set<std::string> sets;
   for (const auto* cell : cells) sets.insert(cell->set);
@@ -306,6 +394,8 @@ int run_suite(const SuiteRunOptions& options) {
     }
     return std::nullopt;
   };
+
+  retire_sources_without_checkpoint(out, cells);
 
   // What is left, and its estimated CPU time.
   std::vector<const SuiteCell*> left;

@@ -75,6 +75,8 @@ class Cell:
     # The CPUs the cell's processes ran on: its training attempts' and its evaluation's (result.json's "cpu" and
     # "training_attempts", recorded since 2026-11-27); empty where not recorded.
     cpus: tuple = ()
+    # train.best_validation_bc (None where not recorded).
+    best_validation_bc: float = None
 
     @property
     def label(self):
@@ -272,7 +274,8 @@ def read_cell(path):
                 config, int(train["steps"]), int(ev.get("best_step", train.get("best_step"))),
                 int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
                 float(result.get("wall_seconds", float("nan"))), tasks, best_over, last[0] if last else None,
-                optional_float(ev.get("seconds")), cpus=cpus_of(result))
+                optional_float(ev.get("seconds")), cpus=cpus_of(result),
+                best_validation_bc=optional_float(train.get("best_validation_bc")))
 
 
 def cpus_of(result):

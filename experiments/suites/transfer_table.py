@@ -12,7 +12,8 @@ often the neighbour is the nearest trained task against chance.
 writes OUT/transfer.md (the tables) and OUT/transfer_scores.png (score against demonstrations, per task). A
 damaged or stale result, a new-task cell whose evaluation lacks the new task, a transfer cell whose source is not
 a finished cell, and a transfer the module comparison cannot use are listed under "Cells left out" (and on stderr);
-failed and unfinished cells under "Cells not finished"; nothing is dropped silently."""
+failed and unfinished cells under "Cells not finished"; cells run a second time (a source whose checkpoint was gone,
+with the transfers from it) beside their earlier results under "Cells run twice"; nothing is dropped silently."""
 import argparse
 import math
 import pathlib
@@ -22,7 +23,7 @@ from collections import namedtuple
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, load_suite, order, METHOD_ORDER  # noqa: E402
+from suite_results import SuiteError, load_suite, order, read_cell, METHOD_ORDER  # noqa: E402
 from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
 from tables import machines_line  # noqa: E402
 
@@ -170,6 +171,68 @@ def module_rows(cells, task, neighbour, by_folder, left_out):
         rows.append(ModuleRow(cell, cell.best_step == 0, mine, trained[neighbour], distance,
                               total_variation(mine, center), between))
     return rows
+
+
+def rerun_lines(suite, left_out):
+    """Cells run a second time (a source whose checkpoint was gone while transfers from it were left, with those
+    transfers: experiments/suite_run.h, retire_sources_without_checkpoint): each earlier result, kept in the cell's
+    replaced/ folder, beside the result counted above, and how far they differ."""
+    pairs = []
+    for cell in suite.cells:
+        for path in sorted(cell.folder.glob("replaced/*/result.json")):
+            try:
+                pairs.append((read_cell(path), cell))
+            except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
+                left_out.append((str(path), f"an earlier result of the cell, unreadable ({type(e).__name__}: {e}):"
+                                 " not compared"))
+    if not pairs:
+        return []
+
+    def score(cell):
+        task = new_task_of(cell)
+        return score_of(cell, task) if task else cell.mean_score
+
+    def cpu(cell):
+        return " + ".join(cell.cpus) if cell.cpus else "not recorded"
+
+    lines = ["## Cells run twice", "",
+             "The results keep each cell's result.json and curve.csv, not its checkpoints. A source run whose "
+             "best.ckpt was gone while transfers from it were left ran again, and so did every transfer that had "
+             "started from it, so that all of a seed's transfers start from one run of the source; the tables above "
+             "count the second runs, and the first results stay in each cell's `replaced/` folder. The same run "
+             "config and seed on another CPU (or GEMM kernel) need not give the same floating-point sums, so the "
+             "two runs measure how much a result moves with that alone. Score: the source's mean over its trained "
+             "tasks, a transfer's the new task's.", "",
+             "| cell | CPU (first; second) | best step | best validation loss | score |", "|---|---|---|---|---|"]
+    for old, new in sorted(pairs, key=lambda p: (p[1].method != "maps", p[1].name)):
+        loss_old, loss_new = best_loss(old), best_loss(new)
+        lines.append(f"| `{new.name}` | {cpu(old)}; {cpu(new)} | {old.best_step} -> {new.best_step} | "
+                     f"{loss_old:.6g} -> {loss_new:.6g} | {score(old):.2f} -> {score(new):.2f} |")
+    sources = [(o, n) for o, n in pairs if n.method == "maps"]
+    transfers = [(o, n) for o, n in pairs if n.method == "transfer"]
+    lines.append("")
+    if sources:
+        same = sum(o.best_step == n.best_step for o, n in sources)
+        rel = [abs(best_loss(n) - best_loss(o)) / best_loss(o) for o, n in sources if best_loss(o) > 0]
+        moved = [abs(score(n) - score(o)) for o, n in sources]
+        lines.append(f"Source runs: {len(sources)} run twice; the same best step in {same}; the best validation "
+                     f"loss moved by a median {statistics.median(rel):.2g} of itself (at most {max(rel):.2g}); the "
+                     f"score by a median {statistics.median(moved):.3f} (at most {max(moved):.3f}).")
+    if transfers:
+        moved = [score(n) - score(o) for o, n in transfers]
+        same = sum(o.best_step == n.best_step for o, n in transfers)
+        lines.append(f"Transfers: {len(transfers)} run twice; the same best step in {same}; the new task's score "
+                     f"moved by a median {statistics.median([abs(m) for m in moved]):.3f} (at most "
+                     f"{max(abs(m) for m in moved):.3f}; mean change {mean(moved):+.3f}).")
+    return lines + [""]
+
+
+def best_loss(cell):
+    """The best validation loss a result.json recorded (the curve's minimum where the summary predates the key)."""
+    if cell.best_validation_bc is not None:
+        return cell.best_validation_bc
+    losses = cell.curve()[1]
+    return min(losses) if losses else float("nan")
 
 
 def main():
@@ -341,6 +404,7 @@ def main():
                       "|---|---|---|---|---|---|---|---|---|"]
             lines += per_seed
         lines.append("")
+    lines += rerun_lines(suite, left_out)
     unfinished = not_finished_lines(suite)
     if unfinished:
         lines += ["## Cells not finished", "", "The tables above count finished cells only.", ""] + unfinished

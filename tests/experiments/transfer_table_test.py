@@ -91,6 +91,23 @@ def write_suite(root):
         write_cell(root, ident, config, NEW_STEPS, best_step, [task_entry(TASK, score, usage)],
                    curve(NEW_STEPS, 200, 0.5))
     planned.append(identity("transfer", "new-0.5", 2, 2, "new_task_gravity"))
+    # Run twice (experiments/suite_run.h, retire_sources_without_checkpoint): source seed 0 and a transfer from it.
+    for name, earlier in (("maps-without-0.5_d10_s0", {"best_step": 4000, "best_validation_bc": 0.04, "score": 0.6}),
+                          ("transfer-new-0.5_d1_s1", {"best_step": 400, "best_validation_bc": 0.05, "score": 0.2})):
+        folder = root / "cells" / "gravity" / name
+        result = json.loads((folder / "result.json").read_text())
+        result["train"]["best_validation_bc"] = 0.05
+        (folder / "result.json").write_text(json.dumps(result))
+        result["train"].update(best_step=earlier["best_step"], best_validation_bc=earlier["best_validation_bc"])
+        result["eval"]["best_step"] = earlier["best_step"]
+        for task in result["eval"]["tasks"]:
+            task["score"] = earlier["score"]
+        result.update(cpu="Earlier CPU", training_attempts=[{"cpu": "Earlier CPU"}])
+        (folder / "replaced" / "2025-12-31T00-00-00Z").mkdir(parents=True)
+        (folder / "replaced" / "2025-12-31T00-00-00Z" / "result.json").write_text(json.dumps(result))
+    damaged = root / "cells" / "gravity" / "transfer-new-0.5_d2_s0" / "replaced" / "2025-12-30T00-00-00Z"
+    damaged.mkdir(parents=True)
+    (damaged / "result.json").write_text("{")
     (root / "suite.json").write_text(json.dumps({"format": "maps-suite/1", "config": {}, "cells": planned}))
 
 
@@ -171,6 +188,23 @@ class TransferTableTest(unittest.TestCase):
         self.assertEqual(rows_of(self.md, ["MAPS transfer", "1", "2"]),
                          [["MAPS transfer", "1", "2", "m1 (0.70), m0 (0.20), m2 (0.10)",
                            "m0 (0.80), m1 (0.10), m2 (0.10)", "0.60", "0.10-0.70", "0.37", "1.0 (0.10)"]])
+
+    def test_cells_run_twice_are_compared_with_their_earlier_results(self):
+        self.assertIn("## Cells run twice", self.md)
+        self.assertEqual(rows_of(self.md, ["`gravity/maps-without-0.5_d10_s0`"])[0],
+                         ["`gravity/maps-without-0.5_d10_s0`", "Earlier CPU; Fixture CPU", "4000 -> 5000",
+                          "0.04 -> 0.05", "0.60 -> 0.90"])
+        self.assertEqual(rows_of(self.md, ["`gravity/transfer-new-0.5_d1_s1`"])[0],
+                         ["`gravity/transfer-new-0.5_d1_s1`", "Earlier CPU; Fixture CPU", "400 -> 400",
+                          "0.05 -> 0.05", "0.20 -> 0.60"])
+        # |0.05 - 0.04| / 0.04 = 0.25; the score 0.6 -> 0.9.
+        self.assertIn("Source runs: 1 run twice; the same best step in 0; the best validation loss moved by a median "
+                      "0.25 of itself (at most 0.25); the score by a median 0.300 (at most 0.300).", self.md)
+        self.assertIn("Transfers: 1 run twice; the same best step in 1; the new task's score moved by a median 0.400 "
+                      "(at most 0.400; mean change +0.400).", self.md)
+        # The tables count the second run: seed 1's transfer at 1 demonstration scores 0.6 (the mean above).
+        self.assertIn("transfer-new-0.5_d2_s0/replaced/2025-12-30T00-00-00Z/result.json`: an earlier result of the "
+                      "cell, unreadable", self.md)
 
     def test_failed_and_unfinished_cells_are_named(self):
         finished = self.md[self.md.index("## Cells not finished"):]

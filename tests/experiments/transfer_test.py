@@ -221,6 +221,46 @@ class Transfer(unittest.TestCase):
         proc = run("suite", "run", fixture, "--out", rerun, "--jobs", "2")
         self.assertIn("4 cells done, 0 failed", proc.stdout)
         self.assertFalse((source_dir / "error.json").exists())
+        # A clone of committed results holds each cell's result.json and curve.csv, no checkpoint: with a transfer
+        # cell left to run, the source runs again and so does every finished cell that started from it (all of a
+        # seed's transfers start from one run of the source); their results so far move to replaced/. On this machine
+        # the reruns reproduce the first results.
+        clone = work() / "suite-clone"
+        (clone / "cells" / "mt10").mkdir(parents=True)
+        shutil.copy(work() / "suite" / "suite.json", clone / "suite.json")
+        for cell in (work() / "suite" / "cells" / "mt10").iterdir():
+            (clone / "cells" / "mt10" / cell.name).mkdir()
+            for name in ("result.json", "curve.csv"):
+                shutil.copy(cell / name, clone / "cells" / "mt10" / cell.name / name)
+        (clone / "cells" / "mt10" / "transfer-new-reach_d2_s0" / "result.json").unlink()
+        proc = run("suite", "run", fixture, "--out", clone, "--jobs", "2")
+        self.assertIn("mt10/maps-without-reach_d2_s0 is finished but its best.ckpt is gone", proc.stdout)
+        self.assertIn("the 2 finished ones that started from it run again", proc.stdout)
+        self.assertIn("4 cells done, 0 failed", proc.stdout)
+        redone = clone / "cells" / "mt10"
+        for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0", "transfer-tuned-new-reach_d1_s0"):
+            first = json.loads((cells / cell / "result.json").read_text())
+            kept = redone / cell / "replaced" / first["finished"].replace(":", "-")
+            self.assertEqual(json.loads((kept / "result.json").read_text()), first, cell)
+            self.assertEqual((kept / "curve.csv").read_text(), (cells / cell / "curve.csv").read_text(), cell)
+            again = json.loads((redone / cell / "result.json").read_text())
+            self.assertEqual(again["replaces"][0]["folder"], "replaced/" + kept.name, cell)
+            self.assertEqual(again["replaces"][0]["best_step"], first["train"]["best_step"], cell)
+            self.assertEqual((again["train"]["best_step"], again["train"]["best_validation_bc"],
+                              again["eval"]["mean_score"]),
+                             (first["train"]["best_step"], first["train"]["best_validation_bc"],
+                              first["eval"]["mean_score"]), cell)
+        source = json.loads((redone / "maps-without-reach_d2_s0" / "result.json").read_text())
+        for cell in ("transfer-new-reach_d1_s0", "transfer-new-reach_d2_s0", "transfer-tuned-new-reach_d1_s0"):
+            again = json.loads((redone / cell / "result.json").read_text())
+            self.assertEqual(again["source"], {"cell": "maps-without-reach_d2_s0", "finished": source["finished"]})
+        # Cells that do not start from it are left alone.
+        self.assertFalse((redone / "mt_bc-new-reach_d1_s0" / "replaced").exists())
+        self.assertEqual(json.loads((redone / "mt_bc-new-reach_d1_s0" / "result.json").read_text()),
+                         json.loads((cells / "mt_bc-new-reach_d1_s0" / "result.json").read_text()))
+        # With every cell that starts from it finished, a source without its checkpoint is not run again.
+        proc = run("suite", "run", fixture, "--out", clone)
+        self.assertIn("0 to run", proc.stdout)
 
     def test_shards_keep_a_transfer_cell_with_its_source(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
