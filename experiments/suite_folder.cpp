@@ -12,6 +12,7 @@
 #include <deque>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <stdexcept>
 
 #include "experiments/run_folder.h"
@@ -195,10 +196,16 @@ fs::path retire_cell(const fs::path& dir) {
   } catch (const std::exception&) {
   }
   std::replace(stamp.begin(), stamp.end(), ':', '-');
+  // It names a folder: anything but a time as utc_now writes it (a hand-edited result) is not trusted.
+  static const std::regex time_like(R"(\d{4}-\d{2}-\d{2}T\d{2}-\d{2}-\d{2}Z)");
+  if (!std::regex_match(stamp, time_like)) stamp = "unknown";
   fs::path kept = dir / kReplacedFolder / stamp;
-  for (int n = 2; fs::exists(kept); ++n) kept = dir / kReplacedFolder / (stamp + "-" + std::to_string(n));
+  // A folder without result.json is this cell's own, left half moved by a crash below.
+  for (int n = 2; fs::exists(kept / "result.json"); ++n)
+    kept = dir / kReplacedFolder / (stamp + "-" + std::to_string(n));
   fs::create_directories(kept);
-  for (const char* name : {"result.json", "curve.csv"})
+  // result.json last: a cell whose result.json is still in place after a crash here is retired again.
+  for (const char* name : {"curve.csv", "result.json"})
     if (fs::exists(dir / name)) fs::rename(dir / name, kept / name);
   clear_cell(dir);
   return kept;

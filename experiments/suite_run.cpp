@@ -296,7 +296,7 @@ CellOutcome run_cell(const fs::path& out, const SuiteCell& cell, int threads) {
   return outcome;
 }
 
-void retire_sources_without_checkpoint(const fs::path& out, const std::vector<const SuiteCell*>& cells) {
+std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const std::vector<const SuiteCell*>& cells) {
   std::map<fs::path, std::vector<const SuiteCell*>> dependants;
   std::map<fs::path, const SuiteCell*> by_dir;
   for (const auto* cell : cells) {
@@ -304,37 +304,61 @@ void retire_sources_without_checkpoint(const fs::path& out, const std::vector<co
     by_dir[dir] = cell;
     if (const fs::path source = source_dir(dir, *cell); !source.empty()) dependants[source].push_back(cell);
   }
+  auto needs_rerun = [&](const fs::path& source, const SuiteCell& source_cell,
+                         const std::vector<const SuiteCell*>& cells_from_it) {
+    if (fs::exists(source / "best.ckpt") || !read_result(source, source_cell)) return false;
+    return std::any_of(cells_from_it.begin(), cells_from_it.end(),
+                       [&](const SuiteCell* cell) { return !read_result(cell_dir(out, *cell), *cell); });
+  };
+  std::set<fs::path> held_elsewhere;
   for (const auto& [source, cells_from_it] : dependants) {
     const auto found = by_dir.find(source);
-    if (found == by_dir.end() || fs::exists(source / "best.ckpt") || !read_result(source, *found->second)) continue;
-    const bool some_left = std::any_of(cells_from_it.begin(), cells_from_it.end(), [&](const SuiteCell* cell) {
-      return !read_result(cell_dir(out, *cell), *cell);
-    });
-    if (!some_left) continue;
-    // Every cell of the group is taken before any is moved, so that a process running one of them stops this.
+    if (found == by_dir.end() || !needs_rerun(source, *found->second, cells_from_it)) continue;
+    // Every cell of the group is taken before any is touched, so that a process running one of them stops this.
     std::vector<std::unique_ptr<CellLock>> locks;
     std::vector<fs::path> group{source};
     for (const auto* cell : cells_from_it) group.push_back(cell_dir(out, *cell).lexically_normal());
-    bool all_held = true;
+    fs::path busy;
     for (const auto& dir : group) {
       fs::create_directories(dir);
       locks.push_back(std::make_unique<CellLock>(dir));
-      all_held = all_held && locks.back()->held();
-    }
-    if (!all_held) continue;  // another process is at it
-    int redone = 0;
-    for (std::size_t i = 0; i < group.size(); ++i)
-      if (read_result(group[i], i == 0 ? *found->second : *cells_from_it[i - 1])) {
-        retire_cell(group[i]);
-        ++redone;
+      if (!locks.back()->held()) {
+        busy = dir;
+        break;
       }
+    }
+    if (!busy.empty()) {
+      // Its transfers would fail at once (their source has no checkpoint): this process leaves the group to the
+      // one that holds it.
+      std::printf(
+          "suite: %s is finished but its best.ckpt is gone, and cells that start from it are left; another "
+          "process holds %s, so this one leaves the source and its %zu dependants to it\n",
+          found->second->name.c_str(), busy.string().c_str(), cells_from_it.size());
+      held_elsewhere.insert(group.begin(), group.end());
+      continue;
+    }
+    // Checked again under the locks: another process may have retired and rerun it meanwhile.
+    if (!needs_rerun(source, *found->second, cells_from_it)) continue;
+    // Dependants before the source: should this stop half way, the source still lacks its checkpoint and the next
+    // run of the suite takes the group up again.
+    int retired = 0;
+    for (std::size_t i = 1; i < group.size(); ++i) {
+      if (read_result(group[i], *cells_from_it[i - 1])) {
+        retire_cell(group[i]);
+        ++retired;
+      } else {
+        clear_cell(group[i]);  // a part-trained run from the earlier source
+      }
+    }
+    retire_cell(source);
     std::printf(
         "suite: %s is finished but its best.ckpt is gone (checkpoints are not kept with the results), and "
-        "cells that start from it are left: it and the %d finished ones that started from it run again "
-        "(their results so far are kept in their %s/ folders)\n",
-        found->second->name.c_str(), redone - 1, kReplacedFolder);
+        "cells that start from it are left: it and the %d finished ones that started from it run again, the "
+        "unfinished ones from the start (results so far are kept in their %s/ folders)\n",
+        found->second->name.c_str(), retired, kReplacedFolder);
   }
   std::fflush(stdout);
+  return held_elsewhere;
 }
 
 void ensure_demo_files(const Suite& suite, const std::vector<const SuiteCell*>& cells, int threads) {
@@ -395,14 +419,15 @@ int run_suite(const SuiteRunOptions& options) {
     return std::nullopt;
   };
 
-  retire_sources_without_checkpoint(out, cells);
+  const std::set<fs::path> held_elsewhere = retire_sources_without_checkpoint(out, cells);
 
   // What is left, and its estimated CPU time.
   std::vector<const SuiteCell*> left;
   double estimate_left = 0.0;
   bool estimated = costs.has_value();
   for (const auto* cell : cells) {
-    if (read_result(cell_dir(out, *cell), *cell)) continue;
+    if (held_elsewhere.count(cell_dir(out, *cell).lexically_normal()) || read_result(cell_dir(out, *cell), *cell))
+      continue;
     left.push_back(cell);
     const auto seconds = estimate(*cell);
     estimated = estimated && seconds.has_value();

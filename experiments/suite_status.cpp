@@ -61,6 +61,47 @@ bool same_numbers(const Json& a, const Json& b) {
          a.at("train").at("best_validation_bc") == b.at("train").at("best_validation_bc");
 }
 
+// The "finished" times of the results a cell's reruns replaced (its replaced/ folders, which retire_cell names for
+// them; result.json's "replaces" lists the same).
+std::set<std::string> replaced_finish_times(const fs::path& dir) {
+  std::set<std::string> times;
+  if (!fs::is_directory(dir / kReplacedFolder)) return times;
+  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) {
+    try {
+      const Json old = read_json_file((entry.path() / "result.json").string());
+      if (old.contains("finished") && old["finished"].is_string()) times.insert(old["finished"].get<std::string>());
+    } catch (const std::exception&) {
+    }
+  }
+  return times;
+}
+
+std::string finish_time(const Json& result) {
+  return result.contains("finished") && result["finished"].is_string() ? result["finished"].get<std::string>() : "";
+}
+
+// Whether a transfer cell's result started from a run of its source cell that was run again since (the source's
+// replaced/ holds it): such a result is stale even where the cell itself was never retired.
+bool from_replaced_source(const fs::path& target, const Json& result) {
+  const Json source = result.value("source", Json());
+  if (!source.is_object() || !source.contains("cell") || !source["cell"].is_string() || !source.contains("finished") ||
+      !source["finished"].is_string())
+    return false;
+  const std::string cell = source["cell"].get<std::string>();
+  if (cell.empty() || cell.find('/') != std::string::npos || cell == "..") return false;
+  return replaced_finish_times(target.parent_path() / cell).count(source["finished"].get<std::string>()) > 0;
+}
+
+// Moves the replaced/ folders of `from` that `to` lacks into `to`: a rerun merged over a cell keeps its record.
+void keep_replaced(const fs::path& from, const fs::path& to) {
+  if (!fs::is_directory(from / kReplacedFolder)) return;
+  fs::create_directories(to / kReplacedFolder);
+  for (const auto& entry : fs::directory_iterator(from / kReplacedFolder)) {
+    const fs::path kept = to / kReplacedFolder / entry.path().filename();
+    if (!fs::exists(kept)) fs::rename(entry.path(), kept);
+  }
+}
+
 struct CellState {
   std::string state, detail;
   double cost_seconds = -1.0;  // a finished cell's (set_cost; -1: not finished or not recorded)
@@ -251,20 +292,30 @@ int run_suite_merge(const SuiteMergeOptions& options) {
     write_json_file((out / "suite.json").string(), manifest);
   }
   const fs::path staging_root = out / (".merging-" + host_name() + "-" + std::to_string(::getpid()));
-  int merged = 0, present = 0;
+  int merged = 0, finished = 0, stale = 0;
   for (const auto& cell : first.cells) {
     const fs::path target = cell_dir(out, cell);
     std::optional<Json> have = read_result(target, cell);
-    if (have) ++present;
     for (const auto& shard : options.shards) {
       const fs::path source = cell_dir(shard, cell);
       const auto result = read_result(source, cell);
       if (!result) continue;
-      if (have) {
-        if (!same_numbers(*have, *result))
-          throw std::runtime_error("cell " + cell.name + " has different results in " + shard +
-                                   " and in another shard or " + options.out + "; not merged");
+      // A result that a rerun of the cell replaced is not merged over the rerun.
+      const std::string time = finish_time(*result);
+      if ((!time.empty() && replaced_finish_times(target).count(time)) || from_replaced_source(target, *result)) {
+        std::printf("%s: %s's result of %s was run again since (or its source was); not merged\n", cell.name.c_str(),
+                    shard.c_str(), time.c_str());
+        ++stale;
         continue;
+      }
+      if (have) {
+        if (same_numbers(*have, *result)) continue;
+        const std::string have_time = finish_time(*have);
+        if ((have_time.empty() || !replaced_finish_times(source).count(have_time)) &&
+            !from_replaced_source(source, *have))
+          throw std::runtime_error("cell " + cell.name + " has different results in " + shard +
+                                   " and in another shard or " + options.out +
+                                   " (neither is a rerun that replaced the other); not merged");
       }
       if (cell_is_locked(target))
         throw std::runtime_error("cell " + cell.name + " is being run in " + options.out +
@@ -275,16 +326,20 @@ int run_suite_merge(const SuiteMergeOptions& options) {
       fs::create_directories(staging.parent_path());
       fs::create_directories(target.parent_path());
       copy_cell(source, staging);
+      if (fs::exists(target)) keep_replaced(target, staging);
       fs::remove_all(target);
       fs::rename(staging, target);
       have = result;
       ++merged;
     }
+    if (have) ++finished;
   }
   fs::remove_all(staging_root);
-  const int finished = present + merged;
-  std::printf("merged %d cells from %zu shards into %s: %d of %zu cells finished\n", merged, options.shards.size(),
+  std::printf("merged %d cells from %zu shards into %s: %d of %zu cells finished", merged, options.shards.size(),
               options.out.c_str(), finished, first.cells.size());
+  if (stale > 0)
+    std::printf(" (%d results left out: their cells, or the sources they started from, were run again since)", stale);
+  std::printf("\n");
   return 0;
 }
 

@@ -23,7 +23,7 @@ from collections import namedtuple
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, load_suite, order, read_cell, METHOD_ORDER  # noqa: E402
+from suite_results import SuiteError, load_suite, order, read_cell, same_where_both_say, METHOD_ORDER  # noqa: E402
 from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
 from tables import machines_line  # noqa: E402
 
@@ -176,21 +176,32 @@ def module_rows(cells, task, neighbour, by_folder, left_out):
 def rerun_lines(suite, left_out):
     """Cells run a second time (a source whose checkpoint was gone while transfers from it were left, with those
     transfers: experiments/suite_run.h, retire_sources_without_checkpoint): each earlier result, kept in the cell's
-    replaced/ folder, beside the result counted above, and how far they differ."""
-    pairs = []
-    for cell in suite.cells:
-        for path in sorted(cell.folder.glob("replaced/*/result.json")):
-            try:
-                pairs.append((read_cell(path), cell))
-            except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
-                left_out.append((str(path), f"an earlier result of the cell, unreadable ({type(e).__name__}: {e}):"
-                                 " not compared"))
-    if not pairs:
+    replaced/ folder, beside the result counted above, and how far they differ. Earlier results that cannot be
+    compared go to left_out with the reason; those of cells not finished again yet are listed."""
+    finished = {cell.folder.resolve(): cell for cell in suite.cells}
+    pairs, waiting = [], []
+    for path in sorted(suite.root.glob("cells/*/*/replaced/*/result.json")):
+        folder = path.parent.parent.parent
+        name = f"{folder.parent.name}/{folder.name}"
+        try:
+            old = read_cell(path)
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
+            left_out.append((str(path), f"an earlier result of the cell, unreadable ({type(e).__name__}: {e}):"
+                             " not compared"))
+            continue
+        new = finished.get(folder.resolve())
+        if old.name != name:
+            left_out.append((str(path), f"an earlier result that names another cell ({old.name}): not compared"))
+        elif new is None:
+            waiting.append((name, path.parent.name))
+        elif not same_where_both_say(old.config, new.config):
+            left_out.append((str(path), "an earlier result of another run config than the cell's: not compared"))
+        elif rerun_score(old) is None or rerun_score(new) is None:
+            left_out.append((str(path), f"an earlier result without a score for {new_task_of(new)}: not compared"))
+        else:
+            pairs.append((old, new))
+    if not pairs and not waiting:
         return []
-
-    def score(cell):
-        task = new_task_of(cell)
-        return score_of(cell, task) if task else cell.mean_score
 
     def cpu(cell):
         return " + ".join(cell.cpus) if cell.cpus else "not recorded"
@@ -202,29 +213,41 @@ def rerun_lines(suite, left_out):
              "count the second runs, and the first results stay in each cell's `replaced/` folder. The same run "
              "config and seed on another CPU (or GEMM kernel) need not give the same floating-point sums, so the "
              "two runs measure how much a result moves with that alone. Score: the source's mean over its trained "
-             "tasks, a transfer's the new task's.", "",
-             "| cell | CPU (first; second) | best step | best validation loss | score |", "|---|---|---|---|---|"]
+             "tasks, a transfer's the new task's.", ""]
+    if pairs:
+        lines += ["| cell | CPU (first; second) | best step | best validation loss | score |", "|---|---|---|---|---|"]
     for old, new in sorted(pairs, key=lambda p: (p[1].method != "maps", p[1].name)):
-        loss_old, loss_new = best_loss(old), best_loss(new)
         lines.append(f"| `{new.name}` | {cpu(old)}; {cpu(new)} | {old.best_step} -> {new.best_step} | "
-                     f"{loss_old:.6g} -> {loss_new:.6g} | {score(old):.2f} -> {score(new):.2f} |")
+                     f"{best_loss(old):.6g} -> {best_loss(new):.6g} | "
+                     f"{rerun_score(old):.2f} -> {rerun_score(new):.2f} |")
     sources = [(o, n) for o, n in pairs if n.method == "maps"]
     transfers = [(o, n) for o, n in pairs if n.method == "transfer"]
     lines.append("")
     if sources:
         same = sum(o.best_step == n.best_step for o, n in sources)
-        rel = [abs(best_loss(n) - best_loss(o)) / best_loss(o) for o, n in sources if best_loss(o) > 0]
-        moved = [abs(score(n) - score(o)) for o, n in sources]
-        lines.append(f"Source runs: {len(sources)} run twice; the same best step in {same}; the best validation "
-                     f"loss moved by a median {statistics.median(rel):.2g} of itself (at most {max(rel):.2g}); the "
-                     f"score by a median {statistics.median(moved):.3f} (at most {max(moved):.3f}).")
+        rel = [abs(best_loss(n) - best_loss(o)) / best_loss(o) for o, n in sources
+               if best_loss(o) > 0 and math.isfinite(best_loss(n))]
+        moved = [abs(rerun_score(n) - rerun_score(o)) for o, n in sources]
+        loss = (f"the best validation loss moved by a median {statistics.median(rel):.2g} of itself (at most "
+                f"{max(rel):.2g})" if rel else "no best validation loss to compare")
+        lines.append(f"Source runs: {len(sources)} run twice; the same best step in {same}; {loss}; the score by a "
+                     f"median {statistics.median(moved):.3f} (at most {max(moved):.3f}).")
     if transfers:
-        moved = [score(n) - score(o) for o, n in transfers]
+        moved = [rerun_score(n) - rerun_score(o) for o, n in transfers]
         same = sum(o.best_step == n.best_step for o, n in transfers)
         lines.append(f"Transfers: {len(transfers)} run twice; the same best step in {same}; the new task's score "
                      f"moved by a median {statistics.median([abs(m) for m in moved]):.3f} (at most "
                      f"{max(abs(m) for m in moved):.3f}; mean change {mean(moved):+.3f}).")
+    if waiting:
+        lines += ["", f"Not finished again yet ({len(waiting)}; their earlier results are not counted above): " +
+                  ", ".join(f"`{name}` (first finished {stamp})" for name, stamp in waiting) + "."]
     return lines + [""]
+
+
+def rerun_score(cell):
+    """What the cells-run-twice comparison scores: a new-task cell's score on its new task, else its mean."""
+    task = new_task_of(cell)
+    return score_of(cell, task) if task else cell.mean_score
 
 
 def best_loss(cell):

@@ -105,6 +105,18 @@ def write_suite(root):
         result.update(cpu="Earlier CPU", training_attempts=[{"cpu": "Earlier CPU"}])
         (folder / "replaced" / "2025-12-31T00-00-00Z").mkdir(parents=True)
         (folder / "replaced" / "2025-12-31T00-00-00Z" / "result.json").write_text(json.dumps(result))
+        # Earlier results that cannot be compared: one naming another cell, one without the new task's score; and
+        # one of a cell not finished again yet.
+        if name.startswith("transfer"):
+            for stamp, change in (("2025-12-29T00-00-00Z", {"cell": dict(result["cell"], name="gravity/other")}),
+                                  ("2025-12-28T00-00-00Z", {"eval": dict(result["eval"], tasks=[
+                                      task_entry("gravity/1.0", 0.5, [0.3, 0.3, 0.4])])})):
+                (folder / "replaced" / stamp).mkdir(parents=True)
+                (folder / "replaced" / stamp / "result.json").write_text(json.dumps(dict(result, **change)))
+            unfinished = root / "cells" / "gravity" / "transfer-new-0.5_d2_s2" / "replaced" / "2025-12-27T00-00-00Z"
+            unfinished.mkdir(parents=True)
+            (unfinished / "result.json").write_text(json.dumps(dict(result, cell=dict(
+                result["cell"], name="gravity/transfer-new-0.5_d2_s2"))))
     damaged = root / "cells" / "gravity" / "transfer-new-0.5_d2_s0" / "replaced" / "2025-12-30T00-00-00Z"
     damaged.mkdir(parents=True)
     (damaged / "result.json").write_text("{")
@@ -202,9 +214,15 @@ class TransferTableTest(unittest.TestCase):
                       "0.25 of itself (at most 0.25); the score by a median 0.300 (at most 0.300).", self.md)
         self.assertIn("Transfers: 1 run twice; the same best step in 1; the new task's score moved by a median 0.400 "
                       "(at most 0.400; mean change +0.400).", self.md)
-        # The tables count the second run: seed 1's transfer at 1 demonstration scores 0.6 (the mean above).
+        # Earlier results that cannot be compared are named with the reason, not dropped nor a crash.
         self.assertIn("transfer-new-0.5_d2_s0/replaced/2025-12-30T00-00-00Z/result.json`: an earlier result of the "
                       "cell, unreadable", self.md)
+        self.assertIn("transfer-new-0.5_d1_s1/replaced/2025-12-29T00-00-00Z/result.json`: an earlier result that "
+                      "names another cell (gravity/other): not compared", self.md)
+        self.assertIn("transfer-new-0.5_d1_s1/replaced/2025-12-28T00-00-00Z/result.json`: an earlier result without "
+                      "a score for gravity/0.5: not compared", self.md)
+        self.assertIn("Not finished again yet (1; their earlier results are not counted above): "
+                      "`gravity/transfer-new-0.5_d2_s2` (first finished 2025-12-27T00-00-00Z).", self.md)
 
     def test_failed_and_unfinished_cells_are_named(self):
         finished = self.md[self.md.index("## Cells not finished"):]

@@ -232,10 +232,15 @@ class Transfer(unittest.TestCase):
             (clone / "cells" / "mt10" / cell.name).mkdir()
             for name in ("result.json", "curve.csv"):
                 shutil.copy(cell / name, clone / "cells" / "mt10" / cell.name / name)
-        (clone / "cells" / "mt10" / "transfer-new-reach_d2_s0" / "result.json").unlink()
+        # The cell left holds what an attempt from the earlier source run left behind: it starts again from nothing.
+        unfinished = clone / "cells" / "mt10" / "transfer-new-reach_d2_s0"
+        (unfinished / "result.json").unlink()
+        (unfinished / "last.ckpt").write_text("an attempt from the earlier source run")
         proc = run("suite", "run", fixture, "--out", clone, "--jobs", "2")
         self.assertIn("mt10/maps-without-reach_d2_s0 is finished but its best.ckpt is gone", proc.stdout)
-        self.assertIn("the 2 finished ones that started from it run again", proc.stdout)
+        self.assertIn("the 2 finished ones that started from it run again, the unfinished ones from the start",
+                      proc.stdout)
+        self.assertNotIn("resuming failed", proc.stdout)
         self.assertIn("4 cells done, 0 failed", proc.stdout)
         redone = clone / "cells" / "mt10"
         for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0", "transfer-tuned-new-reach_d1_s0"):
@@ -259,8 +264,39 @@ class Transfer(unittest.TestCase):
         self.assertEqual(json.loads((redone / "mt_bc-new-reach_d1_s0" / "result.json").read_text()),
                          json.loads((cells / "mt_bc-new-reach_d1_s0" / "result.json").read_text()))
         # With every cell that starts from it finished, a source without its checkpoint is not run again.
+        (redone / "maps-without-reach_d2_s0" / "best.ckpt").unlink()
         proc = run("suite", "run", fixture, "--out", clone)
         self.assertIn("0 to run", proc.stdout)
+        self.assertNotIn("best.ckpt is gone", proc.stdout)
+        # Merging the first results with the reruns keeps the reruns, whichever comes first, with their replaced/
+        # record. The first results here get other scores (as runs on another machine may) to tell them apart: the
+        # source and a retired transfer, and the transfer that was unfinished in the clone (its first result started
+        # from the replaced source run).
+        stale = work() / "suite-stale"
+        shutil.copytree(work() / "suite", stale)
+        for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0", "transfer-new-reach_d2_s0"):
+            path = stale / "cells" / "mt10" / cell / "result.json"
+            changed = json.loads(path.read_text())
+            changed["eval"]["mean_score"] += 0.001
+            path.write_text(json.dumps(changed))
+        for order in ((stale, clone), (clone, stale)):
+            merged = work() / ("merged-" + order[0].name)
+            proc = run("suite", "merge", "--out", merged, *order)
+            self.assertIn(f"{len(names)} of {len(names)} cells finished", proc.stdout)
+            for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0", "transfer-new-reach_d2_s0"):
+                self.assertEqual(json.loads((merged / "cells" / "mt10" / cell / "result.json").read_text()),
+                                 json.loads((redone / cell / "result.json").read_text()), (order, cell))
+            for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0"):
+                self.assertEqual(sorted(p.name for p in (merged / "cells" / "mt10" / cell / "replaced").iterdir()),
+                                 sorted(p.name for p in (redone / cell / "replaced").iterdir()), (order, cell))
+        self.assertIn("mt10/transfer-new-reach_d2_s0: " + str(stale) + "'s result of", proc.stdout)
+        self.assertIn("was run again since (or its source was); not merged", proc.stdout)
+        self.assertIn("(4 results left out: their cells, or the sources they started from, were run again since)",
+                      proc.stdout)
+        # Two results of one cell where neither replaced the other are still refused.
+        proc = run("suite", "merge", "--out", work() / "merged-conflict", stale, work() / "suite", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("neither is a rerun that replaced the other", proc.stdout + proc.stderr)
 
     def test_shards_keep_a_transfer_cell_with_its_source(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
