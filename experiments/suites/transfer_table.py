@@ -451,26 +451,38 @@ def draw(data, tasks, path):
                "mt_mh_bc": "tab:red", "maml": "tab:orange"}
     columns = min(2, len(tasks))
     rows = math.ceil(len(tasks) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(6 * columns, 3.6 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, columns, figsize=(6 * columns, 3.4 * rows + 0.8), squeeze=False)
+    handles = {}
     for ax, (set_name, task) in zip(axes.flat, tasks):
-        for (t, method), points in data.items():
-            if t != task or not points:
-                continue
-            xs = [d for d, _ in points]
+        series = [(method, points) for (t, method), points in data.items() if t == task and points]
+        counts = sorted({d for _, points in series for d, _ in points})
+        for k, (method, points) in enumerate(series):
+            # Side by side around each count (the x axis is logarithmic), so that the bars do not hide one another.
+            shift = 1.035 ** (k - (len(series) - 1) / 2)
+            xs = [d * shift for d, _ in points]
             ys = [mean(v) for _, v in points]
-            err = [0.0 if math.isnan(ci95(v)) else ci95(v) for _, v in points]
-            ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=name_of(method),
-                        color=colours.get(method, "tab:olive" if base_of(method) == "transfer" else None))
-        # Cheetah scores are not capped at 1 (return over the demonstrations' mean return): no fixed top.
+            half = [0.0 if math.isnan(ci95(v)) else ci95(v) for _, v in points]
+            # A score is never below 0 (Cheetah's is floored there) and an MT10 success rate never above 1: the bars
+            # stop at those bounds. Cheetah scores are not capped at 1 (return over the demonstrations' mean return).
+            top = 1.0 if set_name == "mt10" else math.inf
+            err = [[y - max(0.0, y - h) for y, h in zip(ys, half)], [min(top, y + h) - y for y, h in zip(ys, half)]]
+            transfer = base_of(method) == "transfer"
+            line = ax.errorbar(xs, ys, yerr=err, marker="o" if transfer else "s", capsize=3, markersize=5,
+                               linestyle="-" if transfer else "--",
+                               color=colours.get(method, "tab:olive" if transfer else None))
+            handles.setdefault(name_of(method), line)
         ax.set(title=task, xlabel="demonstrations of the new task", ylabel="new task's score")
-        ax.set_ylim(bottom=0, top=max(1.1, ax.get_ylim()[1]))
         ax.set_xscale("log")
+        ax.set_xticks(counts, [str(c) for c in counts])
+        ax.minorticks_off()
+        ax.set_ylim(bottom=0, top=max(1.05, ax.get_ylim()[1]))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(tasks):]:
         ax.axis("off")
-    fig.suptitle("Transfer to a held-out task: mean over seeds, bars the 95% t interval")
-    fig.tight_layout()
+    fig.suptitle("Transfer to a held-out task: mean over seeds, bars the 95% t interval (cut at the score's bounds)")
+    fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=min(5, len(handles)),
+               fontsize=9, frameon=False)
+    fig.tight_layout(rect=(0, 0.8 / (3.4 * rows + 0.8), 1, 1))
     fig.savefig(path, dpi=120)
 
 
