@@ -183,6 +183,17 @@ bool cell_is_locked(const fs::path& dir) {
   return locked;
 }
 
+fs::path source_dir(const fs::path& dir, const SuiteCell& cell) {
+  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
+  return relative.empty() ? fs::path() : (dir / relative).lexically_normal();
+}
+
+fs::path source_checkpoint(const fs::path& dir, const SuiteCell& cell) {
+  const fs::path source = source_dir(dir, cell);
+  if (source.empty()) return {};
+  return source / cell.request["init"].value("checkpoint", "best.ckpt");
+}
+
 void clear_cell(const fs::path& dir) {
   if (!fs::exists(dir)) return;
   for (const auto& entry : fs::directory_iterator(dir))

@@ -62,6 +62,11 @@ class CellLock {
 // Whether some process holds dir/.lock now (a running cell).
 bool cell_is_locked(const std::filesystem::path& dir);
 
+// The folder of the cell a transfer cell starts from (init.run, relative to the cell's folder dir); empty when none.
+std::filesystem::path source_dir(const std::filesystem::path& dir, const SuiteCell& cell);
+// The checkpoint file in it that the cell starts from (init.checkpoint); empty when none.
+std::filesystem::path source_checkpoint(const std::filesystem::path& dir, const SuiteCell& cell);
+
 // Earlier results of a cell that was run again (retire_cell), each in a folder named for when it finished.
 inline constexpr const char* kReplacedFolder = "replaced";
 

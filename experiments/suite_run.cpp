@@ -82,12 +82,6 @@ Attempt failed_stage(const fs::path& dir, const std::string& stage, int code, co
   return attempt;
 }
 
-// The folder of the cell a transfer cell starts from (init.run, relative to its own folder); empty when none.
-fs::path source_dir(const fs::path& dir, const SuiteCell& cell) {
-  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
-  return relative.empty() ? fs::path() : (dir / relative).lexically_normal();
-}
-
 // What the cell's earlier runs came to (replaced/*/result.json), for comparison with this one.
 Json replaced_results(const fs::path& dir) {
   Json list = Json::array();
@@ -206,9 +200,10 @@ std::string wait_for_source(const fs::path& dir, const SuiteCell& cell) {
   bool announced = false;
   for (;;) {
     if (fs::exists(source / "result.json")) {
-      if (fs::exists(source / "best.ckpt")) return "";
-      return "its source cell " + source.string() +
-             " is finished but its best.ckpt is gone (checkpoints are not kept with the results): rerun the suite, "
+      const fs::path checkpoint = source_checkpoint(dir, cell);
+      if (fs::exists(checkpoint)) return "";
+      return "its source cell " + source.string() + " is finished but its " + checkpoint.filename().string() +
+             " is gone (checkpoints are not kept with the results): rerun the suite, "
              "which trains it again, with every cell that starts from it, before the others";
     }
     // A running source is waited for even when an error.json of an earlier attempt is still there; a worker that
@@ -306,14 +301,18 @@ std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const 
   }
   auto needs_rerun = [&](const fs::path& source, const SuiteCell& source_cell,
                          const std::vector<const SuiteCell*>& cells_from_it) {
-    if (fs::exists(source / "best.ckpt") || !read_result(source, source_cell)) return false;
-    return std::any_of(cells_from_it.begin(), cells_from_it.end(),
-                       [&](const SuiteCell* cell) { return !read_result(cell_dir(out, *cell), *cell); });
+    if (!read_result(source, source_cell)) return false;
+    return std::any_of(cells_from_it.begin(), cells_from_it.end(), [&](const SuiteCell* cell) {
+      const fs::path dir = cell_dir(out, *cell);
+      return !read_result(dir, *cell) && !fs::exists(source_checkpoint(dir, *cell));
+    });
   };
   std::set<fs::path> held_elsewhere;
   for (const auto& [source, cells_from_it] : dependants) {
     const auto found = by_dir.find(source);
     if (found == by_dir.end() || !needs_rerun(source, *found->second, cells_from_it)) continue;
+    const SuiteCell& first = *cells_from_it.front();
+    const std::string checkpoint = source_checkpoint(cell_dir(out, first), first).filename().string();
     // Every cell of the group is taken before any is touched, so that a process running one of them stops this.
     std::vector<std::unique_ptr<CellLock>> locks;
     std::vector<fs::path> group{source};
@@ -331,9 +330,9 @@ std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const 
       // Its transfers would fail at once (their source has no checkpoint): this process leaves the group to the
       // one that holds it.
       std::printf(
-          "suite: %s is finished but its best.ckpt is gone, and cells that start from it are left; another "
+          "suite: %s is finished but its %s is gone, and cells that start from it are left; another "
           "process holds %s, so this one leaves the source and its %zu dependants to it\n",
-          found->second->name.c_str(), busy.string().c_str(), cells_from_it.size());
+          found->second->name.c_str(), checkpoint.c_str(), busy.string().c_str(), cells_from_it.size());
       held_elsewhere.insert(group.begin(), group.end());
       continue;
     }
@@ -352,10 +351,10 @@ std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const 
     }
     retire_cell(source);
     std::printf(
-        "suite: %s is finished but its best.ckpt is gone (checkpoints are not kept with the results), and "
+        "suite: %s is finished but its %s is gone (checkpoints are not kept with the results), and "
         "cells that start from it are left: it and the %d finished ones that started from it run again, the "
         "unfinished ones from the start (results so far are kept in their %s/ folders)\n",
-        found->second->name.c_str(), retired, kReplacedFolder);
+        found->second->name.c_str(), checkpoint.c_str(), retired, kReplacedFolder);
   }
   std::fflush(stdout);
   return held_elsewhere;

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -165,6 +166,33 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   return s;
 }
 
+// The cells that are done but will run again: a finished source without the checkpoint that an unfinished cell
+// starts from (in every folder that holds it) runs again with every finished cell that started from it
+// (retire_sources_without_checkpoint).
+std::set<std::size_t> cells_to_run_again(const Suite& suite, const std::vector<CellState>& states,
+                                         const std::vector<std::string>& dirs) {
+  std::map<fs::path, std::size_t> index_of;
+  for (std::size_t i = 0; i < suite.cells.size(); ++i) index_of[cell_dir("", suite.cells[i])] = i;
+  std::map<std::size_t, std::vector<std::size_t>> dependants;
+  for (std::size_t i = 0; i < suite.cells.size(); ++i)
+    if (const fs::path source = source_dir(cell_dir("", suite.cells[i]), suite.cells[i]); !source.empty())
+      if (const auto found = index_of.find(source); found != index_of.end()) dependants[found->second].push_back(i);
+  std::set<std::size_t> again;
+  for (const auto& [source, from_it] : dependants) {
+    if (states[source].state != "done") continue;
+    const bool needed = std::any_of(from_it.begin(), from_it.end(), [&](std::size_t i) {
+      return states[i].state != "done" && std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
+               return fs::exists(source_checkpoint(cell_dir(dir, suite.cells[i]), suite.cells[i]));
+             });
+    });
+    if (!needed) continue;
+    again.insert(source);
+    for (std::size_t i : from_it)
+      if (states[i].state == "done") again.insert(i);
+  }
+  return again;
+}
+
 }  // namespace
 
 int run_suite_status(const SuiteStatusOptions& options) {
@@ -199,13 +227,22 @@ int run_suite_status(const SuiteStatusOptions& options) {
     }
     if ((best.state == "left" || best.state == "started") && !current.count(cell.name))
       best = {.state = "dropped", .detail = "no longer in the suite's config"};
-    counts[best.state] += 1;
     states.push_back(best);
+  }
+  const std::set<std::size_t> again = cells_to_run_again(suite, states, options.dirs);
+  for (std::size_t i = 0; i < suite.cells.size(); ++i) {
+    const SuiteCell& cell = suite.cells[i];
+    CellState& best = states[i];
+    if (again.count(i))
+      best.detail += std::string(best.detail.empty() ? "" : "; ") +
+                     "runs again (the source run's checkpoint is gone while cells that start from it are left)";
+    counts[best.state] += 1;
     if (!by_grid.count(cell.grid)) grids.push_back(cell.grid);
     by_grid[cell.grid][best.state] += 1;
     Json entry = cell.identity();
     entry["state"] = best.state;
     entry["detail"] = best.detail;
+    if (again.count(i)) entry["runs_again"] = true;
     cells.push_back(entry);
     if (options.all || best.state == "failed" || best.state == "running" || best.state == "started")
       lines.push_back(best.state + "  " + cell.name + (best.detail.empty() ? "" : ": " + best.detail));
@@ -233,18 +270,24 @@ int run_suite_status(const SuiteStatusOptions& options) {
               counts["left"]);
   if (counts["dropped"] > 0) std::printf(", %d dropped (no longer in the config)", counts["dropped"]);
   std::printf("\n");
+  if (!again.empty())
+    std::printf(
+        "%zu of the done cells run again: sources whose checkpoint is gone (results keep none) while cells that start "
+        "from them are left, with the cells finished from them (maps suite run does this first; --all names them)\n",
+        again.size());
   if (const auto costs = try_load_costs("", true)) {
     double left = 0.0;
     bool known = true;
     for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-      if (cells[i]["state"] == "done" || cells[i]["state"] == "dropped") continue;
+      if ((cells[i]["state"] == "done" && !again.count(i)) || cells[i]["state"] == "dropped") continue;
       try {
         left += costs->cell_seconds(suite.cells[i]);
       } catch (const std::exception&) {
         known = false;
       }
     }
-    if (known && counts["done"] + counts["dropped"] < static_cast<int>(suite.cells.size())) {
+    if (known &&
+        counts["done"] - static_cast<int>(again.size()) + counts["dropped"] < static_cast<int>(suite.cells.size())) {
       std::printf("estimated CPU time left: %s (one thread per cell)\n", format_duration(left).c_str());
       // The cost table was measured on one machine; the finished cells say how the machines they ran on differ.
       // (result.json's host names a container, not a machine, so the pace is the folder's, not this machine's.)

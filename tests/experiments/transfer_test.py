@@ -236,6 +236,11 @@ class Transfer(unittest.TestCase):
         unfinished = clone / "cells" / "mt10" / "transfer-new-reach_d2_s0"
         (unfinished / "result.json").unlink()
         (unfinished / "last.ckpt").write_text("an attempt from the earlier source run")
+        # Status counts them as work left before the run does it.
+        proc = run("suite", "status", clone, "--all")
+        self.assertIn("3 of the done cells run again", proc.stdout)
+        self.assertRegex(proc.stdout, r"done  mt10/transfer-new-reach_d1_s0: .*runs again")
+        self.assertNotRegex(proc.stdout, r"done  mt10/mt_bc-new-reach_d1_s0: .*runs again")
         proc = run("suite", "run", fixture, "--out", clone, "--jobs", "2")
         self.assertIn("mt10/maps-without-reach_d2_s0 is finished but its best.ckpt is gone", proc.stdout)
         self.assertIn("the 2 finished ones that started from it run again, the unfinished ones from the start",
@@ -268,6 +273,7 @@ class Transfer(unittest.TestCase):
         proc = run("suite", "run", fixture, "--out", clone)
         self.assertIn("0 to run", proc.stdout)
         self.assertNotIn("best.ckpt is gone", proc.stdout)
+        self.assertNotIn("run again", run("suite", "status", clone).stdout)
         # Merging the first results with the reruns keeps the reruns, whichever comes first, with their replaced/
         # record. The first results here get other scores (as runs on another machine may) to tell them apart: the
         # source and a retired transfer, and the transfer that was unfinished in the clone (its first result started
