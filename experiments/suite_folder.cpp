@@ -200,20 +200,25 @@ void clear_cell(const fs::path& dir) {
     if (entry.path().filename() != ".lock" && entry.path().filename() != kReplacedFolder) fs::remove_all(entry.path());
 }
 
-fs::path retire_cell(const fs::path& dir) {
-  std::string stamp = "unknown";
-  try {
-    stamp = read_json_file((dir / "result.json").string()).value("finished", stamp);
-  } catch (const std::exception&) {
-  }
-  std::replace(stamp.begin(), stamp.end(), ':', '-');
+fs::path replaced_folder(const fs::path& dir, std::string finished) {
+  std::replace(finished.begin(), finished.end(), ':', '-');
   // It names a folder: anything but a time as utc_now writes it (a hand-edited result) is not trusted.
   static const std::regex time_like(R"(\d{4}-\d{2}-\d{2}T\d{2}-\d{2}-\d{2}Z)");
-  if (!std::regex_match(stamp, time_like)) stamp = "unknown";
-  fs::path kept = dir / kReplacedFolder / stamp;
-  // A folder without result.json is this cell's own, left half moved by a crash below.
+  if (!std::regex_match(finished, time_like)) finished = "unknown";
+  fs::path kept = dir / kReplacedFolder / finished;
+  // A folder without result.json is this cell's own, left half moved by a crash in retire_cell.
   for (int n = 2; fs::exists(kept / "result.json"); ++n)
-    kept = dir / kReplacedFolder / (stamp + "-" + std::to_string(n));
+    kept = dir / kReplacedFolder / (finished + "-" + std::to_string(n));
+  return kept;
+}
+
+fs::path retire_cell(const fs::path& dir) {
+  std::string finished;
+  try {
+    finished = read_json_file((dir / "result.json").string()).value("finished", finished);
+  } catch (const std::exception&) {
+  }
+  const fs::path kept = replaced_folder(dir, finished);
   fs::create_directories(kept);
   // result.json last: a cell whose result.json is still in place after a crash here is retired again.
   for (const char* name : {"curve.csv", "result.json"})

@@ -424,9 +424,13 @@ int run_suite(const SuiteRunOptions& options) {
   std::vector<const SuiteCell*> left;
   double estimate_left = 0.0;
   bool estimated = costs.has_value();
+  std::size_t held = 0;  // of a group to run again that another process holds: not run here, not finished either
   for (const auto* cell : cells) {
-    if (held_elsewhere.count(cell_dir(out, *cell).lexically_normal()) || read_result(cell_dir(out, *cell), *cell))
+    if (held_elsewhere.count(cell_dir(out, *cell).lexically_normal())) {
+      ++held;
       continue;
+    }
+    if (read_result(cell_dir(out, *cell), *cell)) continue;
     left.push_back(cell);
     const auto seconds = estimate(*cell);
     estimated = estimated && seconds.has_value();
@@ -435,14 +439,20 @@ int run_suite(const SuiteRunOptions& options) {
   const int jobs = std::clamp(options.jobs > 0 ? options.jobs : default_jobs(options.threads), 1,
                               std::max(1, static_cast<int>(left.size())));
   std::printf("suite: %s, shard %d/%d: %zu cells, %zu finished before, %zu to run on %d jobs x %d threads",
-              options.config_path.c_str(), shard, shards, cells.size(), cells.size() - left.size(), left.size(), jobs,
-              options.threads);
+              options.config_path.c_str(), shard, shards, cells.size(), cells.size() - left.size() - held, left.size(),
+              jobs, options.threads);
+  if (held > 0) std::printf(", %zu left to another process", held);
   if (estimated)
     std::printf(" (estimated %s of CPU, %s of wall)", format_duration(estimate_left).c_str(),
                 format_duration(estimate_left / jobs).c_str());
   std::printf(" -> %s\n", out.string().c_str());
   std::fflush(stdout);
-  if (left.empty()) return 0;
+  auto held_message = [held] {
+    std::printf("suite: %zu cells of sources to run again were held by another process: rerun once it has stopped\n",
+                held);
+    return 3;
+  };
+  if (left.empty()) return held > 0 ? held_message() : 0;
   ensure_demo_files(suite, left, std::max(1, jobs * options.threads));
 
   std::mutex mutex;
@@ -508,6 +518,7 @@ int run_suite(const SuiteRunOptions& options) {
                 busy);
     return 3;
   }
+  if (held > 0) return held_message();
   return 0;
 }
 

@@ -12,6 +12,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "envs/mujoco_env.h"
 #include "envs/source_folders.h"
 #include "experiments/output_path.h"
 #include "experiments/run_folder.h"
@@ -77,6 +78,18 @@ std::set<std::string> replaced_finish_times(const fs::path& dir) {
   return times;
 }
 
+// Whether one of the cell's replaced/ folders holds this very result.
+bool replaced_holds(const fs::path& dir, const Json& result) {
+  if (!fs::is_directory(dir / kReplacedFolder)) return false;
+  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) {
+    try {
+      if (read_json_file((entry.path() / "result.json").string()) == result) return true;
+    } catch (const std::exception&) {
+    }
+  }
+  return false;
+}
+
 std::string finish_time(const Json& result) {
   return result.contains("finished") && result["finished"].is_string() ? result["finished"].get<std::string>() : "";
 }
@@ -93,12 +106,23 @@ bool from_replaced_source(const fs::path& target, const Json& result) {
   return replaced_finish_times(target.parent_path() / cell).count(source["finished"].get<std::string>()) > 0;
 }
 
-// Moves the replaced/ folders of `from` that `to` lacks into `to`: a rerun merged over a cell keeps its record.
+// Moves the replaced/ folders of `from` that `to` lacks into `to`: a rerun merged over a cell keeps its record. A
+// folder of the same name holding another result.json is kept under a name of its own.
 void keep_replaced(const fs::path& from, const fs::path& to) {
   if (!fs::is_directory(from / kReplacedFolder)) return;
   fs::create_directories(to / kReplacedFolder);
   for (const auto& entry : fs::directory_iterator(from / kReplacedFolder)) {
-    const fs::path kept = to / kReplacedFolder / entry.path().filename();
+    const std::string name = entry.path().filename().string();
+    fs::path kept = to / kReplacedFolder / name;
+    auto same_result = [&](const fs::path& folder) {
+      try {
+        return envs::read_text_file(folder / "result.json") == envs::read_text_file(entry.path() / "result.json");
+      } catch (const std::exception&) {
+        return false;
+      }
+    };
+    for (int n = 2; fs::exists(kept) && !same_result(kept); ++n)
+      kept = to / kReplacedFolder / (name + "-" + std::to_string(n));
     if (!fs::exists(kept)) fs::rename(entry.path(), kept);
   }
 }
@@ -181,7 +205,8 @@ std::set<std::size_t> cells_to_run_again(const Suite& suite, const std::vector<C
   for (const auto& [source, from_it] : dependants) {
     if (states[source].state != "done") continue;
     const bool needed = std::any_of(from_it.begin(), from_it.end(), [&](std::size_t i) {
-      return states[i].state != "done" && std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
+      return states[i].state != "done" && states[i].state != "dropped" &&
+             std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
                return fs::exists(source_checkpoint(cell_dir(dir, suite.cells[i]), suite.cells[i]));
              });
     });
@@ -348,6 +373,14 @@ int run_suite_merge(const SuiteMergeOptions& options) {
       if ((!time.empty() && replaced_finish_times(target).count(time)) || from_replaced_source(target, *result)) {
         std::printf("%s: %s's result of %s was run again since (or its source was); not merged\n", cell.name.c_str(),
                     shard.c_str(), time.c_str());
+        // Kept on record as a replaced result, as the run that superseded it would have kept it.
+        if (!replaced_holds(target, *result) && !cell_is_locked(target)) {
+          const fs::path kept = replaced_folder(target, time);
+          fs::create_directories(kept);
+          for (const char* name : {"curve.csv", "result.json"})
+            if (fs::exists(source / name))
+              fs::copy_file(source / name, kept / name, fs::copy_options::overwrite_existing);
+        }
         ++stale;
         continue;
       }
@@ -369,6 +402,8 @@ int run_suite_merge(const SuiteMergeOptions& options) {
       fs::create_directories(staging.parent_path());
       fs::create_directories(target.parent_path());
       copy_cell(source, staging);
+      // The result superseded here stays on record beside the rerun's, unless the rerun kept it itself.
+      if (have && !replaced_holds(staging, *have)) retire_cell(target);
       if (fs::exists(target)) keep_replaced(target, staging);
       fs::remove_all(target);
       fs::rename(staging, target);

@@ -192,6 +192,9 @@ def rerun_lines(suite, left_out):
         new = finished.get(folder.resolve())
         if old.name != name:
             left_out.append((str(path), f"an earlier result that names another cell ({old.name}): not compared"))
+        elif new is None and (folder / "result.json").exists():
+            left_out.append((str(path), "an earlier result of a cell whose current result is left out (below): not "
+                             "compared"))
         elif new is None:
             waiting.append((name, path.parent.name))
         elif not same_where_both_say(old.config, new.config):

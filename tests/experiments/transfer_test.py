@@ -2,6 +2,7 @@
 """`maps transfer` end to end (issue 17): a MAPS run trained without a task learns it from two demonstrations with
 its modules frozen, the result is an ordinary run folder that `maps eval` scores on the new task, and transfers
 that cannot be meant are refused by name. Run by ctest as: transfer_test.py path/to/maps."""
+import fcntl
 import json
 import pathlib
 import shutil
@@ -236,6 +237,16 @@ class Transfer(unittest.TestCase):
         unfinished = clone / "cells" / "mt10" / "transfer-new-reach_d2_s0"
         (unfinished / "result.json").unlink()
         (unfinished / "last.ckpt").write_text("an attempt from the earlier source run")
+        # While another process holds a cell of the group, the group is left to it: nothing is retired, and the run
+        # says so and exits 3, as for any cell another process holds.
+        with open(unfinished / ".lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            proc = run("suite", "run", fixture, "--out", clone, check=False)
+        self.assertEqual(proc.returncode, 3, proc.stdout + proc.stderr)
+        self.assertIn("another process holds", proc.stdout)
+        self.assertIn("0 to run on 1 jobs x 1 threads, 4 left to another process", proc.stdout)
+        self.assertFalse((clone / "cells" / "mt10" / "maps-without-reach_d2_s0" / "replaced").exists())
+        self.assertTrue((unfinished / "last.ckpt").exists())
         # Status counts them as work left before the run does it.
         proc = run("suite", "status", clone, "--all")
         self.assertIn("3 of the done cells run again", proc.stdout)
@@ -292,9 +303,20 @@ class Transfer(unittest.TestCase):
             for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0", "transfer-new-reach_d2_s0"):
                 self.assertEqual(json.loads((merged / "cells" / "mt10" / cell / "result.json").read_text()),
                                  json.loads((redone / cell / "result.json").read_text()), (order, cell))
+            # The transfer that was unfinished in the clone: its first result (from the replaced source run) is
+            # kept in replaced/ whichever side came first.
+            first = json.loads((stale / "cells" / "mt10" / "transfer-new-reach_d2_s0" / "result.json").read_text())
+            kept = merged / "cells" / "mt10" / "transfer-new-reach_d2_s0" / "replaced" / \
+                first["finished"].replace(":", "-")
+            self.assertEqual(json.loads((kept / "result.json").read_text()), first, order)
+            # Every earlier result on record in the clone is in the merge; the first results that differ from
+            # them (the scores changed above) are kept too, under names of their own.
             for cell in ("maps-without-reach_d2_s0", "transfer-new-reach_d1_s0"):
-                self.assertEqual(sorted(p.name for p in (merged / "cells" / "mt10" / cell / "replaced").iterdir()),
-                                 sorted(p.name for p in (redone / cell / "replaced").iterdir()), (order, cell))
+                records = [json.loads(p.read_text())
+                           for p in (merged / "cells" / "mt10" / cell / "replaced").glob("*/result.json")]
+                expected = [json.loads(p.read_text()) for p in (redone / cell / "replaced").glob("*/result.json")]
+                expected.append(json.loads((stale / "cells" / "mt10" / cell / "result.json").read_text()))
+                self.assertCountEqual(records, expected, (order, cell))
         self.assertIn("mt10/transfer-new-reach_d2_s0: " + str(stale) + "'s result of", proc.stdout)
         self.assertIn("was run again since (or its source was); not merged", proc.stdout)
         self.assertIn("(4 results left out: their cells, or the sources they started from, were run again since)",
