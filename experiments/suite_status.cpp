@@ -106,7 +106,7 @@ bool from_replaced_source(const fs::path& target, const Json& result) {
   return replaced_finish_times(target.parent_path() / cell).count(source["finished"].get<std::string>()) > 0;
 }
 
-// Moves the replaced/ folders of `from` that `to` lacks into `to`: a rerun merged over a cell keeps its record. A
+// Copies the replaced/ folders of `from` that `to` lacks into `to`: a rerun merged over a cell keeps its record. A
 // folder of the same name holding another result.json is kept under a name of its own.
 void keep_replaced(const fs::path& from, const fs::path& to) {
   if (!fs::is_directory(from / kReplacedFolder)) return;
@@ -123,8 +123,16 @@ void keep_replaced(const fs::path& from, const fs::path& to) {
     };
     for (int n = 2; fs::exists(kept) && !same_result(kept); ++n)
       kept = to / kReplacedFolder / (name + "-" + std::to_string(n));
-    if (!fs::exists(kept)) fs::rename(entry.path(), kept);
+    if (!fs::exists(kept)) fs::copy(entry.path(), kept, fs::copy_options::recursive);
   }
+}
+
+// Copies a cell's result.json and curve.csv into to/replaced/ (the folder retire_cell would move them to).
+void keep_result(const fs::path& from, const Json& result, const fs::path& to) {
+  const fs::path kept = replaced_folder(to, finish_time(result));
+  fs::create_directories(kept);
+  for (const char* name : {"curve.csv", "result.json"})
+    if (fs::exists(from / name)) fs::copy_file(from / name, kept / name, fs::copy_options::overwrite_existing);
 }
 
 struct CellState {
@@ -360,6 +368,12 @@ int run_suite_merge(const SuiteMergeOptions& options) {
     write_json_file((out / "suite.json").string(), manifest);
   }
   const fs::path staging_root = out / (".merging-" + host_name() + "-" + std::to_string(::getpid()));
+  for (const auto& entry : fs::directory_iterator(out))
+    if (entry.path().filename().string().rfind(".merging-", 0) == 0)
+      std::printf(
+          "note: %s is left from a merge that was stopped; a cell's earlier copy (<cell>.earlier) may be in "
+          "it: look, then remove it\n",
+          entry.path().string().c_str());
   int merged = 0, finished = 0, stale = 0;
   for (const auto& cell : first.cells) {
     const fs::path target = cell_dir(out, cell);
@@ -374,13 +388,7 @@ int run_suite_merge(const SuiteMergeOptions& options) {
         std::printf("%s: %s's result of %s was run again since (or its source was); not merged\n", cell.name.c_str(),
                     shard.c_str(), time.c_str());
         // Kept on record as a replaced result, as the run that superseded it would have kept it.
-        if (!replaced_holds(target, *result) && !cell_is_locked(target)) {
-          const fs::path kept = replaced_folder(target, time);
-          fs::create_directories(kept);
-          for (const char* name : {"curve.csv", "result.json"})
-            if (fs::exists(source / name))
-              fs::copy_file(source / name, kept / name, fs::copy_options::overwrite_existing);
-        }
+        if (!replaced_holds(target, *result) && !cell_is_locked(target)) keep_result(source, *result, target);
         ++stale;
         continue;
       }
@@ -403,10 +411,18 @@ int run_suite_merge(const SuiteMergeOptions& options) {
       fs::create_directories(target.parent_path());
       copy_cell(source, staging);
       // The result superseded here stays on record beside the rerun's, unless the rerun kept it itself.
-      if (have && !replaced_holds(staging, *have)) retire_cell(target);
+      if (have && !replaced_holds(staging, *have)) keep_result(target, *have, staging);
       if (fs::exists(target)) keep_replaced(target, staging);
-      fs::remove_all(target);
+      // The target is untouched until here, and then swapped in two renames: a merge killed between them leaves
+      // the earlier cell in the staging folder, which is not removed then.
+      const fs::path earlier = staging_root / (cell.name + ".earlier");
+      if (fs::exists(target)) {
+        fs::remove_all(earlier);
+        fs::create_directories(earlier.parent_path());
+        fs::rename(target, earlier);
+      }
       fs::rename(staging, target);
+      fs::remove_all(earlier);
       have = result;
       ++merged;
     }
