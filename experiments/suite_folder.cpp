@@ -7,13 +7,18 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <deque>
 #include <fstream>
+#include <functional>
 #include <map>
+#include <memory>
 #include <regex>
+#include <set>
 #include <stdexcept>
+#include <vector>
 
 #include "experiments/run_folder.h"
 #include "maps/training/run_config.h"
@@ -225,6 +230,132 @@ fs::path retire_cell(const fs::path& dir) {
     if (fs::exists(dir / name)) fs::rename(dir / name, kept / name);
   clear_cell(dir);
   return kept;
+}
+
+std::vector<const SuiteCell*> sources_first(const Suite& suite) {
+  std::map<fs::path, const SuiteCell*> by_dir;
+  for (const auto& cell : suite.cells) by_dir[cell_dir("", cell)] = &cell;
+  std::vector<const SuiteCell*> order;
+  std::set<const SuiteCell*> placed;
+  // Depth first: a cell's chain of sources is placed before it, each cell once.
+  std::function<void(const SuiteCell*, std::set<const SuiteCell*>&)> place = [&](const SuiteCell* cell,
+                                                                                 std::set<const SuiteCell*>& path) {
+    if (placed.count(cell) || !path.insert(cell).second) return;
+    if (const auto source = by_dir.find(source_dir(cell_dir("", *cell), *cell)); source != by_dir.end())
+      place(source->second, path);
+    if (placed.insert(cell).second) order.push_back(cell);
+  };
+  for (const auto& cell : suite.cells) {
+    std::set<const SuiteCell*> path;
+    place(&cell, path);
+  }
+  return order;
+}
+
+std::vector<std::pair<fs::path, const SuiteCell*>> suite_descendants(
+    const std::map<fs::path, std::vector<const SuiteCell*>>& dependants, const fs::path& out, const fs::path& source) {
+  std::vector<std::pair<fs::path, const SuiteCell*>> found;
+  std::set<fs::path> seen{source};
+  std::deque<fs::path> next{source};
+  while (!next.empty()) {
+    const auto at = dependants.find(next.front());
+    next.pop_front();
+    if (at == dependants.end()) continue;
+    for (const auto* cell : at->second) {
+      const fs::path dir = cell_dir(out, *cell).lexically_normal();
+      if (!seen.insert(dir).second) continue;
+      found.emplace_back(dir, cell);
+      next.push_back(dir);
+    }
+  }
+  return found;
+}
+
+std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const std::vector<const SuiteCell*>& cells) {
+  std::map<fs::path, std::vector<const SuiteCell*>> dependants;
+  std::map<fs::path, const SuiteCell*> by_dir;
+  std::set<fs::path> to_run;  // the cells that will train: unfinished, or retired here
+  for (const auto* cell : cells) {
+    const fs::path dir = cell_dir(out, *cell).lexically_normal();
+    by_dir[dir] = cell;
+    if (const fs::path source = source_dir(dir, *cell); !source.empty()) dependants[source].push_back(cell);
+    if (!read_result(dir, *cell)) to_run.insert(dir);
+  }
+  const auto group_of = [&](const fs::path& source) { return suite_descendants(dependants, out, source); };
+  auto checkpoint_missing = [&](const std::vector<const SuiteCell*>& cells_from_it, const std::set<fs::path>& run) {
+    return std::any_of(cells_from_it.begin(), cells_from_it.end(), [&](const SuiteCell* cell) {
+      const fs::path dir = cell_dir(out, *cell).lexically_normal();
+      return run.count(dir) && !fs::exists(source_checkpoint(dir, *cell));
+    });
+  };
+  // A source runs again when a cell that will train starts from it and its checkpoint is gone; its finished
+  // dependants then run again too, which may in turn need their own source to: repeated until nothing changes.
+  std::vector<fs::path> sources;
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (const auto& [source, cells_from_it] : dependants) {
+      if (!by_dir.count(source) || to_run.count(source) || !checkpoint_missing(cells_from_it, to_run)) continue;
+      sources.push_back(source);
+      to_run.insert(source);
+      for (const auto& member : group_of(source)) to_run.insert(member.first);
+      changed = true;
+    }
+  }
+  std::set<fs::path> held_elsewhere;
+  for (const auto& source : sources) {
+    const SuiteCell& source_cell = *by_dir.at(source);
+    const auto& cells_from_it = dependants.at(source);
+    const std::string checkpoint =
+        source_checkpoint(cell_dir(out, *cells_from_it.front()), *cells_from_it.front()).filename().string();
+    const auto group = group_of(source);
+    std::vector<fs::path> folders{source};
+    for (const auto& member : group) folders.push_back(member.first);
+    // Every cell of the group is taken before any is touched, so that a process running one of them stops this.
+    std::vector<std::unique_ptr<CellLock>> locks;
+    fs::path busy;
+    for (const auto& dir : folders) {
+      locks.push_back(std::make_unique<CellLock>(dir));
+      if (!locks.back()->held()) {
+        busy = dir;
+        break;
+      }
+    }
+    if (!busy.empty()) {
+      // Its dependants would fail at once (their source has no checkpoint): this process leaves the group to the
+      // one that holds it.
+      std::printf(
+          "suite: %s is finished but its %s is gone, and cells that start from it are left; another "
+          "process holds %s, so this one leaves the source and its %zu dependants to it\n",
+          source_cell.name.c_str(), checkpoint.c_str(), busy.string().c_str(), group.size());
+      held_elsewhere.insert(folders.begin(), folders.end());
+      continue;
+    }
+    // Checked again under the locks: another process may have retired and rerun it meanwhile, or an earlier group
+    // here may hold it.
+    if (!read_result(source, source_cell) ||
+        std::all_of(cells_from_it.begin(), cells_from_it.end(),
+                    [&](const SuiteCell* cell) { return fs::exists(source_checkpoint(cell_dir(out, *cell), *cell)); }))
+      continue;
+    // The farthest dependants first, the source last: should this stop half way, the source still lacks its
+    // checkpoint and the next run of the suite takes the group up again.
+    int retired = 0;
+    for (auto member = group.rbegin(); member != group.rend(); ++member) {
+      if (read_result(member->first, *member->second)) {
+        retire_cell(member->first);
+        ++retired;
+      } else {
+        clear_cell(member->first);  // a part-trained run from an earlier source
+      }
+    }
+    retire_cell(source);
+    std::printf(
+        "suite: %s is finished but its %s is gone (checkpoints are not kept with the results), and "
+        "cells that start from it are left: it and the %d finished ones that started from it run again, the "
+        "unfinished ones from the start (results so far are kept in their %s/ folders)\n",
+        source_cell.name.c_str(), checkpoint.c_str(), retired, kReplacedFolder);
+  }
+  std::fflush(stdout);
+  return held_elsewhere;
 }
 
 std::string tail_of(const fs::path& path, int lines) {

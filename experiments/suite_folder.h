@@ -1,9 +1,13 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "experiments/suite_config.h"
 
@@ -78,6 +82,25 @@ std::filesystem::path replaced_folder(const std::filesystem::path& dir, std::str
 // Moves a finished cell's result.json and curve.csv to dir/replaced/<its "finished" time>/ and clears the rest: the
 // cell is to be run again and its earlier result stays on record. Returns that folder. The caller holds the lock.
 std::filesystem::path retire_cell(const std::filesystem::path& dir);
+
+// The cells that start from `source` (a cell folder under out), directly or through a chain of init.run: nearest
+// first, each once (a cycle cannot loop). `dependants` maps a cell folder to the cells whose init.run names it.
+std::vector<std::pair<std::filesystem::path, const SuiteCell*>> suite_descendants(
+    const std::map<std::filesystem::path, std::vector<const SuiteCell*>>& dependants, const std::filesystem::path& out,
+    const std::filesystem::path& source);
+
+// The suite's cells in its order, but every cell after the cell its init.run names (a cycle keeps its order).
+std::vector<const SuiteCell*> sources_first(const Suite& suite);
+
+// A source cell (one that another cell starts from: init.run) that is finished but whose checkpoint is gone (the
+// results are kept without checkpoints) while some cell that starts from it is not finished: the source and every
+// finished cell that started from it, directly or through another (a chain of init.run), are retired (retire_cell:
+// their results move to replaced/), so that the suite runs them again, the source first, and every cell of the group
+// starts from the same run of its source; unfinished cells of the group start again from nothing. A group that
+// another process holds any cell of is left alone: the cell folders of such groups are returned, for this process to
+// leave to that one.
+std::set<std::filesystem::path> retire_sources_without_checkpoint(const std::filesystem::path& out,
+                                                                  const std::vector<const SuiteCell*>& cells);
 
 // The last `lines` lines of a text file ("" when missing).
 std::string tail_of(const std::filesystem::path& path, int lines);

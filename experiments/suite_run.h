@@ -2,7 +2,6 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -36,15 +35,6 @@ struct CellOutcome {
 // under the cell's lock, and writes result.json atomically. A cell folder whose resumed run fails (damaged
 // checkpoint or run folder) is cleared and redone once from nothing before the failure is recorded in error.json.
 CellOutcome run_cell(const std::filesystem::path& out, const SuiteCell& cell, int threads);
-
-// A source cell (one that another cell starts from: init.run) that is finished but whose best.ckpt is gone (the
-// results are kept without checkpoints) while some cell that starts from it is not finished: the source and every
-// finished cell that started from it are retired (retire_cell: their results move to replaced/), so that the suite
-// runs them again, the source first, and every cell of the group starts from the same run of the source; unfinished
-// cells of the group start again from nothing. A group that another process holds any cell of is left alone: the
-// cell folders of such groups are returned, for this process to leave to that one.
-std::set<std::filesystem::path> retire_sources_without_checkpoint(const std::filesystem::path& out,
-                                                                  const std::vector<const SuiteCell*>& cells);
 
 // Collects the demo files of `cells`' sets that are missing (maps collect into a file named for this host and
 // process, then renamed: shards collecting at once cannot see half a file), and checks that existing ones hold

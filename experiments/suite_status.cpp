@@ -198,30 +198,44 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   return s;
 }
 
-// The cells that are done but will run again: a finished source without the checkpoint that an unfinished cell
-// starts from (in every folder that holds it) runs again with every finished cell that started from it
-// (retire_sources_without_checkpoint).
+// The cells that are done but will run again: a finished source without the checkpoint (in every folder that holds
+// it) that a cell left to run starts from runs again with every finished cell that started from it, directly or
+// through a chain, and so may their own sources (retire_sources_without_checkpoint).
 std::set<std::size_t> cells_to_run_again(const Suite& suite, const std::vector<CellState>& states,
                                          const std::vector<std::string>& dirs) {
   std::map<fs::path, std::size_t> index_of;
   for (std::size_t i = 0; i < suite.cells.size(); ++i) index_of[cell_dir("", suite.cells[i])] = i;
-  std::map<std::size_t, std::vector<std::size_t>> dependants;
+  std::map<fs::path, std::vector<const SuiteCell*>> dependants;
+  for (const auto& cell : suite.cells)
+    if (const fs::path source = source_dir(cell_dir("", cell), cell); index_of.count(source))
+      dependants[source].push_back(&cell);
+  std::set<std::size_t> to_run;
   for (std::size_t i = 0; i < suite.cells.size(); ++i)
-    if (const fs::path source = source_dir(cell_dir("", suite.cells[i]), suite.cells[i]); !source.empty())
-      if (const auto found = index_of.find(source); found != index_of.end()) dependants[found->second].push_back(i);
-  std::set<std::size_t> again;
-  for (const auto& [source, from_it] : dependants) {
-    if (states[source].state != "done") continue;
-    const bool needed = std::any_of(from_it.begin(), from_it.end(), [&](std::size_t i) {
-      return states[i].state != "done" && states[i].state != "dropped" &&
-             std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
-               return fs::exists(source_checkpoint(cell_dir(dir, suite.cells[i]), suite.cells[i]));
-             });
+    if (states[i].state != "done" && states[i].state != "dropped") to_run.insert(i);
+  const auto checkpoint_missing = [&](const SuiteCell& cell) {
+    return std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
+      return fs::exists(source_checkpoint(cell_dir(dir, cell), cell));
     });
-    if (!needed) continue;
-    again.insert(source);
-    for (std::size_t i : from_it)
-      if (states[i].state == "done") again.insert(i);
+  };
+  std::set<std::size_t> again;
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (const auto& [source_dir_name, from_it] : dependants) {
+      const std::size_t source = index_of.at(source_dir_name);
+      if (states[source].state != "done" || again.count(source)) continue;
+      if (std::none_of(from_it.begin(), from_it.end(), [&](const SuiteCell* cell) {
+            return to_run.count(index_of.at(cell_dir("", *cell))) && checkpoint_missing(*cell);
+          }))
+        continue;
+      again.insert(source);
+      to_run.insert(source);
+      for (const auto& member : suite_descendants(dependants, "", source_dir_name)) {
+        const std::size_t i = index_of.at(member.first);
+        if (states[i].state == "done") again.insert(i);
+        to_run.insert(i);
+      }
+      changed = true;
+    }
   }
   return again;
 }
@@ -375,7 +389,9 @@ int run_suite_merge(const SuiteMergeOptions& options) {
           "it: look, then remove it\n",
           entry.path().string().c_str());
   int merged = 0, finished = 0, stale = 0;
-  for (const auto& cell : first.cells) {
+  // A transfer's result is judged against its source's replaced/ records in out, so its source is merged first.
+  for (const SuiteCell* listed : sources_first(first)) {
+    const SuiteCell& cell = *listed;
     const fs::path target = cell_dir(out, cell);
     std::optional<Json> have = read_result(target, cell);
     for (const auto& shard : options.shards) {

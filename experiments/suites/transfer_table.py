@@ -175,7 +175,7 @@ def module_rows(cells, task, neighbour, by_folder, left_out):
 
 def rerun_lines(suite, left_out):
     """Cells run a second time (a source whose checkpoint was gone while transfers from it were left, with those
-    transfers: experiments/suite_run.h, retire_sources_without_checkpoint): each earlier result, kept in the cell's
+    transfers: experiments/suite_folder.h, retire_sources_without_checkpoint): each earlier result, kept in the cell's
     replaced/ folder, beside the result counted above, and how far they differ. Earlier results that cannot be
     compared go to left_out with the reason; those of cells not finished again yet are listed."""
     finished = {cell.folder.resolve(): cell for cell in suite.cells}

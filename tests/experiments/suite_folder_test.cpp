@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "experiments/run_folder.h"
@@ -89,6 +91,139 @@ TEST_F(RetireCell, AFinishTimeThatIsNoTimeDoesNotNameTheFolder) {
   fs::remove_all(dir_ / "replaced");
   write_json_file((dir_ / "result.json").string(), {{"finished", 7}});
   EXPECT_EQ(retire_cell(dir_), dir_ / "replaced" / "unknown");
+}
+
+// A suite of cells in one set, each named by a letter; `sources` names the cell each starts from (init.run).
+class SourceGroups : public TempFolderTest {
+ protected:
+  SourceGroups() : TempFolderTest("maps_suite_groups_") {}
+
+  void make(const std::vector<std::pair<std::string, std::string>>& cells) {
+    suite_.cells.clear();
+    for (const auto& [name, source] : cells) {
+      SuiteCell cell;
+      cell.index = static_cast<int>(suite_.cells.size());
+      cell.name = "s/" + name;
+      cell.set = "s";
+      cell.request = {{"method", "maps"}};
+      if (!source.empty()) cell.request["init"] = {{"run", "../" + source}, {"checkpoint", "best.ckpt"}};
+      suite_.cells.push_back(cell);
+    }
+  }
+  const SuiteCell& cell(const std::string& name) const {
+    return *std::find_if(suite_.cells.begin(), suite_.cells.end(),
+                         [&](const SuiteCell& c) { return c.name == "s/" + name; });
+  }
+  fs::path folder(const std::string& name) const { return cell_dir(dir_, cell(name)).lexically_normal(); }
+  // A finished cell as read_result accepts it; with its best.ckpt or without (the results keep none).
+  void finish(const std::string& name, bool checkpoint) const {
+    const SuiteCell& c = cell(name);
+    fs::create_directories(folder(name));
+    write_json_file((folder(name) / "result.json").string(),
+                    {{"format", kCellFormat},
+                     {"cell", {{"name", c.name}}},
+                     {"config", c.request},
+                     {"finished", "2026-11-28T10:00:00Z"},
+                     {"train", {{"steps", 100}, {"best_step", 50}, {"best_validation_bc", 0.1}}},
+                     {"eval", {{"mean_score", 0.5}, {"best_step", 50}, {"tasks", {{{"task", "t"}, {"score", 0.5}}}}}}});
+    if (checkpoint) std::ofstream(folder(name) / "best.ckpt") << "weights";
+  }
+  bool finished(const std::string& name) const { return read_result(folder(name), cell(name)).has_value(); }
+  bool retired(const std::string& name) const {
+    return fs::exists(folder(name) / "replaced" / "2026-11-28T10-00-00Z" / "result.json");
+  }
+  std::set<fs::path> retire() const {
+    std::vector<const SuiteCell*> all;
+    for (const auto& c : suite_.cells) all.push_back(&c);
+    return retire_sources_without_checkpoint(dir_, all);
+  }
+  std::vector<std::string> names(const std::vector<const SuiteCell*>& cells) const {
+    std::vector<std::string> out;
+    for (const auto* c : cells) out.push_back(c->name.substr(2));
+    return out;
+  }
+
+  Suite suite_;
+};
+
+TEST_F(SourceGroups, SourcesFirstPutsEveryCellAfterItsChainOfSources) {
+  make({{"c", "b"}, {"x", ""}, {"b", "a"}, {"a", ""}, {"d", "a"}});
+  // c waits for its chain (a, then b) to be placed; the rest keep their order.
+  EXPECT_EQ(names(sources_first(suite_)), (std::vector<std::string>{"a", "b", "c", "x", "d"}));
+  // A cycle (a hand-written init.run naming each other) keeps every cell once.
+  make({{"p", "q"}, {"q", "p"}, {"r", ""}});
+  EXPECT_EQ(names(sources_first(suite_)), (std::vector<std::string>{"q", "p", "r"}));
+}
+
+TEST_F(SourceGroups, DescendantsFollowChainsNearestFirst) {
+  make({{"a", ""}, {"b", "a"}, {"c", "b"}, {"d", "a"}, {"e", ""}});
+  std::map<fs::path, std::vector<const SuiteCell*>> dependants;
+  for (const auto& c : suite_.cells)
+    if (const fs::path source = source_dir(cell_dir(dir_, c), c); !source.empty()) dependants[source].push_back(&c);
+  std::vector<std::string> found;
+  for (const auto& [dir, c] : suite_descendants(dependants, dir_, folder("a"))) {
+    EXPECT_EQ(dir, folder(c->name.substr(2)));
+    found.push_back(c->name.substr(2));
+  }
+  EXPECT_EQ(found, (std::vector<std::string>{"b", "d", "c"}));
+}
+
+TEST_F(SourceGroups, ASourceWithoutItsCheckpointRunsAgainWithTheCellsFromIt) {
+  make({{"a", ""}, {"b", "a"}, {"c", "a"}, {"e", ""}, {"f", "e"}});
+  finish("a", false);
+  finish("b", false);  // finished from a: runs again from a's rerun
+  fs::create_directories(folder("c"));
+  std::ofstream(folder("c") / "last.ckpt") << "part-trained from the earlier a";
+  finish("e", false);
+  finish("f", false);  // every cell from e is finished: e stays
+  EXPECT_TRUE(retire().empty());
+  EXPECT_TRUE(retired("a"));
+  EXPECT_TRUE(retired("b"));
+  EXPECT_FALSE(finished("a"));
+  EXPECT_FALSE(finished("b"));
+  EXPECT_FALSE(fs::exists(folder("c") / "last.ckpt"));
+  EXPECT_TRUE(finished("e"));
+  EXPECT_TRUE(finished("f"));
+  // Run again, nothing changes: a is left to run, which writes the checkpoint its cells need.
+  EXPECT_TRUE(retire().empty());
+  EXPECT_FALSE(fs::exists(folder("a") / "replaced" / "2026-11-28T10-00-00Z-2"));
+}
+
+TEST_F(SourceGroups, ASourceWithItsCheckpointStays) {
+  make({{"a", ""}, {"b", "a"}});
+  finish("a", true);
+  retire();
+  EXPECT_TRUE(finished("a"));
+  EXPECT_FALSE(retired("a"));
+}
+
+TEST_F(SourceGroups, AChainRunsAgainFromItsRoot) {
+  // c is left and starts from b, whose checkpoint is gone; b can run again only from a, whose checkpoint is gone
+  // too: a, b and everything from either run again.
+  make({{"a", ""}, {"b", "a"}, {"c", "b"}, {"d", "b"}, {"g", "a"}});
+  finish("a", false);
+  finish("b", false);
+  finish("d", false);
+  finish("g", true);
+  EXPECT_TRUE(retire().empty());
+  for (const char* name : {"a", "b", "d", "g"}) {
+    SCOPED_TRACE(name);
+    EXPECT_TRUE(retired(name));
+    EXPECT_FALSE(finished(name));
+  }
+}
+
+TEST_F(SourceGroups, AGroupAnotherProcessHoldsIsLeftToIt) {
+  make({{"a", ""}, {"b", "a"}, {"c", "b"}, {"d", "a"}});
+  finish("a", false);
+  finish("b", false);
+  const CellLock running(folder("c"));  // as another process running c (its own lock file descriptor)
+  ASSERT_TRUE(running.held());
+  const std::set<fs::path> held = retire();
+  EXPECT_EQ(held, (std::set<fs::path>{folder("a"), folder("b"), folder("c"), folder("d")}));
+  EXPECT_TRUE(finished("a"));
+  EXPECT_TRUE(finished("b"));
+  EXPECT_FALSE(retired("a"));
 }
 
 }  // namespace

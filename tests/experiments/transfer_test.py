@@ -325,6 +325,18 @@ class Transfer(unittest.TestCase):
         proc = run("suite", "merge", "--out", work() / "merged-conflict", stale, work() / "suite", check=False)
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("neither is a rerun that replaced the other", proc.stdout + proc.stderr)
+        # A suite.json that lists the transfers before their source (a hand-written suite may): the source is merged
+        # first all the same, so a transfer's result from the replaced source run is still left out, and not taken
+        # for a conflict with the rerun.
+        for folder in (stale, clone):
+            manifest = json.loads((folder / "suite.json").read_text())
+            manifest["cells"].reverse()
+            (folder / "suite.json").write_text(json.dumps(manifest))
+        proc = run("suite", "merge", "--out", work() / "merged-reversed", clone, stale)
+        self.assertEqual(
+            json.loads((work() / "merged-reversed" / "cells" / "mt10" / "transfer-new-reach_d2_s0" /
+                        "result.json").read_text()),
+            json.loads((redone / "transfer-new-reach_d2_s0" / "result.json").read_text()))
 
     def test_shards_keep_a_transfer_cell_with_its_source(self):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
