@@ -1,0 +1,101 @@
+#!/usr/bin/python3
+"""docs/transfer.md's score tables against the committed results: transfer_table.py on results/transfer must give
+every number the tables quote, so that a table copied by hand, or left behind when more cells finish, fails here.
+Run by ctest (tests/CMakeLists.txt)."""
+import pathlib
+import re
+import subprocess
+import tempfile
+import unittest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DOC = ROOT / "docs" / "transfer.md"
+RESULTS = ROOT / "results" / "transfer"
+
+# The doc's short names for the report's rows.
+DOC_NAMES = {
+    "frozen": "MAPS transfer",
+    "tuned": "MAPS transfer (tuned)",
+    "MAPS transfer (frozen)": "MAPS transfer",
+    "MAPS transfer (tuned)": "MAPS transfer (tuned)",
+    "MAPS from scratch": "MAPS from scratch (all tasks)",
+    "Single BC": "Single BC (new task alone)",
+    "MT-BC": "MT-BC (all tasks)",
+}
+SCORE = re.compile(r"^(\d\.\d\d \+- \d\.\d\d) \((\d+)\)$")
+
+
+def cells(line):
+    return [c.strip() for c in line.strip().strip("|").split("|")]
+
+
+def report_scores(text):
+    """{(task, method): [(score text, seeds) per count]} from the report's first table of each task."""
+    scores, task, in_table = {}, None, False
+    for line in text.splitlines():
+        if line.startswith("## "):
+            task, in_table = line[3:].strip(), False
+        elif task and line.startswith("| method | 1 demo"):
+            in_table = True
+        elif in_table and line.startswith("|") and not line.startswith("|---"):
+            row = cells(line)
+            scores[(task, row[0])] = [SCORE.match(c).groups() if SCORE.match(c) else (c, None) for c in row[1:]]
+        elif in_table and not line.startswith("|"):
+            in_table = False
+    return scores
+
+
+def doc_rows(text):
+    """(table's first line, task, method, [score texts]) for every row of the doc's tables of new-task scores."""
+    rows, header, task = [], None, None
+    for line in text.splitlines():
+        if line.startswith("| new task | arm |") or line.startswith("| new task | method |"):
+            header, task = line, None
+        elif header and line.startswith("|---"):
+            continue
+        elif header and line.startswith("|"):
+            row = cells(line)
+            task = row[0] or task
+            rows.append((header, task, row[1], row[2:]))
+        else:
+            header = None
+    return rows
+
+
+class TransferDoc(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.out = tempfile.TemporaryDirectory(prefix="maps-transfer-doc-")
+        proc = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+                               str(RESULTS), "--out", cls.out.name], capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise AssertionError(f"transfer_table.py failed: {proc.stderr}")
+        cls.report = report_scores((pathlib.Path(cls.out.name) / "transfer.md").read_text())
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.out.cleanup()
+
+    def test_every_quoted_score_is_the_results(self):
+        rows = doc_rows(DOC.read_text())
+        self.assertGreaterEqual(len(rows), 12 + 20, "the doc's two score tables were not found")
+        for header, task, method, scores in rows:
+            with self.subTest(task=task, method=method):
+                self.assertIn(method, DOC_NAMES, f"a row of {header!r} names an unknown method")
+                measured = self.report.get((task, DOC_NAMES[method]))
+                self.assertIsNotNone(measured, f"results/transfer has no row for {task}, {method}")
+                self.assertEqual(len(scores), len(measured))
+                for quoted, (score, seeds) in zip(scores, measured):
+                    self.assertEqual(quoted, score)
+                    # The doc's tables are of 5 seeds: a row that the results have fewer of is not to be quoted yet.
+                    self.assertEqual(seeds, "5", f"{task}, {method}: {quoted} is over {seeds} seeds")
+
+    def test_the_parser_reads_a_report_row(self):
+        text = "## gravity/0.5\n\n| method | 1 demo | 2 demos |\n|---|---|---|\n| MT-BC (all tasks) | 0.24 +- 0.24 (5) " \
+               "| - |\n\nnext"
+        self.assertEqual(report_scores(text), {("gravity/0.5", "MT-BC (all tasks)"): [("0.24 +- 0.24", "5"),
+                                                                                       ("-", None)]})
+
+
+if __name__ == "__main__":
+    unittest.main()
