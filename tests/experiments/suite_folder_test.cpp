@@ -226,5 +226,18 @@ TEST_F(SourceGroups, AGroupAnotherProcessHoldsIsLeftToIt) {
   EXPECT_FALSE(retired("a"));
 }
 
+TEST_F(SourceGroups, ARetirementStoppedBeforeTheSourceIsTakenUpAgain) {
+  // A run killed after retiring b (a dependant) but before a (the source) leaves a finished a without its checkpoint
+  // and b to run: the next run retires a, and keeps b's earlier result where it is.
+  make({{"a", ""}, {"b", "a"}});
+  finish("a", false);
+  finish("b", false);
+  retire_cell(folder("b"));
+  EXPECT_TRUE(retire().empty());
+  EXPECT_TRUE(retired("a"));
+  EXPECT_TRUE(retired("b"));
+  EXPECT_FALSE(fs::exists(folder("b") / "replaced" / "2026-11-28T10-00-00Z-2"));
+}
+
 }  // namespace
 }  // namespace maps::experiments
