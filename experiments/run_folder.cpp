@@ -73,6 +73,13 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   try {
     loaded.best = nlohmann::json::parse(nn::load(*loaded.policy, best_path));
   } catch (const std::exception& e) {
+    // The trainer's resume state (last.ckpt) names its policy's parameters under "policy.", beside the optimiser's.
+    const std::string why = e.what();
+    if (const auto unexpected = why.find("Unexpected: ");
+        unexpected != std::string::npos && why.find("policy.", unexpected) != std::string::npos)
+      throw std::runtime_error(best_path +
+                               " holds a training state (as last.ckpt does: the policy with its optimiser), not a "
+                               "policy: evaluate best.ckpt or a kept step_<N>.ckpt");
     throw std::runtime_error(run + " was not trained on demo file " + loaded.config.data_file + " (" + data.task_set() +
                              ": " + std::to_string(data.num_tasks()) + " tasks, observations " +
                              std::to_string(data.observation_size()) + ", actions " +

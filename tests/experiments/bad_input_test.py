@@ -143,6 +143,9 @@ class BadInputTest(unittest.TestCase):
         self.expect_refused(["eval", "--run", damaged], "best.ckpt")
         (damaged / "best.ckpt").write_bytes(b"\x00garbage" * 10)
         self.expect_refused(["eval", "--run", damaged], "best.ckpt")
+        # The trainer's resume state in its place (a copy of last.ckpt) is named for what it is.
+        (damaged / "best.ckpt").write_bytes((damaged / "last.ckpt").read_bytes())
+        self.expect_refused(["eval", "--run", damaged], "holds a training state (as last.ckpt does")
         (damaged / "best.ckpt").write_bytes(whole)
         (damaged / "config.json").write_text("{")
         self.expect_refused(["eval", "--run", damaged], "config.json")
