@@ -73,13 +73,16 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   try {
     loaded.best = nlohmann::json::parse(nn::load(*loaded.policy, best_path));
   } catch (const std::exception& e) {
-    // The trainer's resume state (last.ckpt) names its policy's parameters under "policy.", beside the optimiser's.
-    const std::string why = e.what();
-    if (const auto unexpected = why.find("Unexpected: ");
-        unexpected != std::string::npos && why.find("policy.", unexpected) != std::string::npos)
+    // The trainer's resume state (last.ckpt) in the place of a policy checkpoint is named for what it is.
+    bool training_state = false;
+    try {
+      training_state = nlohmann::json::parse(nn::load_tensors(best_path).config).value("format", "") == "maps-train 1";
+    } catch (const std::exception&) {
+    }
+    if (training_state)
       throw std::runtime_error(best_path +
-                               " holds a training state (as last.ckpt does: the policy with its optimiser), not a "
-                               "policy: evaluate best.ckpt or a kept step_<N>.ckpt");
+                               " is a training state (as last.ckpt is: the policy with its optimiser), not a policy "
+                               "checkpoint: use best.ckpt or a kept step_<N>.ckpt");
     throw std::runtime_error(run + " was not trained on demo file " + loaded.config.data_file + " (" + data.task_set() +
                              ": " + std::to_string(data.num_tasks()) + " tasks, observations " +
                              std::to_string(data.observation_size()) + ", actions " +

@@ -368,6 +368,25 @@ Suite parse_suite(const Json& json, const std::string& where) {
         }
       }
   }
+  // A cell that starts from a sibling cell (init.run "../<name>") which, through its own init.run, starts from the
+  // first: neither can run before the other.
+  for (const auto& cell : suite.cells) {
+    std::vector<std::string> chain{cell.name};
+    for (const SuiteCell* at = &cell;;) {
+      const std::string relative = at->request.contains("init") ? at->request["init"].value("run", "") : "";
+      if (relative.rfind("../", 0) != 0) break;
+      const auto found = by_name.find(at->set + "/" + relative.substr(3));
+      if (found == by_name.end()) break;
+      at = &suite.cells[found->second];
+      chain.push_back(at->name);
+      if (std::find(chain.begin(), chain.end() - 1, at->name) != chain.end() - 1) {
+        std::string path;
+        for (const auto& name : chain) path += (path.empty() ? "" : " -> ") + name;
+        throw std::invalid_argument(where + ": init.run goes round in a circle (" + path +
+                                    "): a cell cannot start from a run that starts from it");
+      }
+    }
+  }
   return suite;
 }
 

@@ -301,6 +301,12 @@ std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const 
       changed = true;
     }
   }
+  // Only the outermost sources: the group of one holds every source inside it, so a group another process holds
+  // any cell of is left whole, none of it retired first.
+  std::set<fs::path> inside;
+  for (const auto& source : sources)
+    for (const auto& member : group_of(source)) inside.insert(member.first);
+  std::erase_if(sources, [&](const fs::path& source) { return inside.count(source) > 0; });
   std::set<fs::path> held_elsewhere;
   for (const auto& source : sources) {
     const SuiteCell& source_cell = *by_dir.at(source);

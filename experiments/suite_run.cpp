@@ -356,7 +356,11 @@ int run_suite(const SuiteRunOptions& options) {
   double estimate_left = 0.0;
   bool estimated = costs.has_value();
   std::size_t held = 0;  // of a group to run again that another process holds: not run here, not finished either
-  for (const auto* cell : cells) {
+  // Each cell after the cell its init.run names (a hand-written suite may list them the other way), so that a job
+  // never waits for a source no job has taken.
+  const std::set<const SuiteCell*> in_shard(cells.begin(), cells.end());
+  for (const auto* cell : sources_first(suite)) {
+    if (!in_shard.count(cell)) continue;
     if (held_elsewhere.count(cell_dir(out, *cell).lexically_normal())) {
       ++held;
       continue;

@@ -145,7 +145,7 @@ class BadInputTest(unittest.TestCase):
         self.expect_refused(["eval", "--run", damaged], "best.ckpt")
         # The trainer's resume state in its place (a copy of last.ckpt) is named for what it is.
         (damaged / "best.ckpt").write_bytes((damaged / "last.ckpt").read_bytes())
-        self.expect_refused(["eval", "--run", damaged], "holds a training state (as last.ckpt does")
+        self.expect_refused(["eval", "--run", damaged], "is a training state (as last.ckpt is")
         (damaged / "best.ckpt").write_bytes(whole)
         (damaged / "config.json").write_text("{")
         self.expect_refused(["eval", "--run", damaged], "config.json")
@@ -156,6 +156,14 @@ class BadInputTest(unittest.TestCase):
         tiny = json.loads((ROOT / "experiments/suites/tiny.json").read_text())
         tiny["grids"][0]["seeds"] = [0.5]
         self.expect_refused(["suite", "plan", self.write("float_seed.json", json.dumps(tiny))], "seeds")
+        # Two cells that each start from the other (a hand-written init.run): neither could ever run.
+        circle = json.loads((ROOT / "experiments/suites/tiny.json").read_text())
+        circle["variants"] = {"p": {"init": {"run": "../maps-q_d2_s0"}}, "q": {"init": {"run": "../maps-p_d2_s0"}}}
+        circle["grids"] = [{"name": "circle", "sets": ["mt10"], "methods": ["maps"], "variants": ["p", "q"],
+                            "seeds": [0]}]
+        self.expect_refused(["suite", "plan", self.write("circle.json", json.dumps(circle))],
+                            "init.run goes round in a circle (mt10/maps-p_d2_s0 -> mt10/maps-q_d2_s0 -> "
+                            "mt10/maps-p_d2_s0)")
         self.expect_refused(["suite", "status", WORK], "has no suite.json")
         self.expect_refused(["report", WORK], "suite.json")
 

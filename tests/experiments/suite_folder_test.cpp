@@ -239,5 +239,41 @@ TEST_F(SourceGroups, ARetirementStoppedBeforeTheSourceIsTakenUpAgain) {
   EXPECT_FALSE(fs::exists(folder("b") / "replaced" / "2026-11-28T10-00-00Z-2"));
 }
 
+TEST_F(SourceGroups, AChainStopsAtASourceWhoseCheckpointIsThere) {
+  make({{"a", ""}, {"b", "a"}, {"c", "b"}});
+  finish("a", false);
+  finish("b", true);
+  EXPECT_TRUE(retire().empty());
+  EXPECT_TRUE(finished("a"));
+  EXPECT_TRUE(finished("b"));
+}
+
+TEST_F(SourceGroups, AChainWithACellHeldElsewhereIsLeftWhole) {
+  // c is left, so b runs again, and so must a (its checkpoint is gone too), with d, which another process holds:
+  // nothing is retired, b's part of the group included.
+  make({{"a", ""}, {"b", "a"}, {"c", "b"}, {"d", "a"}});
+  finish("a", false);
+  finish("b", false);
+  finish("d", false);
+  {
+    const CellLock running(folder("d"));
+    EXPECT_EQ(retire(), (std::set<fs::path>{folder("a"), folder("b"), folder("c"), folder("d")}));
+    EXPECT_TRUE(finished("a"));
+    EXPECT_TRUE(finished("b"));
+  }
+  // The locks this process took are let go: once d's runner has stopped, the next run takes the group.
+  EXPECT_TRUE(retire().empty());
+  EXPECT_TRUE(retired("a"));
+  EXPECT_TRUE(retired("b"));
+  EXPECT_TRUE(retired("d"));
+}
+
+TEST_F(SourceGroups, ACellWhoseSourceIsNoCellOfTheSuiteIsLeftToItsRun) {
+  // init.run naming a folder the suite does not make (a run outside it): nothing here can rerun it.
+  make({{"b", "outside"}});
+  EXPECT_TRUE(retire().empty());
+  EXPECT_FALSE(fs::exists(folder("b") / "replaced"));
+}
+
 }  // namespace
 }  // namespace maps::experiments

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """docs/transfer.md's score tables against the committed results: transfer_table.py on results/transfer must give
-every number the tables quote, so that a table copied by hand, or left behind when more cells finish, fails here.
+every number the tables quote, and the table of all methods must have every method the results have all 5 seeds of,
+so that a table copied by hand, or left behind when more cells finish, fails here.
 Run by ctest (tests/CMakeLists.txt)."""
 import pathlib
 import re
@@ -89,6 +90,15 @@ class TransferDoc(unittest.TestCase):
                     self.assertEqual(quoted, score)
                     # The doc's tables are of 5 seeds: a row that the results have fewer of is not to be quoted yet.
                     self.assertEqual(seeds, "5", f"{task}, {method}: {quoted} is over {seeds} seeds")
+
+    def test_every_finished_method_is_in_the_comparison_table(self):
+        # A method whose every count has its 5 seeds in the results belongs in the table of all methods: a row left
+        # out when its last cells finish fails here.
+        quoted = {(task, DOC_NAMES.get(method)) for header, task, method, _ in doc_rows(DOC.read_text())
+                  if header.startswith("| new task | method |")}
+        for (task, method), scores in self.report.items():
+            if all(seeds == "5" for _, seeds in scores):
+                self.assertTrue((task, method) in quoted, f"{task}, {method} is finished but not in the table")
 
     def test_the_parser_reads_a_report_row(self):
         text = "## gravity/0.5\n\n| method | 1 demo | 2 demos |\n|---|---|---|\n| MT-BC (all tasks) | 0.24 +- 0.24 (5) " \
