@@ -200,18 +200,21 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
 
 // The cells that are done but will run again: a finished source without the checkpoint (in every folder that holds
 // it) that a cell left to run starts from runs again with every finished cell that started from it, directly or
-// through a chain, and so may their own sources (retire_sources_without_checkpoint).
+// through a chain, and so may their own sources (retire_sources_without_checkpoint). Only the cells of the config
+// (`current`) count, as only they are run.
 std::set<std::size_t> cells_to_run_again(const Suite& suite, const std::vector<CellState>& states,
-                                         const std::vector<std::string>& dirs) {
+                                         const std::vector<std::string>& dirs, const std::set<std::string>& current) {
   std::map<fs::path, std::size_t> index_of;
-  for (std::size_t i = 0; i < suite.cells.size(); ++i) index_of[cell_dir("", suite.cells[i])] = i;
+  for (std::size_t i = 0; i < suite.cells.size(); ++i)
+    if (current.count(suite.cells[i].name)) index_of[cell_dir("", suite.cells[i])] = i;
   std::map<fs::path, std::vector<const SuiteCell*>> dependants;
   for (const auto& cell : suite.cells)
-    if (const fs::path source = source_dir(cell_dir("", cell), cell); index_of.count(source))
+    if (const fs::path source = source_dir(cell_dir("", cell), cell);
+        current.count(cell.name) && index_of.count(source))
       dependants[source].push_back(&cell);
   std::set<std::size_t> to_run;
   for (std::size_t i = 0; i < suite.cells.size(); ++i)
-    if (states[i].state != "done" && states[i].state != "dropped") to_run.insert(i);
+    if (current.count(suite.cells[i].name) && states[i].state != "done") to_run.insert(i);
   const auto checkpoint_missing = [&](const SuiteCell& cell) {
     return std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
       return fs::exists(source_checkpoint(cell_dir(dir, cell), cell));
@@ -276,7 +279,7 @@ int run_suite_status(const SuiteStatusOptions& options) {
       best = {.state = "dropped", .detail = "no longer in the suite's config"};
     states.push_back(best);
   }
-  const std::set<std::size_t> again = cells_to_run_again(suite, states, options.dirs);
+  const std::set<std::size_t> again = cells_to_run_again(suite, states, options.dirs, current);
   for (std::size_t i = 0; i < suite.cells.size(); ++i) {
     const SuiteCell& cell = suite.cells[i];
     CellState& best = states[i];
