@@ -372,12 +372,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
   // first: neither can run before the other.
   for (const auto& cell : suite.cells) {
     std::vector<std::string> chain{cell.name};
-    for (const SuiteCell* at = &cell;;) {
-      const std::string relative = at->request.contains("init") ? at->request["init"].value("run", "") : "";
-      if (relative.rfind("../", 0) != 0) break;
-      const auto found = by_name.find(at->set + "/" + relative.substr(3));
-      if (found == by_name.end()) break;
-      at = &suite.cells[found->second];
+    for (const SuiteCell* at = source_cell(suite, cell); at; at = source_cell(suite, *at)) {
       chain.push_back(at->name);
       if (std::find(chain.begin(), chain.end() - 1, at->name) != chain.end() - 1) {
         std::string path;
@@ -406,19 +401,24 @@ std::pair<int, int> parse_shard(const std::string& text) {
   throw std::invalid_argument("--shard: expected i/N with 0 <= i < N (e.g. 0/4), got '" + text + "'");
 }
 
+const SuiteCell* source_cell(const Suite& suite, const SuiteCell& cell) {
+  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
+  if (relative.rfind("../", 0) != 0) return nullptr;
+  const std::string source = cell.set + "/" + relative.substr(3);
+  const auto found = std::find_if(suite.cells.begin(), suite.cells.end(),
+                                  [&source](const SuiteCell& other) { return other.name == source; });
+  return found == suite.cells.end() ? nullptr : &*found;
+}
+
 int shard_key(const Suite& suite, const SuiteCell& cell) {
   // A transfer cell reads its source's folder, a sibling under the same shard's cells/: it goes where its source
   // goes (sources come first in the order, so the shard runs the source before its dependants). Followed at most
-  // once per cell of the suite, so a cycle (a variant's init.run naming its own folder) cannot loop.
+  // once per cell of the suite, so a cycle (a hand-edited suite.json's init.run naming its own folder) cannot loop.
   const SuiteCell* at = &cell;
   for (std::size_t hops = 0; hops < suite.cells.size(); ++hops) {
-    const std::string relative = at->request.contains("init") ? at->request["init"].value("run", "") : "";
-    if (relative.rfind("../", 0) != 0) break;
-    const std::string source = at->set + "/" + relative.substr(3);
-    const auto found = std::find_if(suite.cells.begin(), suite.cells.end(),
-                                    [&source](const SuiteCell& other) { return other.name == source; });
-    if (found == suite.cells.end() || &*found == at) break;
-    at = &*found;
+    const SuiteCell* source = source_cell(suite, *at);
+    if (!source || source == at) break;
+    at = source;
   }
   return at->index;
 }

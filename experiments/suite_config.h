@@ -62,6 +62,8 @@ nlohmann::json merge_json(nlohmann::json base, const nlohmann::json& more);
 // seed of every cell finishes before the second starts).
 Suite parse_suite(const nlohmann::json& json, const std::string& where);
 Suite load_suite(const std::string& path);
+// The cell of the suite that `cell` starts from (init.run "../<name>", a sibling in its set); nullptr when none.
+const SuiteCell* source_cell(const Suite& suite, const SuiteCell& cell);
 
 // "i/N" -> {i, N}, with 0 <= i < N; throws naming the text otherwise.
 std::pair<int, int> parse_shard(const std::string& text);
