@@ -271,36 +271,88 @@ std::vector<std::pair<fs::path, const SuiteCell*>> suite_descendants(
   return found;
 }
 
-std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const std::vector<const SuiteCell*>& cells) {
+namespace {
+
+// The cells that start from each cell folder (keys as cell_dir(out, cell).lexically_normal()).
+std::map<fs::path, std::vector<const SuiteCell*>> dependants_of(const fs::path& out,
+                                                                const std::vector<const SuiteCell*>& cells) {
   std::map<fs::path, std::vector<const SuiteCell*>> dependants;
-  std::map<fs::path, const SuiteCell*> by_dir;
-  std::set<fs::path> to_run;  // the cells that will train: unfinished, or retired here
-  for (const auto* cell : cells) {
-    const fs::path dir = cell_dir(out, *cell).lexically_normal();
-    by_dir[dir] = cell;
-    if (const fs::path source = source_dir(dir, *cell); !source.empty()) dependants[source].push_back(cell);
-    if (!read_result(dir, *cell)) to_run.insert(dir);
-  }
-  const auto group_of = [&](const fs::path& source) { return suite_descendants(dependants, out, source); };
-  auto checkpoint_missing = [&](const std::vector<const SuiteCell*>& cells_from_it, const std::set<fs::path>& run) {
+  for (const auto* cell : cells)
+    if (const fs::path source = source_dir(cell_dir(out, *cell).lexically_normal(), *cell); !source.empty())
+      dependants[source].push_back(cell);
+  return dependants;
+}
+
+// A source runs again when a cell that will train starts from it and its checkpoint is gone; its finished dependants
+// then run again too, which may in turn need their own source to: repeated until nothing changes. `to_run` (the cell
+// folders that will train) grows with each source found and its group. Status and run share this, so that what
+// status says runs again is what run retires.
+std::vector<fs::path> sources_to_run_again(const std::map<fs::path, std::vector<const SuiteCell*>>& dependants,
+                                           const std::set<fs::path>& in_suite, const fs::path& out,
+                                           std::set<fs::path>& to_run,
+                                           const std::function<bool(const SuiteCell&)>& has_source_checkpoint) {
+  const auto checkpoint_missing = [&](const std::vector<const SuiteCell*>& cells_from_it) {
     return std::any_of(cells_from_it.begin(), cells_from_it.end(), [&](const SuiteCell* cell) {
-      const fs::path dir = cell_dir(out, *cell).lexically_normal();
-      return run.count(dir) && !fs::exists(source_checkpoint(dir, *cell));
+      return to_run.count(cell_dir(out, *cell).lexically_normal()) && !has_source_checkpoint(*cell);
     });
   };
-  // A source runs again when a cell that will train starts from it and its checkpoint is gone; its finished
-  // dependants then run again too, which may in turn need their own source to: repeated until nothing changes.
   std::vector<fs::path> sources;
   for (bool changed = true; changed;) {
     changed = false;
     for (const auto& [source, cells_from_it] : dependants) {
-      if (!by_dir.count(source) || to_run.count(source) || !checkpoint_missing(cells_from_it, to_run)) continue;
+      if (!in_suite.count(source) || to_run.count(source) || !checkpoint_missing(cells_from_it)) continue;
       sources.push_back(source);
       to_run.insert(source);
-      for (const auto& member : group_of(source)) to_run.insert(member.first);
+      for (const auto& member : suite_descendants(dependants, out, source)) to_run.insert(member.first);
       changed = true;
     }
   }
+  return sources;
+}
+
+}  // namespace
+
+std::set<std::string> finished_cells_to_run_again(const std::vector<const SuiteCell*>& cells,
+                                                  const std::set<std::string>& finished,
+                                                  const std::vector<fs::path>& dirs) {
+  // Folders relative to the suite's (""): the same in every folder of `dirs`.
+  const auto dependants = dependants_of("", cells);
+  std::set<fs::path> in_suite, to_run;
+  std::map<fs::path, const SuiteCell*> by_dir;
+  for (const auto* cell : cells) {
+    const fs::path dir = cell_dir("", *cell).lexically_normal();
+    in_suite.insert(dir);
+    by_dir[dir] = cell;
+    if (!finished.count(cell->name)) to_run.insert(dir);
+  }
+  const auto has_source_checkpoint = [&](const SuiteCell& cell) {
+    return std::any_of(dirs.begin(), dirs.end(),
+                       [&](const fs::path& dir) { return fs::exists(source_checkpoint(cell_dir(dir, cell), cell)); });
+  };
+  std::set<std::string> again;
+  for (const auto& source : sources_to_run_again(dependants, in_suite, "", to_run, has_source_checkpoint)) {
+    again.insert(by_dir.at(source)->name);
+    for (const auto& member : suite_descendants(dependants, "", source))
+      if (finished.count(member.second->name)) again.insert(member.second->name);
+  }
+  return again;
+}
+
+std::set<fs::path> retire_sources_without_checkpoint(const fs::path& out, const std::vector<const SuiteCell*>& cells) {
+  const auto dependants = dependants_of(out, cells);
+  std::map<fs::path, const SuiteCell*> by_dir;
+  std::set<fs::path> in_suite;
+  std::set<fs::path> to_run;  // the cells that will train: unfinished, or retired here
+  for (const auto* cell : cells) {
+    const fs::path dir = cell_dir(out, *cell).lexically_normal();
+    by_dir[dir] = cell;
+    in_suite.insert(dir);
+    if (!read_result(dir, *cell)) to_run.insert(dir);
+  }
+  const auto group_of = [&](const fs::path& source) { return suite_descendants(dependants, out, source); };
+  std::vector<fs::path> sources = sources_to_run_again(dependants, in_suite, out, to_run, [&](const SuiteCell& cell) {
+    return fs::exists(source_checkpoint(cell_dir(out, cell).lexically_normal(), cell));
+  });
   // Only the outermost sources: the group of one holds every source inside it, so a group another process holds
   // any cell of is left whole, none of it retired first.
   std::set<fs::path> inside;

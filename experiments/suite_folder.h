@@ -101,6 +101,12 @@ std::vector<const SuiteCell*> sources_first(const Suite& suite);
 // leave to that one.
 std::set<std::filesystem::path> retire_sources_without_checkpoint(const std::filesystem::path& out,
                                                                   const std::vector<const SuiteCell*>& cells);
+// The finished cells of `cells` (names in `finished`) that retire_sources_without_checkpoint would retire, by name,
+// with a source's checkpoint looked for in every folder of `dirs` (status reads several; one that holds it is
+// enough): what `maps suite status` counts as running again.
+std::set<std::string> finished_cells_to_run_again(const std::vector<const SuiteCell*>& cells,
+                                                  const std::set<std::string>& finished,
+                                                  const std::vector<std::filesystem::path>& dirs);
 
 // The last `lines` lines of a text file ("" when missing).
 std::string tail_of(const std::filesystem::path& path, int lines);

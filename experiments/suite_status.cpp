@@ -198,51 +198,6 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   return s;
 }
 
-// The cells that are done but will run again: a finished source without the checkpoint (in every folder that holds
-// it) that a cell left to run starts from runs again with every finished cell that started from it, directly or
-// through a chain, and so may their own sources (retire_sources_without_checkpoint). Only the cells of the config
-// (`current`) count, as only they are run.
-std::set<std::size_t> cells_to_run_again(const Suite& suite, const std::vector<CellState>& states,
-                                         const std::vector<std::string>& dirs, const std::set<std::string>& current) {
-  std::map<fs::path, std::size_t> index_of;
-  for (std::size_t i = 0; i < suite.cells.size(); ++i)
-    if (current.count(suite.cells[i].name)) index_of[cell_dir("", suite.cells[i])] = i;
-  std::map<fs::path, std::vector<const SuiteCell*>> dependants;
-  for (const auto& cell : suite.cells)
-    if (const fs::path source = source_dir(cell_dir("", cell), cell);
-        current.count(cell.name) && index_of.count(source))
-      dependants[source].push_back(&cell);
-  std::set<std::size_t> to_run;
-  for (std::size_t i = 0; i < suite.cells.size(); ++i)
-    if (current.count(suite.cells[i].name) && states[i].state != "done") to_run.insert(i);
-  const auto checkpoint_missing = [&](const SuiteCell& cell) {
-    return std::none_of(dirs.begin(), dirs.end(), [&](const std::string& dir) {
-      return fs::exists(source_checkpoint(cell_dir(dir, cell), cell));
-    });
-  };
-  std::set<std::size_t> again;
-  for (bool changed = true; changed;) {
-    changed = false;
-    for (const auto& [source_dir_name, from_it] : dependants) {
-      const std::size_t source = index_of.at(source_dir_name);
-      if (states[source].state != "done" || again.count(source)) continue;
-      if (std::none_of(from_it.begin(), from_it.end(), [&](const SuiteCell* cell) {
-            return to_run.count(index_of.at(cell_dir("", *cell))) && checkpoint_missing(*cell);
-          }))
-        continue;
-      again.insert(source);
-      to_run.insert(source);
-      for (const auto& member : suite_descendants(dependants, "", source_dir_name)) {
-        const std::size_t i = index_of.at(member.first);
-        if (states[i].state == "done") again.insert(i);
-        to_run.insert(i);
-      }
-      changed = true;
-    }
-  }
-  return again;
-}
-
 }  // namespace
 
 int run_suite_status(const SuiteStatusOptions& options) {
@@ -279,11 +234,19 @@ int run_suite_status(const SuiteStatusOptions& options) {
       best = {.state = "dropped", .detail = "no longer in the suite's config"};
     states.push_back(best);
   }
-  const std::set<std::size_t> again = cells_to_run_again(suite, states, options.dirs, current);
+  // Only the config's cells run, so only they count.
+  std::vector<const SuiteCell*> config_cells;
+  std::set<std::string> finished;
+  for (std::size_t i = 0; i < suite.cells.size(); ++i) {
+    if (current.count(suite.cells[i].name)) config_cells.push_back(&suite.cells[i]);
+    if (states[i].state == "done") finished.insert(suite.cells[i].name);
+  }
+  const std::set<std::string> again = finished_cells_to_run_again(
+      config_cells, finished, std::vector<fs::path>(options.dirs.begin(), options.dirs.end()));
   for (std::size_t i = 0; i < suite.cells.size(); ++i) {
     const SuiteCell& cell = suite.cells[i];
     CellState& best = states[i];
-    if (again.count(i))
+    if (again.count(cell.name))
       best.detail += std::string(best.detail.empty() ? "" : "; ") +
                      "runs again (the source run's checkpoint is gone while cells that start from it are left)";
     counts[best.state] += 1;
@@ -292,7 +255,7 @@ int run_suite_status(const SuiteStatusOptions& options) {
     Json entry = cell.identity();
     entry["state"] = best.state;
     entry["detail"] = best.detail;
-    if (again.count(i)) entry["runs_again"] = true;
+    if (again.count(cell.name)) entry["runs_again"] = true;
     cells.push_back(entry);
     if (options.all || best.state == "failed" || best.state == "running" || best.state == "started")
       lines.push_back(best.state + "  " + cell.name + (best.detail.empty() ? "" : ": " + best.detail));
@@ -329,7 +292,8 @@ int run_suite_status(const SuiteStatusOptions& options) {
     double left = 0.0;
     bool known = true;
     for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-      if ((cells[i]["state"] == "done" && !again.count(i)) || cells[i]["state"] == "dropped") continue;
+      if ((cells[i]["state"] == "done" && !again.count(suite.cells[i].name)) || cells[i]["state"] == "dropped")
+        continue;
       try {
         left += costs->cell_seconds(suite.cells[i]);
       } catch (const std::exception&) {

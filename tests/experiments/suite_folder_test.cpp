@@ -132,10 +132,33 @@ class SourceGroups : public TempFolderTest {
   bool retired(const std::string& name) const {
     return fs::exists(folder(name) / "replaced" / "2026-11-28T10-00-00Z" / "result.json");
   }
-  std::set<fs::path> retire() const {
-    std::vector<const SuiteCell*> all;
-    for (const auto& c : suite_.cells) all.push_back(&c);
-    return retire_sources_without_checkpoint(dir_, all);
+  // The cells a config makes: all of the suite's but those named in `dropped`.
+  std::vector<const SuiteCell*> config(const std::set<std::string>& dropped = {}) const {
+    std::vector<const SuiteCell*> cells;
+    for (const auto& c : suite_.cells)
+      if (!dropped.count(c.name.substr(2))) cells.push_back(&c);
+    return cells;
+  }
+  std::set<fs::path> retire(const std::set<std::string>& dropped = {}) const {
+    return retire_sources_without_checkpoint(dir_, config(dropped));
+  }
+  // What status says runs again, read before retire() runs: the same cells, by short name.
+  std::set<std::string> predicted(const std::set<std::string>& dropped = {},
+                                  const std::vector<fs::path>& more_dirs = {}) const {
+    std::set<std::string> done;
+    for (const auto& c : suite_.cells)
+      if (finished(c.name.substr(2))) done.insert(c.name);
+    std::vector<fs::path> dirs{dir_};
+    dirs.insert(dirs.end(), more_dirs.begin(), more_dirs.end());
+    std::set<std::string> again;
+    for (const auto& name : finished_cells_to_run_again(config(dropped), done, dirs)) again.insert(name.substr(2));
+    return again;
+  }
+  std::set<std::string> retired_cells() const {
+    std::set<std::string> out;
+    for (const auto& c : suite_.cells)
+      if (retired(c.name.substr(2))) out.insert(c.name.substr(2));
+    return out;
   }
   std::vector<std::string> names(const std::vector<const SuiteCell*>& cells) const {
     std::vector<std::string> out;
@@ -176,7 +199,9 @@ TEST_F(SourceGroups, ASourceWithoutItsCheckpointRunsAgainWithTheCellsFromIt) {
   std::ofstream(folder("c") / "last.ckpt") << "part-trained from the earlier a";
   finish("e", false);
   finish("f", false);  // every cell from e is finished: e stays
+  EXPECT_EQ(predicted(), (std::set<std::string>{"a", "b"}));
   EXPECT_TRUE(retire().empty());
+  EXPECT_EQ(retired_cells(), (std::set<std::string>{"a", "b"}));
   EXPECT_TRUE(retired("a"));
   EXPECT_TRUE(retired("b"));
   EXPECT_FALSE(finished("a"));
@@ -192,6 +217,7 @@ TEST_F(SourceGroups, ASourceWithoutItsCheckpointRunsAgainWithTheCellsFromIt) {
 TEST_F(SourceGroups, ASourceWithItsCheckpointStays) {
   make({{"a", ""}, {"b", "a"}});
   finish("a", true);
+  EXPECT_TRUE(predicted().empty());
   retire();
   EXPECT_TRUE(finished("a"));
   EXPECT_FALSE(retired("a"));
@@ -205,12 +231,39 @@ TEST_F(SourceGroups, AChainRunsAgainFromItsRoot) {
   finish("b", false);
   finish("d", false);
   finish("g", true);
+  EXPECT_EQ(predicted(), (std::set<std::string>{"a", "b", "d", "g"}));
   EXPECT_TRUE(retire().empty());
+  EXPECT_EQ(retired_cells(), (std::set<std::string>{"a", "b", "d", "g"}));
   for (const char* name : {"a", "b", "d", "g"}) {
     SCOPED_TRACE(name);
     EXPECT_TRUE(retired(name));
     EXPECT_FALSE(finished(name));
   }
+}
+
+TEST_F(SourceGroups, ACellTheConfigNoLongerMakesLeavesItsSourceAlone) {
+  // c, left, starts from b (checkpoint gone) but the config dropped it: it will not run, so b and a stay; e, left and
+  // in the config, starts from d (checkpoint gone) through nothing else: d runs again.
+  make({{"a", ""}, {"b", "a"}, {"c", "b"}, {"d", ""}, {"e", "d"}});
+  finish("a", false);
+  finish("b", false);
+  finish("d", false);
+  EXPECT_EQ(predicted({"c"}), (std::set<std::string>{"d"}));
+  EXPECT_EQ(predicted(), (std::set<std::string>{"a", "b", "d"}));
+  EXPECT_TRUE(retire({"c"}).empty());
+  EXPECT_EQ(retired_cells(), (std::set<std::string>{"d"}));
+}
+
+TEST_F(SourceGroups, StatusFindsTheCheckpointInAnyOfItsFolders) {
+  // Status over two folders (a clone of the results and the machine that ran it): a's checkpoint in the second is
+  // enough for b to start from once merged, so a does not count as running again.
+  make({{"a", ""}, {"b", "a"}});
+  finish("a", false);
+  const fs::path other = dir_ / "other";
+  fs::create_directories(cell_dir(other, cell("a")));
+  std::ofstream(cell_dir(other, cell("a")) / "best.ckpt") << "weights";
+  EXPECT_TRUE(predicted({}, {other}).empty());
+  EXPECT_EQ(predicted(), (std::set<std::string>{"a"}));
 }
 
 TEST_F(SourceGroups, AGroupAnotherProcessHoldsIsLeftToIt) {
