@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """Issue 17's results from a suite folder of experiments/suites/transfer.json (or any suite with holdout and
 new_task grids): per (set, new task, method, demonstrations of the new task) the new task's score, mean +- 95% t
-interval over seeds; paired differences of transfer from each other method; the training cost (the best-validation
-step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside); and which modules the new
-task picks: per seed its most used ones next to its named neighbour's in the source run, and how far its usage is
+interval over seeds; paired differences of transfer from each other method, and summed up across the tasks (per set
+and over all: how often above and below, the mean, how many with p < 0.05 before and after Holm); the training cost
+(the best-validation step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside);
+and which modules the new task picks: per seed its most used ones next to its named neighbour's in the source run, and how far its usage is
 (total variation) from the neighbour's, from every other trained task's and from the trained tasks' mean; per count how
 often the neighbour is the nearest trained task against chance.
 
@@ -24,7 +25,7 @@ from collections import namedtuple
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from suite_results import SuiteError, load_suite, order, read_cell, same_where_both_say, METHOD_ORDER  # noqa: E402
-from suite_stats import fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
+from suite_stats import ci95, fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
 from tables import machines_line  # noqa: E402
 
 # The trained task each new task is nearest to (its neighbour in the set's parameter, or its counterpart).
@@ -247,6 +248,56 @@ def rerun_lines(suite, left_out):
     return lines + [""]
 
 
+Difference = namedtuple("Difference", "transfer method set task demos diffs p p_holm")
+
+
+def across_lines(across):
+    """The paired differences of each transfer arm from each method summed up over the tasks, per set and over all:
+    how often the transfer is above or below, the mean difference, how many differ at p < 0.05 before and after Holm
+    (within each task, as in its table), and how wide a difference's 95% interval is (median half-width)."""
+    if not across:
+        return []
+    lines = ["## Across the tasks", "",
+             "Each transfer arm's paired differences from each method (the rows of the tasks' tables above, one per "
+             "task and count), summed up per set and over every task the method ran on: above and below count the "
+             "differences whose mean is at least 0.005 either way (\"even\": it rounds to 0.00); the mean of the "
+             "mean differences; how many have p < 0.05, unadjusted and after Holm (within each task, as in its "
+             "table; the tuned transfer against the frozen one is not adjusted); the median half-width of a "
+             "difference's 95% t interval (range). A transfer far below the all-task methods would show as most "
+             "differences below with small p; differences within noise as p near chance (1 in 20 unadjusted).", "",
+             "| transfer | method | tasks | differences | above | below | even | mean difference | p < 0.05 | "
+             "p (Holm) < 0.05 | 95% interval half-width, median (range) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    pairs = []
+    for d in across:
+        if (d.transfer, d.method) not in pairs:
+            pairs.append((d.transfer, d.method))
+    noted = []
+    for transfer, method in pairs:
+        of_pair = [d for d in across if (d.transfer, d.method) == (transfer, method)]
+        sets = sorted({d.set for d in of_pair})
+        for scope in sets + (["all"] if len(sets) > 1 else []):
+            group = [d for d in of_pair if scope in ("all", d.set)]
+            means = [mean(d.diffs) for d in group]
+            halves = [ci95(d.diffs) for d in group if len(d.diffs) > 1 and not math.isnan(ci95(d.diffs))]
+            tasks_in = sorted({d.task for d in group})
+            adjusted = [d.p_holm for d in group if d.p_holm is not None]
+            lines.append(
+                f"| {name_of(transfer)} | {name_of(method)} | {scope} ({len(tasks_in)}) | {len(group)} | "
+                f"{sum(m >= 0.005 for m in means)} | {sum(m <= -0.005 for m in means)} | "
+                f"{sum(abs(m) < 0.005 for m in means)} | {mean(means):+.2f} | "
+                f"{sum(d.p is not None and d.p < 0.05 for d in group)} | "
+                + (f"{sum(p < 0.05 for p in adjusted)}" if adjusted else "(not adjusted)") + " | "
+                + (f"{statistics.median(halves):.2f} ({min(halves):.2f}-{max(halves):.2f})" if halves else "-")
+                + " |")
+        noted += [d for d in of_pair if d.p is not None and d.p < 0.05]
+    if noted:
+        lines += ["", "The differences with p < 0.05 (unadjusted; Holm's in brackets):", ""]
+        lines += [f"- {name_of(d.transfer)} - {name_of(d.method)}, {d.task} at {d.demos}: {fmt(d.diffs, signed=True)}, "
+                  f"p {fmt_p(d.p)}" + (f" ({fmt_p(d.p_holm)})" if d.p_holm is not None else "") for d in noted]
+    return lines + [""]
+
+
 def rerun_score(cell):
     """What the cells-run-twice comparison scores: a new-task cell's score on its new task, else its mean."""
     task = new_task_of(cell)
@@ -299,6 +350,7 @@ def main():
              "any step), mean +- 95% t interval over seeds, (n) seeds.", ""]
     tasks = sorted({(s, t) for s, t, _, _ in rows})
     figure_data = {}
+    across = []  # every paired difference of a transfer from another method, for the summary across the tasks
     for set_name, task in tasks:
         methods = ordered({m for s, t, m, _ in rows if (s, t) == (set_name, task)})
         counts = sorted({d for s, t, _, d in rows if (s, t) == (set_name, task)})
@@ -335,6 +387,7 @@ def main():
             adjusted = holm([p for *_, p in comparisons])
             for (method, d, diffs, p), p_holm in zip(comparisons, adjusted):
                 if diffs:
+                    across.append(Difference(transfer, method, set_name, task, d, diffs, p, p_holm))
                     lines.append(f"| {name_of(transfer)} | {name_of(method)} | {d} | {len(diffs)} | "
                                  f"{fmt(diffs, signed=True)} | {fmt_p(p)} | {fmt_p(p_holm)} |")
         for transfer in transfers[1:]:
@@ -342,6 +395,7 @@ def main():
                 diffs = paired(rows.get((set_name, task, transfer, d), []),
                                rows.get((set_name, task, transfers[0], d), []), lambda c: score_of(c, task))
                 if diffs:
+                    across.append(Difference(transfer, transfers[0], set_name, task, d, diffs, paired_p(diffs), None))
                     lines.append(f"| {name_of(transfer)} | {name_of(transfers[0])} | {d} | {len(diffs)} | "
                                  f"{fmt(diffs, signed=True)} | {fmt_p(paired_p(diffs))} | (not adjusted) |")
         every = [c for m in methods for d in counts for c in rows.get((set_name, task, m, d), [])]
@@ -430,6 +484,7 @@ def main():
                       "|---|---|---|---|---|---|---|---|---|"]
             lines += per_seed
         lines.append("")
+    lines += across_lines(across)
     lines += rerun_lines(suite, left_out)
     unfinished = not_finished_lines(suite)
     if unfinished:

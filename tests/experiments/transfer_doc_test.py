@@ -63,6 +63,23 @@ def doc_rows(text):
     return rows
 
 
+ACROSS_HEADER = "| transfer | method | tasks |"
+
+
+def across_rows(text):
+    """{(transfer, method, tasks): [the other cells]} of the rows of a table headed ACROSS_HEADER ("Across the tasks")."""
+    rows, in_table = {}, False
+    for line in text.splitlines():
+        if line.startswith(ACROSS_HEADER):
+            in_table = True
+        elif in_table and line.startswith("|") and not line.startswith("|---"):
+            row = cells(line)
+            rows[tuple(row[:3])] = row[3:]
+        elif not line.startswith("|"):
+            in_table = False
+    return rows
+
+
 class TransferDoc(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -71,7 +88,9 @@ class TransferDoc(unittest.TestCase):
                                str(RESULTS), "--out", cls.out.name], capture_output=True, text=True)
         if proc.returncode != 0:
             raise AssertionError(f"transfer_table.py failed: {proc.stderr}")
-        cls.report = report_scores((pathlib.Path(cls.out.name) / "transfer.md").read_text())
+        report = (pathlib.Path(cls.out.name) / "transfer.md").read_text()
+        cls.report = report_scores(report)
+        cls.report_across = across_rows(report)
 
     @classmethod
     def tearDownClass(cls):
@@ -99,6 +118,20 @@ class TransferDoc(unittest.TestCase):
         for (task, method), scores in self.report.items():
             if all(seeds == "5" for _, seeds in scores):
                 self.assertTrue((task, method) in quoted, f"{task}, {method} is finished but not in the table")
+
+    def test_the_summary_across_the_tasks_is_the_results(self):
+        quoted = across_rows(DOC.read_text())
+        self.assertGreaterEqual(len(quoted), 4, "the doc's table of differences across the tasks was not found")
+        for (transfer, method, scope), values in quoted.items():
+            with self.subTest(transfer=transfer, method=method, tasks=scope):
+                key = (DOC_NAMES.get(transfer), DOC_NAMES.get(method, method), scope)
+                self.assertIn(key, self.report_across, "no such row in transfer_table.py's summary")
+                self.assertEqual(values, self.report_across[key])
+                # Quoted only once both methods have their 5 seeds on every task and count the row sums up.
+                set_name = scope.split(" ")[0]
+                for (task, name), scores in self.report.items():
+                    if name in key[:2] and set_name in ("all", task.split("/")[0]):
+                        self.assertTrue(all(seeds == "5" for _, seeds in scores), f"{task}, {name} lacks seeds")
 
     def test_the_parser_reads_a_report_row(self):
         text = "## gravity/0.5\n\n| method | 1 demo | 2 demos |\n|---|---|---|\n| MT-BC (all tasks) | 0.24 +- 0.24 (5) " \

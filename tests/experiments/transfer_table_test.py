@@ -157,13 +157,24 @@ class TransferTableTest(unittest.TestCase):
                       "alone): 0, 1, 2)", self.md)
 
     def test_paired_differences_use_the_seeds_both_ran_with_holm(self):
-        rows = rows_of(self.md, ["MAPS transfer", "Single BC (new task alone)"])
+        rows = rows_of(self.md[:self.md.index("## Across the tasks")], ["MAPS transfer", "Single BC (new task alone)"])
         # 1 demo, seeds 0-1: +0.2, +0.1: t = 3 on 1 df, p = 0.205; 2 demos, seeds 0-1: +0.3 twice: no spread, p 0.
         # Holm over the two: 0 x 2, then max(0, 0.205 x 1).
         self.assertEqual(rows, [["MAPS transfer", "Single BC (new task alone)", "1", "2", "+0.15 +- 0.64", "0.205",
                                  "0.205"],
                                 ["MAPS transfer", "Single BC (new task alone)", "2", "2", "+0.30 +- 0.00", "0.000",
                                  "0.000"]])
+
+    def test_across_the_tasks_sums_up_the_paired_differences(self):
+        across = self.md[self.md.index("## Across the tasks"):self.md.index("## Cells run twice")]
+        # The two differences above: means +0.15 and +0.30 (both above; mean of means 0.225), p 0.205 and 0.000 (one
+        # below 0.05, before and after Holm), interval half-widths 0.64 and 0.00 (median 0.32). One set: no "all" row.
+        self.assertEqual(rows_of(across, ["MAPS transfer", "Single BC (new task alone)"]),
+                         [["MAPS transfer", "Single BC (new task alone)", "gravity (1)", "2", "2", "0", "0", "+0.23",
+                           "1", "1", "0.32 (0.00-0.64)"]])
+        self.assertIn("- MAPS transfer - Single BC (new task alone), gravity/0.5 at 2: +0.30 +- 0.00, p 0.000 (0.000)",
+                      across)
+        self.assertNotIn("gravity/0.5 at 1:", across)
 
     def test_cost_is_the_median_best_step_and_the_curves_cpu_seconds(self):
         # Transfer at 1 demo: best steps 0, 400, 800 (0.5 CPU s per 200 steps: 0, 1, 2 s); 2000 steps: 5 s.
