@@ -29,11 +29,29 @@ using Json = nlohmann::json;
 namespace {
 
 // The last step of a started cell's validation curve ("" when none yet).
-std::string curve_progress(const fs::path& dir, long long steps) {
+// The last step curve.csv records (-1 when none: missing, only the header, or unreadable).
+long long curve_last_step(const fs::path& dir) {
   const std::string last = tail_of(dir / "curve.csv", 1);
   const auto comma = last.find(',');
-  if (last.empty() || comma == std::string::npos || last.rfind("step", 0) == 0) return "";
-  return "step " + last.substr(0, comma) + " of " + std::to_string(steps);
+  if (last.empty() || comma == std::string::npos) return -1;
+  try {
+    std::size_t used = 0;
+    const long long step = std::stoll(last.substr(0, comma), &used);
+    return used == comma && step >= 0 ? step : -1;
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
+std::string curve_progress(const fs::path& dir, long long steps) {
+  const long long step = curve_last_step(dir);
+  return step < 0 ? "" : "step " + std::to_string(step) + " of " + std::to_string(steps);
+}
+
+// The share of a running or resumable cell's training its curve records (0 when it cannot say).
+double trained_fraction(const fs::path& dir, long long steps) {
+  const long long step = curve_last_step(dir);
+  return step <= 0 || steps <= 0 ? 0.0 : std::min(1.0, static_cast<double>(step) / static_cast<double>(steps));
 }
 
 // A finished cell's files but its .lock, temporaries and last.ckpt (what resuming needs; a finished cell never resumes,
@@ -139,6 +157,7 @@ struct CellState {
   std::string state, detail;
   double cost_seconds = -1.0;  // a finished cell's (set_cost; -1: not finished or not recorded)
   bool cost_from_curve = false;
+  double trained = 0.0;  // a running or started cell's share of its training done (trained_fraction)
 };
 
 // A finished cell's cost: training from curve.csv (every attempt; CPU time where the curve has it) plus the
@@ -179,6 +198,7 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   } else if (cell_is_locked(dir)) {
     s.state = "running";
     s.detail = curve_progress(dir, steps);
+    s.trained = trained_fraction(dir, steps);
   } else if (fs::exists(dir / "error.json")) {
     s.state = "failed";
     try {
@@ -191,6 +211,7 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   } else if (fs::exists(dir / "last.ckpt")) {
     s.state = "started";
     s.detail = "resumable at its last checkpoint; " + curve_progress(dir, steps);
+    s.trained = trained_fraction(dir, steps);
   } else {
     s.state = "left";
   }
@@ -289,40 +310,78 @@ int run_suite_status(const SuiteStatusOptions& options) {
         "from them are left, with the cells finished from them (maps suite run does this first; --all names them)\n",
         again.size());
   if (const auto costs = try_load_costs("", true)) {
-    double left = 0.0;
+    // Per cell left, its table estimate less the share of training its curve records (a running or resumable cell).
+    std::vector<std::pair<std::size_t, double>> left_cells;
     bool known = true;
     for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-      if ((cells[i]["state"] == "done" && !again.count(suite.cells[i].name)) || cells[i]["state"] == "dropped")
-        continue;
+      const bool again_here = again.count(suite.cells[i].name) > 0;
+      if ((states[i].state == "done" && !again_here) || states[i].state == "dropped") continue;
       try {
-        left += costs->cell_seconds(suite.cells[i]);
+        const double trained = again_here ? 0.0 : states[i].trained;
+        left_cells.emplace_back(i, costs->cell_seconds(suite.cells[i]) * (1.0 - trained));
       } catch (const std::exception&) {
         known = false;
       }
     }
-    if (known &&
-        counts["done"] - static_cast<int>(again.size()) + counts["dropped"] < static_cast<int>(suite.cells.size())) {
-      std::printf("estimated CPU time left: %s (one thread per cell)\n", format_duration(left).c_str());
-      // The cost table was measured on one machine; the finished cells say how the machines they ran on differ.
+    if (known && !left_cells.empty()) {
+      double left = 0.0;
+      for (const auto& [i, seconds] : left_cells) left += seconds;
+      std::printf(
+          "estimated CPU time left: %s (one thread per cell; a running or resumable cell's part that its "
+          "curve records not counted)\n",
+          format_duration(left).c_str());
+      // The cost table was measured on one machine; the finished cells say how the machines they ran on differ, and
+      // how far the table is off for each kind of cell (a set's method): a cell left is scaled by the finished cells
+      // of its set and method once there are 3 of them, else by all finished cells.
       // (result.json's host names a container, not a machine, so the pace is the folder's, not this machine's.)
-      double measured = 0.0, estimated = 0.0;
-      int finished = 0, from_curve = 0;
+      struct Pace {
+        double measured = 0.0, estimated = 0.0;
+        int finished = 0, from_curve = 0;
+        double ratio() const { return measured / estimated; }
+      };
+      Pace all;
+      std::map<std::string, Pace> by_kind;
+      const auto kind_of = [&](std::size_t i) { return suite.cells[i].set + " " + suite.cells[i].method; };
       for (std::size_t i = 0; i < suite.cells.size(); ++i) {
         if (states[i].state != "done" || states[i].cost_seconds <= 0.0) continue;
         try {
-          estimated += costs->cell_seconds(suite.cells[i]);
-          measured += states[i].cost_seconds;
-          ++finished;
-          from_curve += states[i].cost_from_curve ? 1 : 0;
+          const double estimate = costs->cell_seconds(suite.cells[i]);
+          for (Pace* pace : {&all, &by_kind[kind_of(i)]}) {
+            pace->estimated += estimate;
+            pace->measured += states[i].cost_seconds;
+            pace->finished += 1;
+            pace->from_curve += states[i].cost_from_curve ? 1 : 0;
+          }
         } catch (const std::exception&) {
         }
       }
-      if (finished >= 3 && estimated > 0.0)
+      if (all.finished >= 3 && all.estimated > 0.0) {
+        double scaled = 0.0;
+        std::map<std::string, int> scaled_by_kind;  // kinds with cells left, scaled by their own pace
+        for (const auto& [i, seconds] : left_cells) {
+          const auto kind = by_kind.find(kind_of(i));
+          if (kind != by_kind.end() && kind->second.finished >= 3 && kind->second.estimated > 0.0) {
+            scaled += seconds * kind->second.ratio();
+            scaled_by_kind[kind->first] += 1;
+          } else {
+            scaled += seconds * all.ratio();
+          }
+        }
+        std::string kinds;
+        for (const auto& [kind, count] : scaled_by_kind) {
+          char text[160];
+          std::snprintf(text, sizeof(text), "%s%s %.2fx (%d left)", kinds.empty() ? "" : ", ", kind.c_str(),
+                        by_kind.at(kind).ratio(), count);
+          kinds += text;
+        }
         std::printf(
             "at the finished cells' pace: %s (%d finished cells took %.2fx the table's estimate: training from "
-            "curve.csv, every attempt, plus evaluation; %d timed by their last attempt's wall time)\n",
-            format_duration(left * measured / estimated).c_str(), finished, measured / estimated,
-            finished - from_curve);
+            "curve.csv, every attempt, plus evaluation; %d timed by their last attempt's wall time%s)\n",
+            format_duration(scaled).c_str(), all.finished, all.ratio(), all.finished - all.from_curve,
+            kinds.empty()
+                ? ""
+                : ("; the cells of a set's method with 3 or more finished at their own pace: " + kinds).c_str());
+      }
     }
   }
   return 0;

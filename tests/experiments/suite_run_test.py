@@ -10,6 +10,7 @@ import fcntl
 import json
 import os
 import pathlib
+import re
 import shutil
 import signal
 import subprocess
@@ -225,6 +226,48 @@ class SuiteTest(unittest.TestCase):
         for path in results[2:-2]:
             path.unlink()
         self.assertNotIn("finished cells' pace", maps("suite", "status", out).stdout)  # 2 cells say too little
+
+    def test_status_estimate_leaves_out_the_trained_part_and_paces_each_kind_of_cell(self):
+        out = self.dir / "kinds"
+        shutil.copytree(ROOT / "tests" / "experiments" / "fixtures" / "suite-small", out)
+
+        def status():
+            return maps("suite", "status", out).stdout
+
+        def estimate(text):
+            return int(re.search(r"^estimated CPU time left: (\d+)s ", text, re.M).group(1))
+
+        def kinds(text):
+            found = re.search(r"at their own pace: gravity mt_bc (\d+\.\d\d)x \(1 left\), "
+                              r"mt10 mt_bc (\d+\.\d\d)x \(1 left\)\)$", text, re.M)
+            self.assertIsNotNone(found, text)
+            return float(found.group(1)), float(found.group(2))
+
+        before = status()
+        # mt10/mt_bc_d10_s1 has a curve to step 500 of 1000: with its last.ckpt it is resumable, and half of its
+        # training is done.
+        cell = out / "cells" / "mt10" / "mt_bc_d10_s1"
+        (cell / "last.ckpt").write_text("resume state")
+        after = status()
+        self.assertIn("started  mt10/mt_bc_d10_s1: resumable at its last checkpoint; step 500 of 1000", after)
+        self.assertLess(estimate(after), estimate(before))
+        # Each cell left is scaled by the finished cells of its set and method: three times slower mt10 MT-BC cells
+        # (training from the curve and evaluation) triple that kind's pace, and leave gravity's as it was.
+        gravity, mt10 = kinds(after)
+        for result_path in (out / "cells" / "mt10").glob("mt_bc*/result.json"):
+            result = json.loads(result_path.read_text())
+            result["eval"]["seconds"] *= 3
+            result_path.write_text(json.dumps(result))
+            curve = result_path.parent / "curve.csv"
+            with curve.open() as f:
+                rows = list(csv.DictReader(f))
+            with curve.open("w", newline="") as f:
+                writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+                writer.writeheader()
+                for row in rows:
+                    writer.writerow(dict(row, steps_per_second=float(row["steps_per_second"]) / 3))
+        self.assertEqual(kinds(status())[0], gravity)
+        self.assertAlmostEqual(kinds(status())[1], 3 * mt10, delta=0.02)
 
     def test_a_rerun_of_a_finished_suite_does_nothing(self):
         proc = maps("suite", "run", TINY, "--out", self.reference)
