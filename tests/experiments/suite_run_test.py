@@ -37,6 +37,26 @@ def maps(*args, check=True):
     return proc
 
 
+def slow_down(result_path, factor):
+    """Makes a finished cell `factor` times as costly as it was: its evaluation's seconds and its curve's training time
+    (cpu_seconds where the curve has them, else steps_per_second)."""
+    result = json.loads(result_path.read_text())
+    result["eval"]["seconds"] *= factor
+    result_path.write_text(json.dumps(result))
+    curve = result_path.parent / "curve.csv"
+    with curve.open() as f:
+        rows = list(csv.DictReader(f))
+    with curve.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        for row in rows:
+            if "cpu_seconds" in row:
+                writer.writerow(dict(row, cpu_seconds=factor * float(row["cpu_seconds"])))
+            else:
+                writer.writerow(dict(row, steps_per_second=float(row["steps_per_second"]) / factor))
+    return rows[0]
+
+
 def plan(config, *extra):
     return json.loads(maps("suite", "plan", config, "--json", *extra).stdout)
 
@@ -207,18 +227,7 @@ class SuiteTest(unittest.TestCase):
             path.write_text(json.dumps(result))
         self.assertAlmostEqual(pace(maps("suite", "status", out).stdout), first, delta=0.011)
         for path in results[2:]:
-            result = json.loads(path.read_text())
-            result["eval"]["seconds"] *= 2
-            path.write_text(json.dumps(result))
-            curve = path.parent / "curve.csv"
-            with curve.open() as f:
-                rows = list(csv.DictReader(f))
-            self.assertIn("cpu_seconds", rows[0])
-            with curve.open("w", newline="") as f:
-                writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-                writer.writeheader()
-                for row in rows:
-                    writer.writerow(dict(row, cpu_seconds=2 * float(row["cpu_seconds"])))
+            self.assertIn("cpu_seconds", slow_down(path, 2))
         self.assertAlmostEqual(pace(maps("suite", "status", out).stdout), 2 * first, delta=0.011)
         # A cell whose curve cannot say (removed) is timed by its wall time, and the line counts it.
         (results[2].parent / "curve.csv").unlink()
@@ -255,17 +264,7 @@ class SuiteTest(unittest.TestCase):
         # (training from the curve and evaluation) triple that kind's pace, and leave gravity's as it was.
         gravity, mt10 = kinds(after)
         for result_path in (out / "cells" / "mt10").glob("mt_bc*/result.json"):
-            result = json.loads(result_path.read_text())
-            result["eval"]["seconds"] *= 3
-            result_path.write_text(json.dumps(result))
-            curve = result_path.parent / "curve.csv"
-            with curve.open() as f:
-                rows = list(csv.DictReader(f))
-            with curve.open("w", newline="") as f:
-                writer = csv.DictWriter(f, fieldnames=list(rows[0]))
-                writer.writeheader()
-                for row in rows:
-                    writer.writerow(dict(row, steps_per_second=float(row["steps_per_second"]) / 3))
+            slow_down(result_path, 3)
         self.assertEqual(kinds(status())[0], gravity)
         self.assertAlmostEqual(kinds(status())[1], 3 * mt10, delta=0.02)
 
