@@ -39,7 +39,7 @@ std::string format_duration(double seconds) {
   return text;
 }
 
-double CostTable::cell_seconds(const SuiteCell& cell) const {
+CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   const Json* entry = nullptr;
   // A transfer cell trains MAPS (for one task, from a trained run). A method the table has not measured (one added
   // to the registry since) is estimated as MAPS, whose parameter budget the zoo's methods match by default.
@@ -86,8 +86,10 @@ double CostTable::cell_seconds(const SuiteCell& cell) const {
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
   const double keep_every = r["train"].value("keep_every", 0.0);
   const double evaluations = 1.0 + (keep_every > 0 ? std::floor(r["train"]["steps"].get<double>() / keep_every) : 0.0);
-  return c.at("overhead_seconds").get<double>() + r["train"]["steps"].get<double>() * step +
-         evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks * c.at("episode_seconds").get<double>();
+  return {.overhead = c.at("overhead_seconds").get<double>(),
+          .training = r["train"]["steps"].get<double>() * step,
+          .evaluation = evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks *
+                        c.at("episode_seconds").get<double>()};
 }
 
 double CostTable::collect_seconds(const std::string& set) const {

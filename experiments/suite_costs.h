@@ -21,8 +21,14 @@ struct CostTable {
   nlohmann::json json;  // {"sets": {set: {"collect_seconds": s, "methods": {method: {...}}}}, "cpu": ..., ...}
   std::string path;
 
-  // One thread per cell. Throws naming the set and method when the table lacks them.
-  double cell_seconds(const SuiteCell& cell) const;
+  // One thread per cell, in parts: a part-trained cell has its training part left, all of the rest.
+  struct CellCost {
+    double overhead = 0.0, training = 0.0, evaluation = 0.0;
+    double total() const { return overhead + training + evaluation; }
+  };
+  // Throws naming the set and method when the table lacks them.
+  CellCost cell_cost(const SuiteCell& cell) const;
+  double cell_seconds(const SuiteCell& cell) const { return cell_cost(cell).total(); }
   double collect_seconds(const std::string& set) const;
 };
 

@@ -190,7 +190,10 @@ bool cell_is_locked(const fs::path& dir) {
 
 fs::path source_dir(const fs::path& dir, const SuiteCell& cell) {
   const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
-  return relative.empty() ? fs::path() : (dir / relative).lexically_normal();
+  if (relative.empty()) return {};
+  // "../a/" names the folder "../a" does: without the trailing separator, so that both find the same cell.
+  const fs::path source = (dir / relative).lexically_normal();
+  return source.has_filename() ? source : source.parent_path();
 }
 
 fs::path source_checkpoint(const fs::path& dir, const SuiteCell& cell) {
@@ -312,9 +315,8 @@ std::vector<fs::path> sources_to_run_again(const std::map<fs::path, std::vector<
 
 }  // namespace
 
-std::set<std::string> finished_cells_to_run_again(const std::vector<const SuiteCell*>& cells,
-                                                  const std::set<std::string>& finished,
-                                                  const std::vector<fs::path>& dirs) {
+CellsRunAgain cells_to_run_again(const std::vector<const SuiteCell*>& cells, const std::set<std::string>& finished,
+                                 const std::vector<fs::path>& dirs) {
   // Folders relative to the suite's (""): the same in every folder of `dirs`.
   const auto dependants = dependants_of("", cells);
   std::set<fs::path> in_suite, to_run;
@@ -329,11 +331,11 @@ std::set<std::string> finished_cells_to_run_again(const std::vector<const SuiteC
     return std::any_of(dirs.begin(), dirs.end(),
                        [&](const fs::path& dir) { return fs::exists(source_checkpoint(cell_dir(dir, cell), cell)); });
   };
-  std::set<std::string> again;
+  CellsRunAgain again;
   for (const auto& source : sources_to_run_again(dependants, in_suite, "", to_run, has_source_checkpoint)) {
-    again.insert(by_dir.at(source)->name);
+    again.finished.insert(by_dir.at(source)->name);
     for (const auto& member : suite_descendants(dependants, "", source))
-      if (finished.count(member.second->name)) again.insert(member.second->name);
+      (finished.count(member.second->name) ? again.finished : again.restarted).insert(member.second->name);
   }
   return again;
 }

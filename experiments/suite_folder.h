@@ -101,12 +101,16 @@ std::vector<const SuiteCell*> sources_first(const Suite& suite);
 // leave to that one.
 std::set<std::filesystem::path> retire_sources_without_checkpoint(const std::filesystem::path& out,
                                                                   const std::vector<const SuiteCell*>& cells);
-// The finished cells of `cells` (names in `finished`) that retire_sources_without_checkpoint would retire, by name,
-// with a source's checkpoint looked for in every folder of `dirs` (status reads several; one that holds it is
-// enough): what `maps suite status` counts as running again.
-std::set<std::string> finished_cells_to_run_again(const std::vector<const SuiteCell*>& cells,
-                                                  const std::set<std::string>& finished,
-                                                  const std::vector<std::filesystem::path>& dirs);
+// What retire_sources_without_checkpoint would do to `cells` (names in `finished` are finished), by cell name, with a
+// source's checkpoint looked for in every folder of `dirs`: what `maps suite status` reports. With one folder it is
+// exactly what `maps suite run --out` that folder does; with several (shards, or a clone beside the machine that ran
+// it) a checkpoint in any of them counts, as after `maps suite merge`.
+struct CellsRunAgain {
+  std::set<std::string> finished;   // retired: their results move to replaced/ and they run again
+  std::set<std::string> restarted;  // unfinished cells of those groups: cleared, they start from nothing
+};
+CellsRunAgain cells_to_run_again(const std::vector<const SuiteCell*>& cells, const std::set<std::string>& finished,
+                                 const std::vector<std::filesystem::path>& dirs);
 
 // The last `lines` lines of a text file ("" when missing).
 std::string tail_of(const std::filesystem::path& path, int lines);

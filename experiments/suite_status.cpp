@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 
@@ -20,6 +21,7 @@
 #include "experiments/suite_folder.h"
 #include "experiments/suite_run.h"
 #include "maps/training/curve_cost.h"
+#include "maps/training/trainer.h"
 
 namespace maps::experiments {
 
@@ -48,10 +50,18 @@ std::string curve_progress(const fs::path& dir, long long steps) {
   return step < 0 ? "" : "step " + std::to_string(step) + " of " + std::to_string(steps);
 }
 
-// The share of a running or resumable cell's training its curve records (0 when it cannot say).
-double trained_fraction(const fs::path& dir, long long steps) {
-  const long long step = curve_last_step(dir);
+double share_of(long long step, long long steps) {
   return step <= 0 || steps <= 0 ? 0.0 : std::min(1.0, static_cast<double>(step) / static_cast<double>(steps));
+}
+
+// The share of a resumable cell's training that it resumes from: last.ckpt's step (its curve may record more, which a
+// resume truncates); 0 when the checkpoint cannot say.
+double resumable_share(const fs::path& dir, long long steps) {
+  try {
+    return share_of(core::trained_steps(dir.string()), steps);
+  } catch (const std::exception&) {
+    return 0.0;
+  }
 }
 
 // A finished cell's files but its .lock, temporaries and last.ckpt (what resuming needs; a finished cell never resumes,
@@ -157,7 +167,7 @@ struct CellState {
   std::string state, detail;
   double cost_seconds = -1.0;  // a finished cell's (set_cost; -1: not finished or not recorded)
   bool cost_from_curve = false;
-  double trained = 0.0;  // a running or started cell's share of its training done (trained_fraction)
+  double trained = 0.0;  // a running cell's share of training its curve records, a started one's its last.ckpt holds
 };
 
 // A finished cell's cost: training from curve.csv (every attempt; CPU time where the curve has it) plus the
@@ -198,7 +208,7 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   } else if (cell_is_locked(dir)) {
     s.state = "running";
     s.detail = curve_progress(dir, steps);
-    s.trained = trained_fraction(dir, steps);
+    s.trained = share_of(curve_last_step(dir), steps);
   } else if (fs::exists(dir / "error.json")) {
     s.state = "failed";
     try {
@@ -211,12 +221,88 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   } else if (fs::exists(dir / "last.ckpt")) {
     s.state = "started";
     s.detail = "resumable at its last checkpoint; " + curve_progress(dir, steps);
-    s.trained = trained_fraction(dir, steps);
+    s.trained = resumable_share(dir, steps);
   } else {
     s.state = "left";
   }
   if (!damage.empty()) s.detail += (s.detail.empty() ? "" : "; ") + damage;
   return s;
+}
+
+// The CPU time the cells left need, from the cost table: each cell's estimate less the training a running or
+// resumable cell has done (a cell that starts over, none). The table was measured on one machine; the finished cells
+// say how the machines they ran on differ, and how far the table is off for each kind of cell (a set's method): a cell
+// left is scaled by the finished cells of its kind once 3 of them have finished, else by all finished cells. (Their
+// host names a container, not a machine, so the pace is the folder's, not this machine's.) std::nullopt when no cell
+// is left or the table cannot price one of them.
+struct TimeLeft {
+  double table = 0.0;
+  std::optional<double> paced;
+  std::string pace_note;
+};
+std::optional<TimeLeft> time_left(const Suite& suite, const std::vector<CellState>& states, const CellsRunAgain& again,
+                                  const CostTable& costs) {
+  std::vector<std::pair<std::size_t, double>> left_cells;
+  TimeLeft time;
+  for (std::size_t i = 0; i < suite.cells.size(); ++i) {
+    const std::string& name = suite.cells[i].name;
+    if ((states[i].state == "done" && !again.finished.count(name)) || states[i].state == "dropped") continue;
+    try {
+      const CostTable::CellCost cost = costs.cell_cost(suite.cells[i]);
+      const double trained = again.finished.count(name) || again.restarted.count(name) ? 0.0 : states[i].trained;
+      left_cells.emplace_back(i, cost.total() - trained * cost.training);
+      time.table += left_cells.back().second;
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+  }
+  if (left_cells.empty()) return std::nullopt;
+  struct Pace {
+    double measured = 0.0, estimated = 0.0;
+    int finished = 0, from_curve = 0;
+    double ratio() const { return measured / estimated; }
+  };
+  Pace all;
+  std::map<std::string, Pace> by_kind;
+  const auto kind_of = [&](std::size_t i) { return suite.cells[i].set + " " + suite.cells[i].method; };
+  for (std::size_t i = 0; i < suite.cells.size(); ++i) {
+    if (states[i].state != "done" || states[i].cost_seconds <= 0.0) continue;
+    try {
+      const double estimate = costs.cell_seconds(suite.cells[i]);
+      for (Pace* pace : {&all, &by_kind[kind_of(i)]}) {
+        pace->estimated += estimate;
+        pace->measured += states[i].cost_seconds;
+        pace->finished += 1;
+        pace->from_curve += states[i].cost_from_curve ? 1 : 0;
+      }
+    } catch (const std::exception&) {
+    }
+  }
+  if (all.finished < 3 || all.estimated <= 0.0) return time;
+  double scaled = 0.0;
+  std::map<std::string, int> scaled_by_kind;  // kinds with cells left, scaled by their own pace
+  for (const auto& [i, seconds] : left_cells) {
+    const auto kind = by_kind.find(kind_of(i));
+    const bool own = kind != by_kind.end() && kind->second.finished >= 3 && kind->second.estimated > 0.0;
+    scaled += seconds * (own ? kind->second.ratio() : all.ratio());
+    if (own) scaled_by_kind[kind->first] += 1;
+  }
+  char text[256];
+  std::snprintf(text, sizeof(text),
+                "%d finished cells took %.2fx the table's estimate: training from curve.csv, every attempt, plus "
+                "evaluation; %d timed by their last attempt's wall time",
+                all.finished, all.ratio(), all.finished - all.from_curve);
+  time.pace_note = text;
+  std::string kinds;
+  for (const auto& [kind, count] : scaled_by_kind) {
+    std::snprintf(text, sizeof(text), "%s%s %.2fx (%d left)", kinds.empty() ? "" : ", ", kind.c_str(),
+                  by_kind.at(kind).ratio(), count);
+    kinds += text;
+  }
+  if (!kinds.empty())
+    time.pace_note += "; the cells of a set's method with 3 or more finished at their own pace: " + kinds;
+  time.paced = scaled;
+  return time;
 }
 
 }  // namespace
@@ -262,29 +348,39 @@ int run_suite_status(const SuiteStatusOptions& options) {
     if (current.count(suite.cells[i].name)) config_cells.push_back(&suite.cells[i]);
     if (states[i].state == "done") finished.insert(suite.cells[i].name);
   }
-  const std::set<std::string> again = finished_cells_to_run_again(
-      config_cells, finished, std::vector<fs::path>(options.dirs.begin(), options.dirs.end()));
+  const CellsRunAgain again =
+      cells_to_run_again(config_cells, finished, std::vector<fs::path>(options.dirs.begin(), options.dirs.end()));
   for (std::size_t i = 0; i < suite.cells.size(); ++i) {
     const SuiteCell& cell = suite.cells[i];
     CellState& best = states[i];
-    if (again.count(cell.name))
+    if (again.finished.count(cell.name))
       best.detail += std::string(best.detail.empty() ? "" : "; ") +
                      "runs again (the source run's checkpoint is gone while cells that start from it are left)";
+    if (again.restarted.count(cell.name) && best.state != "left")
+      best.detail += std::string(best.detail.empty() ? "" : "; ") +
+                     "starts over (its source runs again: the source run's checkpoint is gone)";
     counts[best.state] += 1;
     if (!by_grid.count(cell.grid)) grids.push_back(cell.grid);
     by_grid[cell.grid][best.state] += 1;
     Json entry = cell.identity();
     entry["state"] = best.state;
     entry["detail"] = best.detail;
-    if (again.count(cell.name)) entry["runs_again"] = true;
+    if (again.finished.count(cell.name)) entry["runs_again"] = true;
     cells.push_back(entry);
     if (options.all || best.state == "failed" || best.state == "running" || best.state == "started")
       lines.push_back(best.state + "  " + cell.name + (best.detail.empty() ? "" : ": " + best.detail));
   }
   std::string where = options.dirs.front();
   if (options.dirs.size() > 1) where += " and " + std::to_string(options.dirs.size() - 1) + " more folders";
+  const auto costs = try_load_costs("", true);
+  const std::optional<TimeLeft> time = costs ? time_left(suite, states, again, *costs) : std::nullopt;
   if (options.json) {
-    std::cout << Json{{"dirs", options.dirs}, {"counts", counts}, {"cells", cells}}.dump(1) << "\n";
+    Json status{{"dirs", options.dirs}, {"counts", counts}, {"cells", cells}};
+    if (time) {
+      status["cpu_seconds_left"] = time->table;
+      if (time->paced) status["cpu_seconds_left_at_pace"] = *time->paced;
+    }
+    std::cout << status.dump(1) << "\n";
     return 0;
   }
   for (const auto& line : lines) std::printf("%s\n", line.c_str());
@@ -304,85 +400,19 @@ int run_suite_status(const SuiteStatusOptions& options) {
               counts["left"]);
   if (counts["dropped"] > 0) std::printf(", %d dropped (no longer in the config)", counts["dropped"]);
   std::printf("\n");
-  if (!again.empty())
+  if (!again.finished.empty())
     std::printf(
         "%zu of the done cells run again: sources whose checkpoint is gone (results keep none) while cells that start "
         "from them are left, with the cells finished from them (maps suite run does this first; --all names them)\n",
-        again.size());
-  if (const auto costs = try_load_costs("", true)) {
-    // Per cell left, its table estimate less the share of training its curve records (a running or resumable cell).
-    std::vector<std::pair<std::size_t, double>> left_cells;
-    bool known = true;
-    for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-      const bool again_here = again.count(suite.cells[i].name) > 0;
-      if ((states[i].state == "done" && !again_here) || states[i].state == "dropped") continue;
-      try {
-        const double trained = again_here ? 0.0 : states[i].trained;
-        left_cells.emplace_back(i, costs->cell_seconds(suite.cells[i]) * (1.0 - trained));
-      } catch (const std::exception&) {
-        known = false;
-      }
-    }
-    if (known && !left_cells.empty()) {
-      double left = 0.0;
-      for (const auto& [i, seconds] : left_cells) left += seconds;
-      std::printf(
-          "estimated CPU time left: %s (one thread per cell; a running or resumable cell's part that its "
-          "curve records not counted)\n",
-          format_duration(left).c_str());
-      // The cost table was measured on one machine; the finished cells say how the machines they ran on differ, and
-      // how far the table is off for each kind of cell (a set's method): a cell left is scaled by the finished cells
-      // of its set and method once there are 3 of them, else by all finished cells.
-      // (result.json's host names a container, not a machine, so the pace is the folder's, not this machine's.)
-      struct Pace {
-        double measured = 0.0, estimated = 0.0;
-        int finished = 0, from_curve = 0;
-        double ratio() const { return measured / estimated; }
-      };
-      Pace all;
-      std::map<std::string, Pace> by_kind;
-      const auto kind_of = [&](std::size_t i) { return suite.cells[i].set + " " + suite.cells[i].method; };
-      for (std::size_t i = 0; i < suite.cells.size(); ++i) {
-        if (states[i].state != "done" || states[i].cost_seconds <= 0.0) continue;
-        try {
-          const double estimate = costs->cell_seconds(suite.cells[i]);
-          for (Pace* pace : {&all, &by_kind[kind_of(i)]}) {
-            pace->estimated += estimate;
-            pace->measured += states[i].cost_seconds;
-            pace->finished += 1;
-            pace->from_curve += states[i].cost_from_curve ? 1 : 0;
-          }
-        } catch (const std::exception&) {
-        }
-      }
-      if (all.finished >= 3 && all.estimated > 0.0) {
-        double scaled = 0.0;
-        std::map<std::string, int> scaled_by_kind;  // kinds with cells left, scaled by their own pace
-        for (const auto& [i, seconds] : left_cells) {
-          const auto kind = by_kind.find(kind_of(i));
-          if (kind != by_kind.end() && kind->second.finished >= 3 && kind->second.estimated > 0.0) {
-            scaled += seconds * kind->second.ratio();
-            scaled_by_kind[kind->first] += 1;
-          } else {
-            scaled += seconds * all.ratio();
-          }
-        }
-        std::string kinds;
-        for (const auto& [kind, count] : scaled_by_kind) {
-          char text[160];
-          std::snprintf(text, sizeof(text), "%s%s %.2fx (%d left)", kinds.empty() ? "" : ", ", kind.c_str(),
-                        by_kind.at(kind).ratio(), count);
-          kinds += text;
-        }
-        std::printf(
-            "at the finished cells' pace: %s (%d finished cells took %.2fx the table's estimate: training from "
-            "curve.csv, every attempt, plus evaluation; %d timed by their last attempt's wall time%s)\n",
-            format_duration(scaled).c_str(), all.finished, all.ratio(), all.finished - all.from_curve,
-            kinds.empty()
-                ? ""
-                : ("; the cells of a set's method with 3 or more finished at their own pace: " + kinds).c_str());
-      }
-    }
+        again.finished.size());
+  if (time) {
+    std::printf(
+        "estimated CPU time left: %s (one thread per cell; the part of a running or resumable cell's training "
+        "done so far not counted)\n",
+        format_duration(time->table).c_str());
+    if (time->paced)
+      std::printf("at the finished cells' pace: %s (%s)\n", format_duration(*time->paced).c_str(),
+                  time->pace_note.c_str());
   }
   return 0;
 }

@@ -151,8 +151,17 @@ class SourceGroups : public TempFolderTest {
     std::vector<fs::path> dirs{dir_};
     dirs.insert(dirs.end(), more_dirs.begin(), more_dirs.end());
     std::set<std::string> again;
-    for (const auto& name : finished_cells_to_run_again(config(dropped), done, dirs)) again.insert(name.substr(2));
+    for (const auto& name : cells_to_run_again(config(dropped), done, dirs).finished) again.insert(name.substr(2));
     return again;
+  }
+  // The unfinished cells of the groups that run again, which start from nothing (by short name).
+  std::set<std::string> restarted() const {
+    std::set<std::string> done;
+    for (const auto& c : suite_.cells)
+      if (finished(c.name.substr(2))) done.insert(c.name);
+    std::set<std::string> out;
+    for (const auto& name : cells_to_run_again(config(), done, {dir_}).restarted) out.insert(name.substr(2));
+    return out;
   }
   std::set<std::string> retired_cells() const {
     std::set<std::string> out;
@@ -200,6 +209,7 @@ TEST_F(SourceGroups, ASourceWithoutItsCheckpointRunsAgainWithTheCellsFromIt) {
   finish("e", false);
   finish("f", false);  // every cell from e is finished: e stays
   EXPECT_EQ(predicted(), (std::set<std::string>{"a", "b"}));
+  EXPECT_EQ(restarted(), (std::set<std::string>{"c"}));
   EXPECT_TRUE(retire().empty());
   EXPECT_EQ(retired_cells(), (std::set<std::string>{"a", "b"}));
   EXPECT_TRUE(retired("a"));
@@ -252,6 +262,15 @@ TEST_F(SourceGroups, ACellTheConfigNoLongerMakesLeavesItsSourceAlone) {
   EXPECT_EQ(predicted(), (std::set<std::string>{"a", "b", "d"}));
   EXPECT_TRUE(retire({"c"}).empty());
   EXPECT_EQ(retired_cells(), (std::set<std::string>{"d"}));
+}
+
+TEST_F(SourceGroups, ATrailingSeparatorNamesTheSameSource) {
+  make({{"a", ""}, {"b", "a/"}});  // init.run "../a/"
+  EXPECT_EQ(source_dir(folder("b"), cell("b")), folder("a"));
+  finish("a", false);
+  EXPECT_EQ(predicted(), (std::set<std::string>{"a"}));
+  EXPECT_TRUE(retire().empty());
+  EXPECT_EQ(retired_cells(), (std::set<std::string>{"a"}));
 }
 
 TEST_F(SourceGroups, StatusFindsTheCheckpointInAnyOfItsFolders) {

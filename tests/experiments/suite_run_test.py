@@ -241,10 +241,9 @@ class SuiteTest(unittest.TestCase):
         shutil.copytree(ROOT / "tests" / "experiments" / "fixtures" / "suite-small", out)
 
         def status():
-            return maps("suite", "status", out).stdout
-
-        def estimate(text):
-            return int(re.search(r"^estimated CPU time left: (\d+)s ", text, re.M).group(1))
+            text = maps("suite", "status", out).stdout
+            numbers = json.loads(maps("suite", "status", out, "--json").stdout)
+            return text, numbers["cpu_seconds_left"], numbers["cpu_seconds_left_at_pace"]
 
         def kinds(text):
             found = re.search(r"at their own pace: gravity mt_bc (\d+\.\d\d)x \(1 left\), "
@@ -252,21 +251,47 @@ class SuiteTest(unittest.TestCase):
             self.assertIsNotNone(found, text)
             return float(found.group(1)), float(found.group(2))
 
-        before = status()
-        # mt10/mt_bc_d10_s1 has a curve to step 500 of 1000: with its last.ckpt it is resumable, and half of its
-        # training is done.
+        # mt10/mt_bc_d10_s1 is left with a curve to step 500 of 1000 (an attempt without a checkpoint: it starts
+        # over, and counts whole).
         cell = out / "cells" / "mt10" / "mt_bc_d10_s1"
-        (cell / "last.ckpt").write_text("resume state")
-        after = status()
-        self.assertIn("started  mt10/mt_bc_d10_s1: resumable at its last checkpoint; step 500 of 1000", after)
-        self.assertLess(estimate(after), estimate(before))
+        text, left, paced = status()
+        gravity_pace, mt10_pace = kinds(text)
+        curve = (cell / "curve.csv").read_text()
+        # Running (its lock held) at step 500, then at 1000: half of its training part, then all of it, is done.
+        with open(cell / ".lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            text, half, _ = status()
+            self.assertIn("running  mt10/mt_bc_d10_s1: step 500 of 1000", text)
+            (cell / "curve.csv").write_text(curve + "1000" + curve.splitlines()[-1][len("500"):] + "\n")
+            text, full, _ = status()
+            self.assertIn("running  mt10/mt_bc_d10_s1: step 1000 of 1000", text)
+        (cell / "curve.csv").write_text(curve)
+        training = left - full
+        self.assertGreater(training, 0)
+        self.assertAlmostEqual(left - half, training / 2, delta=1e-6 * left)
+        # Finished, it leaves the estimate: its whole cost is more than its training, as its evaluation (which a
+        # cell at its last step has still to run) and overhead remain.
+        request = next(c for c in json.loads((out / "suite.json").read_text())["cells"]
+                       if c["name"] == "mt10/mt_bc_d10_s1")
+        result = json.loads((out / "cells" / "mt10" / "mt_bc_d10_s0" / "result.json").read_text())
+        result["cell"] = {k: v for k, v in request.items() if k != "request"}
+        result["config"] = request["request"]
+        (cell / "result.json").write_text(json.dumps(result))
+        text, done, _ = status()
+        self.assertNotIn("mt10/mt_bc_d10_s1", text)
+        self.assertLess(done, full)
+        whole = left - done
+        (cell / "result.json").unlink()
         # Each cell left is scaled by the finished cells of its set and method: three times slower mt10 MT-BC cells
-        # (training from the curve and evaluation) triple that kind's pace, and leave gravity's as it was.
-        gravity, mt10 = kinds(after)
+        # (training from the curve and evaluation) triple that kind's pace and leave gravity's as it was; the time at
+        # the finished cells' pace grows by the mt10 cell's estimate times the change in its pace.
         for result_path in (out / "cells" / "mt10").glob("mt_bc*/result.json"):
             slow_down(result_path, 3)
-        self.assertEqual(kinds(status())[0], gravity)
-        self.assertAlmostEqual(kinds(status())[1], 3 * mt10, delta=0.02)
+        text, again, slower = status()
+        self.assertEqual(again, left)
+        self.assertEqual(kinds(text)[0], gravity_pace)
+        self.assertAlmostEqual(kinds(text)[1], 3 * mt10_pace, delta=0.02)
+        self.assertAlmostEqual(slower - paced, 2 * mt10_pace * whole, delta=0.01 * slower)
 
     def test_a_rerun_of_a_finished_suite_does_nothing(self):
         proc = maps("suite", "run", TINY, "--out", self.reference)
