@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <set>
@@ -30,10 +32,16 @@ using Json = nlohmann::json;
 
 namespace {
 
-// The last step of a started cell's validation curve ("" when none yet).
-// The last step curve.csv records (-1 when none: missing, only the header, or unreadable).
+// The last step curve.csv records (-1 when none: missing, only the header, or unreadable). A running cell may be
+// writing its last line: only whole lines (ended by a newline) count.
 long long curve_last_step(const fs::path& dir) {
-  const std::string last = tail_of(dir / "curve.csv", 1);
+  std::ifstream in(dir / "curve.csv", std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto end = text.rfind('\n');
+  if (end == std::string::npos || end == 0) return -1;
+  const auto before = text.rfind('\n', end - 1);
+  const std::size_t begin = before == std::string::npos ? 0 : before + 1;
+  const std::string last = text.substr(begin, end - begin);
   const auto comma = last.find(',');
   if (last.empty() || comma == std::string::npos) return -1;
   try {

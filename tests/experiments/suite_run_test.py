@@ -265,6 +265,10 @@ class SuiteTest(unittest.TestCase):
             (cell / "curve.csv").write_text(curve + "1000" + curve.splitlines()[-1][len("500"):] + "\n")
             text, full, _ = status()
             self.assertIn("running  mt10/mt_bc_d10_s1: step 1000 of 1000", text)
+            # A line being written (no newline yet) is not read.
+            with (cell / "curve.csv").open("a") as f:
+                f.write("1250,0.0")
+            self.assertIn("running  mt10/mt_bc_d10_s1: step 1000 of 1000", status()[0])
         (cell / "curve.csv").write_text(curve)
         training = left - full
         self.assertGreater(training, 0)
