@@ -4,9 +4,9 @@ new_task grids): per (set, new task, method, demonstrations of the new task) the
 interval over seeds; paired differences of transfer from each other method, and summed up across the tasks (per set
 and over all: how often above and below, the mean, how many with p < 0.05 before and after Holm); the training cost
 (the best-validation step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside);
-and which modules the new task picks: per seed its most used ones next to its named neighbour's in the source run, and how far its usage is
-(total variation) from the neighbour's, from every other trained task's and from the trained tasks' mean; per count how
-often the neighbour is the nearest trained task against chance.
+and which modules the new task picks: per seed its most used ones next to its named neighbour's in the source run,
+and how far its usage is (total variation) from the neighbour's, from every other trained task's and from the trained
+tasks' mean; per count how often the neighbour is the nearest trained task against chance.
 
     python3 experiments/suites/transfer_table.py results/transfer --out results/transfer/report
 
