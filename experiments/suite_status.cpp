@@ -53,23 +53,12 @@ long long curve_last_step(const fs::path& dir) {
   }
 }
 
-std::string curve_progress(const fs::path& dir, long long steps) {
-  const long long step = curve_last_step(dir);
+std::string progress_text(long long step, long long steps) {
   return step < 0 ? "" : "step " + std::to_string(step) + " of " + std::to_string(steps);
 }
 
 double share_of(long long step, long long steps) {
   return step <= 0 || steps <= 0 ? 0.0 : std::min(1.0, static_cast<double>(step) / static_cast<double>(steps));
-}
-
-// The share of a resumable cell's training that it resumes from: last.ckpt's step (its curve may record more, which a
-// resume truncates); 0 when the checkpoint cannot say.
-double resumable_share(const fs::path& dir, long long steps) {
-  try {
-    return share_of(core::trained_steps(dir.string()), steps);
-  } catch (const std::exception&) {
-    return 0.0;
-  }
 }
 
 // A finished cell's files but its .lock, temporaries and last.ckpt (what resuming needs; a finished cell never resumes,
@@ -215,8 +204,9 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     set_cost(s, dir, *result);
   } else if (cell_is_locked(dir)) {
     s.state = "running";
-    s.detail = curve_progress(dir, steps);
-    s.trained = share_of(curve_last_step(dir), steps);
+    const long long step = curve_last_step(dir);
+    s.detail = progress_text(step, steps);
+    s.trained = share_of(step, steps);
   } else if (fs::exists(dir / "error.json")) {
     s.state = "failed";
     try {
@@ -228,8 +218,14 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     }
   } else if (fs::exists(dir / "last.ckpt")) {
     s.state = "started";
-    s.detail = "resumable at its last checkpoint; " + curve_progress(dir, steps);
-    s.trained = resumable_share(dir, steps);
+    // It resumes from last.ckpt's step (its curve may record more, which a resume truncates).
+    try {
+      const long long step = core::trained_steps(dir.string());
+      s.detail = "resumable at its last checkpoint, " + progress_text(step, steps);
+      s.trained = share_of(step, steps);
+    } catch (const std::exception& e) {
+      s.detail = std::string("its last checkpoint cannot be read, so it cannot resume: ") + e.what();
+    }
   } else {
     s.state = "left";
   }
@@ -257,8 +253,7 @@ std::optional<TimeLeft> time_left(const Suite& suite, const std::vector<CellStat
     if ((states[i].state == "done" && !again.finished.count(name)) || states[i].state == "dropped") continue;
     try {
       const CostTable::CellCost cost = costs.cell_cost(suite.cells[i]);
-      const double trained = again.finished.count(name) || again.restarted.count(name) ? 0.0 : states[i].trained;
-      left_cells.emplace_back(i, cost.total() - trained * cost.training);
+      left_cells.emplace_back(i, cost.total() - states[i].trained * cost.training);
       time.table += left_cells.back().second;
     } catch (const std::exception&) {
       return std::nullopt;
@@ -364,9 +359,11 @@ int run_suite_status(const SuiteStatusOptions& options) {
     if (again.finished.count(cell.name))
       best.detail += std::string(best.detail.empty() ? "" : "; ") +
                      "runs again (the source run's checkpoint is gone while cells that start from it are left)";
-    if (again.restarted.count(cell.name) && best.state != "left")
+    if (again.restarted.count(cell.name) && best.state != "left") {
       best.detail += std::string(best.detail.empty() ? "" : "; ") +
                      "starts over (its source runs again: the source run's checkpoint is gone)";
+      best.trained = 0.0;
+    }
     counts[best.state] += 1;
     if (!by_grid.count(cell.grid)) grids.push_back(cell.grid);
     by_grid[cell.grid][best.state] += 1;

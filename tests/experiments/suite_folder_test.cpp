@@ -142,27 +142,28 @@ class SourceGroups : public TempFolderTest {
   std::set<fs::path> retire(const std::set<std::string>& dropped = {}) const {
     return retire_sources_without_checkpoint(dir_, config(dropped));
   }
-  // What status says runs again, read before retire() runs: the same cells, by short name.
-  std::set<std::string> predicted(const std::set<std::string>& dropped = {},
-                                  const std::vector<fs::path>& more_dirs = {}) const {
+  // What status says runs again, read before retire() runs, over this folder and `more_dirs`.
+  CellsRunAgain run_again(const std::set<std::string>& dropped = {},
+                          const std::vector<fs::path>& more_dirs = {}) const {
     std::set<std::string> done;
     for (const auto& c : suite_.cells)
       if (finished(c.name.substr(2))) done.insert(c.name);
     std::vector<fs::path> dirs{dir_};
     dirs.insert(dirs.end(), more_dirs.begin(), more_dirs.end());
-    std::set<std::string> again;
-    for (const auto& name : cells_to_run_again(config(dropped), done, dirs).finished) again.insert(name.substr(2));
-    return again;
+    return cells_to_run_again(config(dropped), done, dirs);
   }
-  // The unfinished cells of the groups that run again, which start from nothing (by short name).
-  std::set<std::string> restarted() const {
-    std::set<std::string> done;
-    for (const auto& c : suite_.cells)
-      if (finished(c.name.substr(2))) done.insert(c.name);
+  static std::set<std::string> short_names(const std::set<std::string>& names) {
     std::set<std::string> out;
-    for (const auto& name : cells_to_run_again(config(), done, {dir_}).restarted) out.insert(name.substr(2));
+    for (const auto& name : names) out.insert(name.substr(2));
     return out;
   }
+  // The finished cells that run again (by short name).
+  std::set<std::string> predicted(const std::set<std::string>& dropped = {},
+                                  const std::vector<fs::path>& more_dirs = {}) const {
+    return short_names(run_again(dropped, more_dirs).finished);
+  }
+  // The unfinished cells of the groups that run again, which start from nothing (by short name).
+  std::set<std::string> restarted() const { return short_names(run_again().restarted); }
   std::set<std::string> retired_cells() const {
     std::set<std::string> out;
     for (const auto& c : suite_.cells)

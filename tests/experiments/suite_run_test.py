@@ -354,6 +354,8 @@ class SuiteTest(unittest.TestCase):
         (cells / "mt10/maps_d2_s1/best.ckpt").write_bytes(b"")
         # A valid result.json is the cell's whole record (its run config included): damage beside it is not redone.
         (cells / "gravity/mt_bc_d2_s1/config.json").write_text("{")
+        self.assertRegex(maps("suite", "status", out).stdout,
+                         r"started  mt10/maps_d2_s1: its last checkpoint cannot be read, so it cannot resume: .+")
         proc = maps("suite", "run", TINY, "--out", out)
         self.assertIn("6 finished before, 3 to run", proc.stdout)
         self.assertIn("gravity/maps_d2_s0", proc.stdout)
@@ -394,6 +396,11 @@ class SuiteTest(unittest.TestCase):
         self.assertTrue((cell / "last.ckpt").exists() and (cell / "best.ckpt").exists())
         self.assertEqual(json.loads((cell / "error.json").read_text())["stage"], "eval")
         (cell / "eval.json").rmdir()
+        # Without its error record the cell is a resumable one, at last.ckpt's step (its training finished).
+        (cell / "error.json").unlink()
+        steps = json.loads((cell / "config.json").read_text())["train"]["steps"]
+        self.assertIn(f"started  mt10/maps_d2_s0: resumable at its last checkpoint, step {steps} of {steps}",
+                      maps("suite", "status", out).stdout)
         proc = maps("suite", "run", TINY, "--out", out)
         self.assertIn("8 finished before, 1 to run", proc.stdout)
         self.assertIn("resumed from", (cell / "train.log").read_text())
