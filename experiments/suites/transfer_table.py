@@ -3,7 +3,8 @@
 new_task grids): per (set, new task, method, demonstrations of the new task) the new task's score, mean +- 95% t
 interval over seeds; paired differences of transfer from each other method, and summed up across the tasks (per set
 and over all: how often above and below, the mean, how many with p < 0.05 before and after Holm); the training cost
-(the best-validation step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside);
+(the best-validation step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside;
+per task and summed up per set and method);
 and which modules the new task picks: per seed its most used ones next to its named neighbour's in the source run,
 and how far its usage is (total variation) from the neighbour's, from every other trained task's and from the trained
 tasks' mean; per count how often the neighbour is the nearest trained task against chance.
@@ -298,6 +299,46 @@ def across_lines(across):
     return lines + [""]
 
 
+Cost = namedtuple("Cost", "set method best_step to_best training cpu")
+SOURCE = "source"  # the Cost.method of a transfer's source run (MAPS without the new task)
+
+
+def cost_lines(costs):
+    """The training cost summed up per set and method over the new tasks, counts and seeds: the best-validation step
+    and the seconds to reach it and of the whole training (medians: a transfer that kept its start costs nothing to
+    its best step), with each transfer source run once beside."""
+    if not costs:
+        return []
+    lines = ["## Training cost across the tasks", "",
+             "Per set and method, over its new tasks, every count and seed (the tasks' cost tables above, cell by "
+             "cell): the best-validation step, the seconds of training to reach it and of the whole training, median "
+             "(range), one thread; CPU seconds from curve.csv where every cell of a task has them, else wall seconds "
+             "(said in the row). The source run a transfer starts from (MAPS on the set without the new task) is "
+             "listed once per seed and new task: it serves every count and both transfer arms.", "",
+             "| set | method | cells | best step | seconds to the best step | training seconds |",
+             "|---|---|---|---|---|---|"]
+
+    def spread(values):
+        known = [v for v in values if v is not None]
+        if not known:
+            return "-"
+        text = seconds_text(statistics.median(known))
+        if min(known) != max(known):
+            text += f" ({seconds_text(min(known))}-{seconds_text(max(known))})"
+        return text + ("" if len(known) == len(values) else f" ({len(known)} of {len(values)} known)")
+
+    for set_name in sorted({c.set for c in costs}):
+        methods = ordered({c.method for c in costs if c.set == set_name and c.method != SOURCE})
+        for method in methods + ([SOURCE] if any(c.set == set_name and c.method == SOURCE for c in costs) else []):
+            group = [c for c in costs if (c.set, c.method) == (set_name, method)]
+            wall = sum(not c.cpu for c in group)
+            name = "MAPS without the new task (transfer's source)" if method == SOURCE else name_of(method)
+            lines.append(f"| {set_name} | {name} | {len(group)} | {steps_text([c.best_step for c in group])} | "
+                         f"{spread([c.to_best for c in group])} | {spread([c.training for c in group])}"
+                         + (f" ({wall} of {len(group)} wall seconds)" if wall else "") + " |")
+    return lines + [""]
+
+
 def rerun_score(cell):
     """What the cells-run-twice comparison scores: a new-task cell's score on its new task, else its mean."""
     task = new_task_of(cell)
@@ -351,6 +392,7 @@ def main():
     tasks = sorted({(s, t) for s, t, _, _ in rows})
     figure_data = {}
     across = []  # every paired difference of a transfer from another method, for the summary across the tasks
+    costs = []  # every counted cell's training cost, and each transfer source's once, for the summary per set
     for set_name, task in tasks:
         methods = ordered({m for s, t, m, _ in rows if (s, t) == (set_name, task)})
         counts = sorted({d for s, t, _, d in rows if (s, t) == (set_name, task)})
@@ -426,6 +468,10 @@ def main():
                                  f"{mean_of([clock(c, c.steps) for c in cells])} |")
         held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts
                                            for cell in rows.get((set_name, task, m, d), [])) if c}.values())
+        for method in methods:
+            costs += [Cost(set_name, method, c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
+                      for d in counts for c in rows.get((set_name, task, method, d), [])]
+        costs += [Cost(set_name, SOURCE, c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu) for c in held]
         if held:
             lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
                           f"at {held[0].demos} demonstrations): best step {steps_text([c.best_step for c in held])}, "
@@ -485,6 +531,7 @@ def main():
             lines += per_seed
         lines.append("")
     lines += across_lines(across)
+    lines += cost_lines(costs)
     lines += rerun_lines(suite, left_out)
     unfinished = not_finished_lines(suite)
     if unfinished:

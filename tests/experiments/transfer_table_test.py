@@ -166,7 +166,7 @@ class TransferTableTest(unittest.TestCase):
                                  "0.000"]])
 
     def test_across_the_tasks_sums_up_the_paired_differences(self):
-        across = self.md[self.md.index("## Across the tasks"):self.md.index("## Cells run twice")]
+        across = self.md[self.md.index("## Across the tasks"):self.md.index("## Training cost across the tasks")]
         # The two differences above: means +0.15 and +0.30 (both above; mean of means 0.225), p 0.205 and 0.000 (one
         # below 0.05, before and after Holm), interval half-widths 0.64 and 0.00 (median 0.32). One set: no "all" row.
         self.assertEqual(rows_of(across, ["MAPS transfer", "Single BC (new task alone)"]),
@@ -194,6 +194,16 @@ class TransferTableTest(unittest.TestCase):
                          ["Single BC (new task alone)", "2", "2000", "-", "5.0", "5.0"])
         self.assertIn("MAPS transfer starts from a run without 0.5 (3 seeds, the other tasks at 10 demonstrations): "
                       "best step 5000, 100 CPU seconds to it, 400 of training", self.md)
+
+    def test_cost_across_the_tasks_is_per_set_and_method_with_each_source_once(self):
+        cost = self.md[self.md.index("## Training cost across the tasks"):self.md.index("## Cells run twice")]
+        # Transfer's 5 cells: best steps 0, 400, 800, 1000, 1400 (0, 1, 2, 2.5, 3.5 CPU s); Single BC's 5 finished:
+        # 600, 1000, 2000, 2000, 2000 (1.5, 2.5, 5, 5, 5 s); every cell trains 2000 steps (5 s); the 3 sources once
+        # each, best at 5000 (100 s) of 20000 (400 s).
+        self.assertEqual(rows_of(cost, ["gravity"]),
+                         [["gravity", "MAPS transfer", "5", "800 (0-1400)", "2.0 (0.0-3.5)", "5.0"],
+                          ["gravity", "Single BC (new task alone)", "5", "2000 (600-2000)", "5.0 (1.5-5.0)", "5.0"],
+                          ["gravity", "MAPS without the new task (transfer's source)", "3", "5000", "100", "400"]])
 
     def test_module_summary_leaves_out_seeds_that_kept_the_start_and_gives_chance(self):
         summary = rows_of(self.md, ["MAPS transfer", "1", "2 of 3"])
