@@ -4,7 +4,7 @@ new_task grids): per (set, new task, method, demonstrations of the new task) the
 interval over seeds; paired differences of transfer from each other method, and summed up across the tasks (per set
 and over all: how often above and below, the mean, how many with p < 0.05 before and after Holm); the training cost
 (the best-validation step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside;
-per task and summed up per set and method);
+per task and summed up per set and method; and the CPU-hours of the whole folder);
 and which modules the new task picks: per seed its most used ones next to its named neighbour's in the source run,
 and how far its usage is (total variation) from the neighbour's, from every other trained task's and from the trained
 tasks' mean; per count how often the neighbour is the nearest trained task against chance.
@@ -339,6 +339,41 @@ def cost_lines(costs):
     return lines + [""]
 
 
+def compute_lines(suite):
+    """What the whole suite folder cost: every finished cell (any grid) and every earlier result kept in a replaced/
+    folder, each at its compute_seconds (training from curve.csv over every attempt plus evaluation, where recorded),
+    per CPU model."""
+    counted = [(cell, "finished") for cell in suite.cells]
+    for path in sorted(suite.root.glob("cells/*/*/replaced/*/result.json")):
+        try:
+            counted.append((read_cell(path), "replaced"))
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError):
+            pass  # rerun_lines names it
+    if not counted:
+        return []
+    hours, hows, by_cpu = {"finished": 0.0, "replaced": 0.0}, {}, {}
+    count = {"finished": 0, "replaced": 0}
+    for cell, kind in counted:
+        seconds, how = cell.compute_seconds()
+        seconds = seconds or 0.0
+        hours[kind] += seconds / 3600
+        count[kind] += 1
+        hows[how] = hows.get(how, 0) + 1
+        cpu = " + ".join(cell.cpus) if cell.cpus else "not recorded"
+        by_cpu[cpu] = by_cpu.get(cpu, 0.0) + seconds / 3600
+    named = {"cpu": "CPU seconds of training from curve.csv plus evaluation",
+             "windows": "curve.csv's wall seconds of training plus evaluation",
+             "attempt": "the wall seconds of the attempt that finished the cell (no curve or evaluation time)"}
+    text = (f"The suite folder's compute: its {count['finished']} finished cells took {hours['finished']:.2f} "
+            "CPU-hours (one thread each)")
+    if count["replaced"]:
+        text += (f", and the {count['replaced']} earlier results of cells run twice (replaced/) another "
+                 f"{hours['replaced']:.2f}: {hours['finished'] + hours['replaced']:.2f} in all")
+    text += ("; timed by " + "; ".join(f"{named[h]}: {n}" for h, n in sorted(hows.items())) + "; per CPU model: "
+             + "; ".join(f"{cpu}: {h:.2f}" for cpu, h in sorted(by_cpu.items())) + ".")
+    return [text, ""]
+
+
 def rerun_score(cell):
     """What the cells-run-twice comparison scores: a new-task cell's score on its new task, else its mean."""
     task = new_task_of(cell)
@@ -532,6 +567,7 @@ def main():
         lines.append("")
     lines += across_lines(across)
     lines += cost_lines(costs)
+    lines += compute_lines(suite)
     lines += rerun_lines(suite, left_out)
     unfinished = not_finished_lines(suite)
     if unfinished:

@@ -205,6 +205,15 @@ class TransferTableTest(unittest.TestCase):
                           ["gravity", "Single BC (new task alone)", "5", "2000 (600-2000)", "5.0 (1.5-5.0)", "5.0"],
                           ["gravity", "MAPS without the new task (transfer's source)", "3", "5000", "100", "400"]])
 
+    def test_the_suites_compute_counts_every_cell_and_every_earlier_result(self):
+        # 3 sources at 400 CPU s of training + 1 s evaluation, 10 finished new-task cells at 5 + 1: 1263 s. The 5
+        # readable earlier results have no curve: their attempt's 1 wall second each (the damaged one is not read).
+        self.assertIn("The suite folder's compute: its 13 finished cells took 0.35 CPU-hours (one thread each), and "
+                      "the 5 earlier results of cells run twice (replaced/) another 0.00: 0.35 in all; timed by the "
+                      "wall seconds of the attempt that finished the cell (no curve or evaluation time): 5; CPU "
+                      "seconds of training from curve.csv plus evaluation: 13; per CPU model: Earlier CPU: 0.00; "
+                      "Fixture CPU: 0.35.", self.md)
+
     def test_module_summary_leaves_out_seeds_that_kept_the_start_and_gives_chance(self):
         summary = rows_of(self.md, ["MAPS transfer", "1", "2 of 3"])
         # Seed 1: TV 0.2 to 0.75 (nearest), 0.5 and 0.7 to the others, 0.27 to the mean; seed 2: 0.6, nearest 1.0
