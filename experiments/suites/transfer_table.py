@@ -208,9 +208,6 @@ def rerun_lines(suite, left_out):
     if not pairs and not waiting:
         return []
 
-    def cpu(cell):
-        return " + ".join(cell.cpus) if cell.cpus else "not recorded"
-
     lines = ["## Cells run twice", "",
              "The results keep each cell's result.json and curve.csv, not its checkpoints. A source run whose "
              "best.ckpt was gone while transfers from it were left ran again, and so did every transfer that had "
@@ -222,7 +219,7 @@ def rerun_lines(suite, left_out):
     if pairs:
         lines += ["| cell | CPU (first; second) | best step | best validation loss | score |", "|---|---|---|---|---|"]
     for old, new in sorted(pairs, key=lambda p: (p[1].method != "maps", p[1].name)):
-        lines.append(f"| `{new.name}` | {cpu(old)}; {cpu(new)} | {old.best_step} -> {new.best_step} | "
+        lines.append(f"| `{new.name}` | {cpu_model(old)}; {cpu_model(new)} | {old.best_step} -> {new.best_step} | "
                      f"{best_loss(old):.6g} -> {best_loss(new):.6g} | "
                      f"{rerun_score(old):.2f} -> {rerun_score(new):.2f} |")
     sources = [(o, n) for o, n in pairs if n.method == "maps"]
@@ -299,24 +296,25 @@ def across_lines(across):
     return lines + [""]
 
 
-Cost = namedtuple("Cost", "set method best_step to_best training cpu")
+Cost = namedtuple("Cost", "set method model best_step to_best training cpu")
 SOURCE = "source"  # the Cost.method of a transfer's source run (MAPS without the new task)
 
 
 def cost_lines(costs):
     """The training cost summed up per set and method over the new tasks, counts and seeds: the best-validation step
     and the seconds to reach it and of the whole training (medians: a transfer that kept its start costs nothing to
-    its best step), with each transfer source run once beside."""
+    its best step), with each transfer source run once beside; a row per CPU model, as seconds are a machine's."""
     if not costs:
         return []
     lines = ["## Training cost across the tasks", "",
              "Per set and method, over its new tasks, every count and seed (the tasks' cost tables above, cell by "
              "cell): the best-validation step, the seconds of training to reach it and of the whole training, median "
              "(range), one thread; CPU seconds from curve.csv where every cell of a task has them, else wall seconds "
-             "(said in the row). The source run a transfer starts from (MAPS on the set without the new task) is "
-             "listed once per seed and new task: it serves every count and both transfer arms.", "",
-             "| set | method | cells | best step | seconds to the best step | training seconds |",
-             "|---|---|---|---|---|---|"]
+             "(said in the row); a row per CPU model the cells ran on, as one machine's second is not another's. The "
+             "source run a transfer starts from (MAPS on the set without the new task) is listed once per seed and "
+             "new task: it serves every count and both transfer arms.", "",
+             "| set | method | CPU | cells | best step | seconds to the best step | training seconds |",
+             "|---|---|---|---|---|---|---|"]
 
     def spread(values):
         known = [v for v in values if v is not None]
@@ -330,13 +328,20 @@ def cost_lines(costs):
     for set_name in sorted({c.set for c in costs}):
         methods = ordered({c.method for c in costs if c.set == set_name and c.method != SOURCE})
         for method in methods + ([SOURCE] if any(c.set == set_name and c.method == SOURCE for c in costs) else []):
-            group = [c for c in costs if (c.set, c.method) == (set_name, method)]
-            wall = sum(not c.cpu for c in group)
             name = "MAPS without the new task (transfer's source)" if method == SOURCE else name_of(method)
-            lines.append(f"| {set_name} | {name} | {len(group)} | {steps_text([c.best_step for c in group])} | "
-                         f"{spread([c.to_best for c in group])} | {spread([c.training for c in group])}"
-                         + (f" ({wall} of {len(group)} wall seconds)" if wall else "") + " |")
+            for model in sorted({c.model for c in costs if (c.set, c.method) == (set_name, method)}):
+                group = [c for c in costs if (c.set, c.method, c.model) == (set_name, method, model)]
+                wall = sum(not c.cpu for c in group)
+                lines.append(f"| {set_name} | {name} | {model} | {len(group)} | "
+                             f"{steps_text([c.best_step for c in group])} | {spread([c.to_best for c in group])} | "
+                             f"{spread([c.training for c in group])}"
+                             + (f" ({wall} of {len(group)} wall seconds)" if wall else "") + " |")
     return lines + [""]
+
+
+def cpu_model(cell):
+    """The CPU model(s) a cell's result names ("not recorded" when none)."""
+    return " + ".join(cell.cpus) if cell.cpus else "not recorded"
 
 
 def compute_lines(suite):
@@ -359,8 +364,7 @@ def compute_lines(suite):
         hours[kind] += seconds / 3600
         count[kind] += 1
         hows[how] = hows.get(how, 0) + 1
-        cpu = " + ".join(cell.cpus) if cell.cpus else "not recorded"
-        by_cpu[cpu] = by_cpu.get(cpu, 0.0) + seconds / 3600
+        by_cpu[cpu_model(cell)] = by_cpu.get(cpu_model(cell), 0.0) + seconds / 3600
     named = {"cpu": "CPU seconds of training from curve.csv plus evaluation",
              "windows": "curve.csv's wall seconds of training plus evaluation",
              "attempt": "the wall seconds of the attempt that finished the cell (no curve or evaluation time)"}
@@ -504,9 +508,10 @@ def main():
         held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts
                                            for cell in rows.get((set_name, task, m, d), [])) if c}.values())
         for method in methods:
-            costs += [Cost(set_name, method, c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
+            costs += [Cost(set_name, method, cpu_model(c), c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
                       for d in counts for c in rows.get((set_name, task, method, d), [])]
-        costs += [Cost(set_name, SOURCE, c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu) for c in held]
+        costs += [Cost(set_name, SOURCE, cpu_model(c), c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
+                  for c in held]
         if held:
             lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
                           f"at {held[0].demos} demonstrations): best step {steps_text([c.best_step for c in held])}, "

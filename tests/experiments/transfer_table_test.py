@@ -117,6 +117,11 @@ def write_suite(root):
             unfinished.mkdir(parents=True)
             (unfinished / "result.json").write_text(json.dumps(dict(result, cell=dict(
                 result["cell"], name="gravity/transfer-new-0.5_d2_s2"))))
+    # One cell ran on another machine: the cost summary gives it a row of its own.
+    other = root / "cells" / "gravity" / "single_bc-new-0.5_d2_s2" / "result.json"
+    result = json.loads(other.read_text())
+    result.update(cpu="Other CPU", training_attempts=[{"cpu": "Other CPU"}])
+    other.write_text(json.dumps(result))
     damaged = root / "cells" / "gravity" / "transfer-new-0.5_d2_s0" / "replaced" / "2025-12-30T00-00-00Z"
     damaged.mkdir(parents=True)
     (damaged / "result.json").write_text("{")
@@ -183,7 +188,8 @@ class TransferTableTest(unittest.TestCase):
         before = self.md[:self.md.index("Training cost")]
         # 10 finished new-task cells and the 3 source runs, each once (a source serves its seed at every count).
         finished = sum(outcome is not None for outcome in CELLS.values())
-        self.assertIn(f"names both): Fixture CPU: {finished + 3}.\n", before[before.rindex("Machines ("):])
+        self.assertIn(f"names both): Fixture CPU: {finished + 3 - 1}; Other CPU: 1.\n",
+                      before[before.rindex("Machines ("):])
         self.assertEqual(rows_of(cost, ["MAPS transfer", "1"])[0],
                          ["MAPS transfer", "1", "400 (0-800)", "1 of 3", "1.0", "5.0"])
         self.assertEqual(rows_of(cost, ["MAPS transfer", "2"])[0],
@@ -197,13 +203,16 @@ class TransferTableTest(unittest.TestCase):
 
     def test_cost_across_the_tasks_is_per_set_and_method_with_each_source_once(self):
         cost = self.md[self.md.index("## Training cost across the tasks"):self.md.index("## Cells run twice")]
-        # Transfer's 5 cells: best steps 0, 400, 800, 1000, 1400 (0, 1, 2, 2.5, 3.5 CPU s); Single BC's 5 finished:
-        # 600, 1000, 2000, 2000, 2000 (1.5, 2.5, 5, 5, 5 s); every cell trains 2000 steps (5 s); the 3 sources once
-        # each, best at 5000 (100 s) of 20000 (400 s).
+        # Transfer's 5 cells: best steps 0, 400, 800, 1000, 1400 (0, 1, 2, 2.5, 3.5 CPU s); Single BC's 4 finished on
+        # the fixture's CPU: 600, 1000, 2000, 2000 (1.5, 2.5, 5, 5 s), and 1 on another (2000: 5 s); every cell trains
+        # 2000 steps (5 s); the 3 sources once each, best at 5000 (100 s) of 20000 (400 s).
         self.assertEqual(rows_of(cost, ["gravity"]),
-                         [["gravity", "MAPS transfer", "5", "800 (0-1400)", "2.0 (0.0-3.5)", "5.0"],
-                          ["gravity", "Single BC (new task alone)", "5", "2000 (600-2000)", "5.0 (1.5-5.0)", "5.0"],
-                          ["gravity", "MAPS without the new task (transfer's source)", "3", "5000", "100", "400"]])
+                         [["gravity", "MAPS transfer", "Fixture CPU", "5", "800 (0-1400)", "2.0 (0.0-3.5)", "5.0"],
+                          ["gravity", "Single BC (new task alone)", "Fixture CPU", "4", "1500 (600-2000)",
+                           "3.8 (1.5-5.0)", "5.0"],
+                          ["gravity", "Single BC (new task alone)", "Other CPU", "1", "2000", "5.0", "5.0"],
+                          ["gravity", "MAPS without the new task (transfer's source)", "Fixture CPU", "3", "5000",
+                           "100", "400"]])
 
     def test_the_suites_compute_counts_every_cell_and_every_earlier_result(self):
         # 3 sources at 400 CPU s of training + 1 s evaluation, 10 finished new-task cells at 5 + 1: 1263 s. The 5
@@ -212,7 +221,7 @@ class TransferTableTest(unittest.TestCase):
                       "the 5 earlier results of cells run twice (replaced/) another 0.00: 0.35 in all; timed by the "
                       "wall seconds of the attempt that finished the cell (no curve or evaluation time): 5; CPU "
                       "seconds of training from curve.csv plus evaluation: 13; per CPU model: Earlier CPU: 0.00; "
-                      "Fixture CPU: 0.35.", self.md)
+                      "Fixture CPU: 0.35; Other CPU: 0.00.", self.md)
 
     def test_module_summary_leaves_out_seeds_that_kept_the_start_and_gives_chance(self):
         summary = rows_of(self.md, ["MAPS transfer", "1", "2 of 3"])
