@@ -1,7 +1,7 @@
 #!/usr/bin/python3
-"""docs/transfer.md's score tables against the committed results: transfer_table.py on results/transfer must give
-every number the tables quote, and the table of all methods must have every method the results have all 5 seeds of,
-so that a table copied by hand, or left behind when more cells finish, fails here.
+"""docs/transfer.md's score, difference and cost tables against the committed results: transfer_table.py on
+results/transfer must give every number the tables quote, and the table of all methods must have every method the
+results have all 5 seeds of, so that a table copied by hand, or left behind when more cells finish, fails here.
 Run by ctest (tests/CMakeLists.txt)."""
 import pathlib
 import re
@@ -22,6 +22,7 @@ DOC_NAMES = {
     "MAPS from scratch": "MAPS from scratch (all tasks)",
     "Single BC": "Single BC (new task alone)",
     "MT-BC": "MT-BC (all tasks)",
+    "MAPS without the new task (transfer's source)": "MAPS without the new task (transfer's source)",
 }
 SCORE = re.compile(r"^(\d\.\d\d \+- \d\.\d\d) \((\d+)\)$")
 
@@ -63,21 +64,31 @@ def doc_rows(text):
     return rows
 
 
-ACROSS_HEADER = "| transfer | method | tasks |"
+ACROSS_HEADER = "| transfer | method | tasks |"  # the table of differences "Across the tasks"
+COST_HEADER = "| set | method | CPU |"  # the table "Training cost across the tasks"
 
 
-def across_rows(text):
-    """{(transfer, method, tasks): [the other cells]} of the rows of a table headed ACROSS_HEADER ("Across the tasks")."""
+def keyed_rows(text, header, key_cells):
+    """{(the first key_cells cells): [the other cells]} of the rows of every table whose first line starts with
+    header."""
     rows, in_table = {}, False
     for line in text.splitlines():
-        if line.startswith(ACROSS_HEADER):
+        if line.startswith(header):
             in_table = True
         elif in_table and line.startswith("|") and not line.startswith("|---"):
             row = cells(line)
-            rows[tuple(row[:3])] = row[3:]
+            rows[tuple(row[:key_cells])] = row[key_cells:]
         elif not line.startswith("|"):
             in_table = False
     return rows
+
+
+def across_rows(text):
+    return keyed_rows(text, ACROSS_HEADER, 3)
+
+
+def cost_rows(text):
+    return keyed_rows(text, COST_HEADER, 3)
 
 
 class TransferDoc(unittest.TestCase):
@@ -91,6 +102,7 @@ class TransferDoc(unittest.TestCase):
         report = (pathlib.Path(cls.out.name) / "transfer.md").read_text()
         cls.report = report_scores(report)
         cls.report_across = across_rows(report)
+        cls.report_cost = cost_rows(report)
 
     @classmethod
     def tearDownClass(cls):
@@ -132,6 +144,21 @@ class TransferDoc(unittest.TestCase):
                 for (task, name), scores in self.report.items():
                     if name in key[:2] and set_name in ("all", task.split("/")[0]):
                         self.assertTrue(all(seeds == "5" for _, seeds in scores), f"{task}, {name} lacks seeds")
+
+    def test_the_training_cost_across_the_tasks_is_the_results(self):
+        quoted = cost_rows(DOC.read_text())
+        self.assertGreaterEqual(len(quoted), 18, "the doc's table of training cost across the tasks was not found")
+        cells_of = {}
+        for (set_name, method, cpu), values in quoted.items():
+            with self.subTest(set=set_name, method=method, cpu=cpu):
+                key = (set_name, DOC_NAMES.get(method, method), cpu)
+                self.assertIn(key, self.report_cost, "no such row in transfer_table.py's summary")
+                self.assertEqual(values, self.report_cost[key])
+                cells_of[key[:2]] = cells_of.get(key[:2], 0) + int(values[0])
+        # Quoted once finished, every machine's row: 2 new tasks x 4 counts x 5 seeds, or a source run per task and
+        # seed.
+        for (set_name, method), count in cells_of.items():
+            self.assertEqual(count, 10 if "source" in method else 40, f"{set_name}, {method}: {count} cells quoted")
 
     def test_the_parser_reads_a_report_row(self):
         text = "## gravity/0.5\n\n| method | 1 demo | 2 demos |\n|---|---|---|\n| MT-BC (all tasks) | 0.24 +- 0.24 (5) " \
