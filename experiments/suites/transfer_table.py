@@ -4,7 +4,7 @@ new_task grids): per (set, new task, method, demonstrations of the new task) the
 interval over seeds; paired differences of transfer from each other method, and summed up across the tasks (per set
 and over all: how often above and below, the mean, how many with p < 0.05 before and after Holm); the training cost
 (the best-validation step and the training CPU seconds to reach it, from curve.csv; transfer's source run beside;
-per task and summed up per set and method; and the CPU-hours of the whole folder);
+per task and summed up per set and method; and the CPU-hours of the whole folder, as maps report's Compute);
 and which modules the new task picks: per seed its most used ones next to its named neighbour's in the source run,
 and how far its usage is (total variation) from the neighbour's, from every other trained task's and from the trained
 tasks' mean; per count how often the neighbour is the nearest trained task against chance.
@@ -27,7 +27,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from suite_results import SuiteError, load_suite, order, read_cell, same_where_both_say, METHOD_ORDER  # noqa: E402
 from suite_stats import ci95, fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
-from tables import machines_line  # noqa: E402
+from tables import compute_table, machines_line  # noqa: E402
 
 # The trained task each new task is nearest to (its neighbour in the set's parameter, or its counterpart).
 NEIGHBOUR = {"gravity/0.5": "gravity/0.75", "gravity/1.5": "gravity/1.25", "modified/big_foot": "modified/original",
@@ -175,20 +175,30 @@ def module_rows(cells, task, neighbour, by_folder, left_out):
     return rows
 
 
-def rerun_lines(suite, left_out):
+def earlier_results(suite):
+    """Every result.json kept in a cell's replaced/ folder (a cell run again), read: (path, cell) or, for one that
+    cannot be read, (path, the error)."""
+    out = []
+    for path in sorted(suite.root.glob("cells/*/*/replaced/*/result.json")):
+        try:
+            out.append((path, read_cell(path)))
+        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
+            out.append((path, e))
+    return out
+
+
+def rerun_lines(suite, earlier, left_out):
     """Cells run a second time (a source whose checkpoint was gone while transfers from it were left, with those
     transfers: experiments/suite_folder.h, retire_sources_without_checkpoint): each earlier result, kept in the cell's
     replaced/ folder, beside the result counted above, and how far they differ. Earlier results that cannot be
     compared go to left_out with the reason; those of cells not finished again yet are listed."""
     finished = {cell.folder.resolve(): cell for cell in suite.cells}
     pairs, waiting = [], []
-    for path in sorted(suite.root.glob("cells/*/*/replaced/*/result.json")):
+    for path, old in earlier:
         folder = path.parent.parent.parent
         name = f"{folder.parent.name}/{folder.name}"
-        try:
-            old = read_cell(path)
-        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError) as e:
-            left_out.append((str(path), f"an earlier result of the cell, unreadable ({type(e).__name__}: {e}):"
+        if isinstance(old, Exception):
+            left_out.append((str(path), f"an earlier result of the cell, unreadable ({type(old).__name__}: {old}):"
                              " not compared"))
             continue
         new = finished.get(folder.resolve())
@@ -344,38 +354,15 @@ def cpu_model(cell):
     return " + ".join(cell.cpus) if cell.cpus else "not recorded"
 
 
-def compute_lines(suite):
-    """What the whole suite folder cost: every finished cell (any grid) and every earlier result kept in a replaced/
-    folder, each at its compute_seconds (training from curve.csv over every attempt plus evaluation, where recorded),
-    per CPU model."""
-    counted = [(cell, "finished") for cell in suite.cells]
-    for path in sorted(suite.root.glob("cells/*/*/replaced/*/result.json")):
-        try:
-            counted.append((read_cell(path), "replaced"))
-        except (OSError, ValueError, KeyError, TypeError, AttributeError, IndexError):
-            pass  # rerun_lines names it
-    if not counted:
-        return []
-    hours, hows, by_cpu = {"finished": 0.0, "replaced": 0.0}, {}, {}
-    count = {"finished": 0, "replaced": 0}
-    for cell, kind in counted:
-        seconds, how = cell.compute_seconds()
-        seconds = seconds or 0.0
-        hours[kind] += seconds / 3600
-        count[kind] += 1
-        hows[how] = hows.get(how, 0) + 1
-        by_cpu[cpu_model(cell)] = by_cpu.get(cpu_model(cell), 0.0) + seconds / 3600
-    named = {"cpu": "CPU seconds of training from curve.csv plus evaluation",
-             "windows": "curve.csv's wall seconds of training plus evaluation",
-             "attempt": "the wall seconds of the attempt that finished the cell (no curve or evaluation time)"}
-    text = (f"The suite folder's compute: its {count['finished']} finished cells took {hours['finished']:.2f} "
-            "CPU-hours (one thread each)")
-    if count["replaced"]:
-        text += (f", and the {count['replaced']} earlier results of cells run twice (replaced/) another "
-                 f"{hours['replaced']:.2f}: {hours['finished'] + hours['replaced']:.2f} in all")
-    text += ("; timed by " + "; ".join(f"{named[h]}: {n}" for h, n in sorted(hows.items())) + "; per CPU model: "
-             + "; ".join(f"{cpu}: {h:.2f}" for cpu, h in sorted(by_cpu.items())) + ".")
-    return [text, ""]
+def compute_lines(suite, earlier):
+    """What the whole suite folder cost (tables.compute_table, as maps report's Compute): every finished cell of any
+    grid, and the earlier results kept in replaced/ (first runs of cells run again) apart."""
+    lines = ["## Compute", "", "The finished cells, every grid:", ""] + compute_table(suite.cells) + [""]
+    replaced = [cell for _, cell in earlier if not isinstance(cell, Exception)]
+    if replaced:
+        lines += ["The earlier results of cells run twice (`replaced/`, not counted in the tables above; an unreadable "
+                  "one is named under \"Cells run twice\"):", ""] + compute_table(replaced) + [""]
+    return lines
 
 
 def rerun_score(cell):
@@ -496,27 +483,29 @@ def main():
                       "demonstrations never beat it on validation; only a transfer starts from a policy):", "",
                   f"| method | demos | best step | kept the start | {unit} to the best step | training {unit} |",
                   "|---|---|---|---|---|---|"]
+        def cost_of(c, method):  # each cell's curve read once for this table and the summary across the tasks
+            return Cost(set_name, method, cpu_model(c), c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
+
         for method in methods:
             for d in counts:
                 cells = rows.get((set_name, task, method, d), [])
                 if cells:
                     kept = (f"{sum(c.best_step == 0 for c in cells)} of {len(cells)}"
                             if base_of(method) == "transfer" else "-")
+                    row_costs = [cost_of(c, method) for c in cells]
+                    costs += row_costs
                     lines.append(f"| {name_of(method)} | {d} | {steps_text([c.best_step for c in cells])} | {kept} | "
-                                 f"{mean_of([clock(c, c.best_step) for c in cells])} | "
-                                 f"{mean_of([clock(c, c.steps) for c in cells])} |")
+                                 f"{mean_of([c.to_best for c in row_costs])} | "
+                                 f"{mean_of([c.training for c in row_costs])} |")
         held = list({id(c): c for c in (source_of(cell, by_folder) for m in transfers for d in counts
                                            for cell in rows.get((set_name, task, m, d), [])) if c}.values())
-        for method in methods:
-            costs += [Cost(set_name, method, cpu_model(c), c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
-                      for d in counts for c in rows.get((set_name, task, method, d), [])]
-        costs += [Cost(set_name, SOURCE, cpu_model(c), c.best_step, clock(c, c.best_step), clock(c, c.steps), cpu)
-                  for c in held]
+        held_costs = [cost_of(c, SOURCE) for c in held]
+        costs += held_costs
         if held:
             lines += ["", f"MAPS transfer starts from a run without {short(task)} ({len(held)} seeds, the other tasks "
                           f"at {held[0].demos} demonstrations): best step {steps_text([c.best_step for c in held])}, "
-                          f"{mean_of([clock(c, c.best_step) for c in held])} {unit} to it, "
-                          f"{mean_of([clock(c, c.steps) for c in held])} of training; one such run per "
+                          f"{mean_of([c.to_best for c in held_costs])} {unit} to it, "
+                          f"{mean_of([c.training for c in held_costs])} of training; one such run per "
                           "seed serves every count of the new task."]
         neighbour = NEIGHBOUR.get(task)
         if neighbour is None and transfers:
@@ -571,9 +560,10 @@ def main():
             lines += per_seed
         lines.append("")
     lines += across_lines(across)
+    earlier = earlier_results(suite)
     lines += cost_lines(costs)
-    lines += compute_lines(suite)
-    lines += rerun_lines(suite, left_out)
+    lines += compute_lines(suite, earlier)
+    lines += rerun_lines(suite, earlier, left_out)
     unfinished = not_finished_lines(suite)
     if unfinished:
         lines += ["## Cells not finished", "", "The tables above count finished cells only.", ""] + unfinished

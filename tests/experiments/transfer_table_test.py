@@ -215,13 +215,22 @@ class TransferTableTest(unittest.TestCase):
                            "100", "400"]])
 
     def test_the_suites_compute_counts_every_cell_and_every_earlier_result(self):
-        # 3 sources at 400 CPU s of training + 1 s evaluation, 10 finished new-task cells at 5 + 1: 1263 s. The 5
-        # readable earlier results have no curve: their attempt's 1 wall second each (the damaged one is not read).
-        self.assertIn("The suite folder's compute: its 13 finished cells took 0.35 CPU-hours (one thread each), and "
-                      "the 5 earlier results of cells run twice (replaced/) another 0.00: 0.35 in all; timed by the "
-                      "wall seconds of the attempt that finished the cell (no curve or evaluation time): 5; CPU "
-                      "seconds of training from curve.csv plus evaluation: 13; per CPU model: Earlier CPU: 0.00; "
-                      "Fixture CPU: 0.35; Other CPU: 0.00.", self.md)
+        compute = self.md[self.md.index("## Compute"):self.md.index("## Cells run twice")]
+        finished, earlier = compute.split("The earlier results of cells run twice")
+        # 3 sources at 400 CPU s of training + 1 s evaluation (0.33 h, 6.7 minutes each), 10 finished new-task cells
+        # at 5 + 1 s: 1263 s in all. The 5 readable earlier results have no curve: their attempt's 1 wall second
+        # each (the damaged one is not read).
+        self.assertEqual(rows_of(finished, ["holdout"]),
+                         [["holdout", "gravity", "maps (without-0.5)", "3", "0.33", "6.7", "Fixture CPU (3)"]])
+        self.assertEqual(rows_of(finished, ["new_task_gravity", "gravity", "single_bc (new-0.5)"]),
+                         [["new_task_gravity", "gravity", "single_bc (new-0.5)", "5", "0.01", "0.1",
+                           "Fixture CPU (4), Other CPU (1)"]])
+        self.assertIn("In all: 0.4 CPU-hours over 13 finished cells", finished)
+        self.assertIn("Cells counted: 13 by training's CPU seconds from curve.csv.", finished)
+        self.assertIn("In all: 0.0 CPU-hours over 5 finished cells", earlier)
+        self.assertIn("Cells counted: 5 by the finishing attempt's wall seconds", earlier)
+        self.assertEqual(rows_of(earlier, ["new_task_gravity"]),
+                         [["new_task_gravity", "gravity", "transfer (new-0.5)", "4", "0.00", "0.0", "Earlier CPU (4)"]])
 
     def test_module_summary_leaves_out_seeds_that_kept_the_start_and_gives_chance(self):
         summary = rows_of(self.md, ["MAPS transfer", "1", "2 of 3"])
