@@ -214,6 +214,18 @@ class TransferTableTest(unittest.TestCase):
                           ["gravity", "MAPS without the new task (transfer's source)", "Fixture CPU", "3", "5000",
                            "100", "400"]])
 
+    def test_cost_across_the_tasks_says_what_the_curves_could_not_time(self):
+        sys.path.insert(0, str(SCRIPT.parent))
+        import transfer_table
+        costs = [transfer_table.Cost("mt10", "mt_bc", "A", 100, 1.0, 4.0, True),
+                 transfer_table.Cost("mt10", "mt_bc", "A", 300, None, None, True),  # a curve that cannot say
+                 transfer_table.Cost("mt10", "mt_bc", "B", 200, 2.0, 8.0, False)]  # timed by wall seconds
+        self.assertEqual(rows_of("\n".join(transfer_table.cost_lines(costs)), ["mt10"]),
+                         [["mt10", "MT-BC (all tasks)", "A", "2", "200 (100-300)", "1.0 (1 of 2 known)",
+                           "4.0 (1 of 2 known)"],
+                          ["mt10", "MT-BC (all tasks)", "B", "1", "200", "2.0", "8.0 (1 of 1 wall seconds)"]])
+        self.assertEqual(transfer_table.cost_lines([]), [])
+
     def test_the_suites_compute_counts_every_cell_and_every_earlier_result(self):
         compute = self.md[self.md.index("## Compute"):self.md.index("## Cells run twice")]
         finished, earlier = compute.split("The earlier results of cells run twice")
