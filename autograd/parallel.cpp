@@ -19,7 +19,9 @@ std::atomic<int> g_threads{1};
 }  // namespace
 
 void set_num_threads(int threads) {
-  if (threads < 1) throw std::invalid_argument("set_num_threads: threads must be >= 1, got " + std::to_string(threads));
+  if (threads < 1 || threads > kMaxThreads)
+    throw std::invalid_argument("set_num_threads: threads must be in [1, " + std::to_string(kMaxThreads) + "], got " +
+                                std::to_string(threads));
   g_threads.store(threads);
 }
 

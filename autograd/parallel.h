@@ -8,7 +8,12 @@
 // Eigen's own GEMM threading is off (EIGEN_DONT_PARALLELIZE, set for the whole build): ops split their work here.
 namespace maps::ag {
 
-// Sets the threads ops use from now on (>= 1; more than the machine's cores only adds overhead).
+// The most threads any tool starts for one job (ops, the evaluator, rollouts): a count beyond it is a typo (a
+// billion threads ended in std::terminate when the system refused to make them), and more threads than the
+// machine's cores only add overhead.
+inline constexpr int kMaxThreads = 256;
+
+// Sets the threads ops use from now on (1 to kMaxThreads).
 void set_num_threads(int threads);
 int num_threads();
 

@@ -2,15 +2,26 @@
 
 # maps_precompile_headers(<target> [<header>...])
 #
-# Precompiles Eigen/Core and the given headers for <target> (MAPS_PRECOMPILE_HEADERS): every translation unit
-# parsed them again, and the CI builds everything twice (the Release build took 676 s without and 461 s with them;
+# Precompiles Eigen/Core (where the target links Eigen) and the given headers for <target> (MAPS_PRECOMPILE_HEADERS):
+# every translation unit parsed them again, and the CI builds everything twice (the Release build took 676 s without and 461 s with them;
 # docs/reliability.md). Only third-party headers: a header of ours that forgets an include still fails
 # to compile in the installed-package test, which builds without them.
 function(maps_precompile_headers target)
   if(NOT MAPS_PRECOMPILE_HEADERS)
     return()
   endif()
-  target_precompile_headers(${target} PRIVATE <Eigen/Core> ${ARGN})
+  # Eigen/Core only where Eigen is on the include path: every layer but maps_io, which reads files and knows no
+  # matrices, brings it (directly or through another layer).
+  get_target_property(links ${target} LINK_LIBRARIES)
+  set(eigen "")
+  foreach(link IN LISTS links)
+    if(link STREQUAL "Eigen3::Eigen" OR (link MATCHES "^maps_" AND NOT link MATCHES "^maps_(io|warnings)$"))
+      set(eigen <Eigen/Core>)
+    endif()
+  endforeach()
+  if(eigen OR ARGN)
+    target_precompile_headers(${target} PRIVATE ${eigen} ${ARGN})
+  endif()
 endfunction()
 
 # maps_add_layer(<target> [EXCLUDE_DIRS <subfolders>...] [PUBLIC_DEPS <targets>...] [PRECOMPILE <headers>...])

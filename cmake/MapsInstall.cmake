@@ -1,12 +1,12 @@
 # `cmake --install build --prefix P`: the layer libraries (static), their headers under P/include/maps/ and a CMake
 # package, so that another project can do
 #   find_package(maps CONFIG REQUIRED)
-#   target_link_libraries(app PRIVATE maps::autograd)   # or maps::nn, maps::envs, maps::core
+#   target_link_libraries(app PRIVATE maps::autograd)   # or maps::io, maps::nn, maps::envs, maps::core
 # (tests/install/ builds such a project against an install in a temporary folder.)
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-set(_maps_installed maps_autograd maps_nn maps_envs maps_core)
+set(_maps_installed maps_io maps_autograd maps_nn maps_envs maps_core)
 # Eigen's heap blocks must be aligned alike in the library and in its users: built with -march=native (AVX-512:
 # 64-byte alignment, Eigen's own aligned malloc) and used from code built without it (16 bytes: plain malloc and
 # free), a matrix made on one side and freed on the other corrupts the heap. One bound for both sides, on the two
@@ -26,7 +26,7 @@ install(TARGETS ${_maps_installed} maps_warnings EXPORT mapsTargets
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps)
 # Headers under one prefix: include/maps/{autograd,nn,envs}/ and the core layer's folders (policies/, training/, ...)
 # beside them, included as "maps/autograd/tensor.h", "maps/policies/maps_policy.h".
-foreach(layer autograd nn envs)
+foreach(layer io autograd nn envs)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${layer}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps/${layer}
           FILES_MATCHING PATTERN "*.h" PATTERN "render" EXCLUDE)
 endforeach()

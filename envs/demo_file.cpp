@@ -17,6 +17,8 @@
 #include <utility>
 
 #include "envs/portable_random.h"
+#include "io/hdf5_self_contained.h"
+#include "io/json_input.h"
 
 namespace maps::envs {
 namespace {
@@ -367,7 +369,13 @@ class Reader {
       fail("", std::string("cannot open: ") + (truncated ? "the file is truncated" : "the file is damaged") +
                    (detail.empty() ? "" : " (HDF5: " + detail + ")"));
     }
-    return Handle(id, H5Fclose);
+    Handle file(id, H5Fclose);
+    try {
+      io::check_self_contained(id, file_);
+    } catch (const std::runtime_error& e) {
+      fail("", e.what());
+    }
+    return file;
   }
 
   bool exists(hid_t parent, const std::string& parent_path, const std::string& name) const {
@@ -738,10 +746,9 @@ void validate_demo_file(const DemoFile& f) {
     if (!names.insert(name).second) invalid("task_names lists '" + name + "' twice");
   }
   try {
-    const nlohmann::json parsed = nlohmann::json::parse(f.extra_json);
-    (void)parsed;
-  } catch (const nlohmann::json::exception& e) {
-    invalid(std::string("extra_json is not valid JSON: ") + e.what());
+    io::parse_json(f.extra_json, "extra_json");
+  } catch (const std::runtime_error& e) {
+    invalid(e.what());
   }
   Eigen::Index obs_dim = -1, act_dim = -1;
   for (std::size_t i = 0; i < f.demos.size(); ++i) {

@@ -1,4 +1,5 @@
 #include "envs/expert_policy.h"
+#include "io/json_input.h"
 
 #include <unistd.h>
 
@@ -150,9 +151,9 @@ void ExpertPolicy::save(const std::string& path) const {
   validate();
   json metadata;
   try {
-    metadata = json::parse(metadata_json);
-  } catch (const json::exception& e) {
-    throw std::invalid_argument(who(*this) + ": metadata_json is not valid JSON: " + e.what());
+    metadata = io::parse_json(metadata_json, who(*this) + ": metadata_json");
+  } catch (const std::runtime_error& e) {
+    throw std::invalid_argument(e.what());
   }
   json layers = json::array();
   for (std::size_t i = 0; i < weights.size(); ++i) {
@@ -196,12 +197,7 @@ ExpertPolicy ExpertPolicy::load(const std::string& path) {
   if (!in) throw std::runtime_error(where + ": cannot open (missing or unreadable)");
   std::ostringstream text;
   text << in.rdbuf();
-  json document;
-  try {
-    document = json::parse(text.str());
-  } catch (const json::exception& e) {
-    throw std::runtime_error(where + ": not valid JSON (truncated or damaged?): " + e.what());
-  }
+  const json document = io::parse_json(text.str(), where);
   const json& format = field(document, "format", where);
   if (!format.is_string() || format.get<std::string>() != kFormat) {
     throw std::runtime_error(where + ": field 'format' is not \"" + std::string(kFormat) + "\"");

@@ -7,6 +7,7 @@
 
 #include "envs/mt10/tasks.h"
 #include "envs/source_folders.h"
+#include "io/json_input.h"
 
 namespace maps::envs {
 
@@ -20,7 +21,12 @@ TaskExpert task_expert_from_policy(ExpertPolicy policy, std::string source) {
   expert.sample_action = [shared](const Eigen::VectorXd& obs, std::mt19937_64& rng) {
     return shared->sample_action(obs, rng);
   };
-  const auto metadata = nlohmann::json::parse(shared->metadata_json, nullptr, /*allow_exceptions=*/false);
+  nlohmann::json metadata;
+  try {
+    metadata = io::parse_json(shared->metadata_json, "expert " + expert.task + "'s metadata");
+  } catch (const std::runtime_error&) {
+    // The loader checked the metadata already; a documented return is optional.
+  }
   expert.documented_return =
       metadata.is_object() && metadata.contains("eval_return_mean") && metadata["eval_return_mean"].is_number()
           ? metadata["eval_return_mean"].get<double>()

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "io/json_input.h"
+
 namespace maps::experiments {
 
 void apply_overrides(nlohmann::json& config, const std::vector<std::string>& assignments) {
@@ -23,8 +25,15 @@ void apply_overrides(nlohmann::json& config, const std::vector<std::string>& ass
       if (part.empty())
         throw std::invalid_argument("--set '" + assignment + "': the key '" + key +
                                     "' has an empty part (keys look like train.steps)");
-    nlohmann::json value = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-    if (value.is_discarded()) value = text;
+    // A value that is not JSON is a string (method=mt_bc); one nested too deep is refused, not taken as a string.
+    nlohmann::json value;
+    try {
+      value = io::parse_json(text, "--set '" + key + "'");
+    } catch (const io::JsonTooDeep& e) {
+      throw std::invalid_argument(e.what());
+    } catch (const std::runtime_error&) {
+      value = text;
+    }
     nlohmann::json* node = &config;
     std::string path;
     for (std::size_t i = 0; i + 1 < parts.size(); ++i) {

@@ -11,6 +11,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "experiments/output_path.h"
 #include "experiments/run_folder.h"
 #include "maps/evaluation/evaluator.h"
 #include "maps/policies/maps_policy.h"
@@ -103,6 +104,8 @@ int run_eval(const EvalRunOptions& options) {
     if (kept.empty())
       throw std::runtime_error(options.run + " kept no step_<N>.ckpt (train it with train.keep_every > 0)");
   }
+  // A missing folder is load_trained_run's to name; an existing one must take the results before any work.
+  if (fs::is_directory(dir)) check_output_files_in("--run", options.run, {"eval.json", "eval_modules.json"});
   TrainedRun run = load_trained_run(options.run);
   const core::RunConfig& config = run.config;
   const core::DemoDataset& data = *run.data;

@@ -21,6 +21,7 @@
 #include "experiments/expert_eval.h"
 #include "experiments/provenance.h"
 #include "experiments/render.h"
+#include "experiments/schema_command.h"
 #include "experiments/suite_costs.h"
 #include "experiments/suite_run.h"
 #include "experiments/suite_status.h"
@@ -95,6 +96,8 @@ CLI::Validator range_check(double low, double high) {
 int main(int argc, char** argv) {
   const CLI::Validator positive = sign_check(false);
   const CLI::Validator non_negative = sign_check(true);
+  // 0: one per core; a count past ag::kMaxThreads is refused (a billion threads ended in std::terminate).
+  const CLI::Validator thread_count = integer_check(0, maps::ag::kMaxThreads);
 
   CLI::App app{"maps: multi-task imitation learning on a from-scratch autograd engine"};
   app.name("maps");
@@ -176,7 +179,7 @@ int main(int argc, char** argv) {
       ->check(seed_check())
       ->capture_default_str();
   collect_cmd->add_option("--threads", collect.threads, "Tasks rolled out at once (0: one per core)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
 
   maps::experiments::RenderOptions render;
@@ -231,7 +234,7 @@ int main(int argc, char** argv) {
       ->check(seed_check())
       ->capture_default_str();
   expert_eval_cmd->add_option("--threads", expert_eval.threads, "Tasks evaluated at once (0: one per core)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
   expert_eval_cmd->add_option("--out", expert_eval.out, "Also write the table to this JSON file");
   expert_eval_cmd->add_flag("--json", expert_eval.json, "Print the table as one JSON array (the text goes to stderr)");
@@ -256,7 +259,7 @@ int main(int argc, char** argv) {
   train_cmd
       ->add_option("--threads", train_run.threads,
                    "Op threads for the training steps (0: one per core; docs/performance.md)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
 
   maps::experiments::TransferOptions transfer;
@@ -281,7 +284,7 @@ int main(int argc, char** argv) {
   transfer_cmd->add_option("--steps", transfer.steps, "Training steps (default: the source run's)")
       ->check(integer_check(1, 1'000'000'000'000));
   transfer_cmd->add_option("--threads", transfer.threads, "Op threads (0: one per core)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
 
   maps::experiments::EvalRunOptions eval_run;
@@ -292,7 +295,7 @@ int main(int argc, char** argv) {
   eval_cmd->add_option("--episodes", eval_run.episodes, "Episodes per task (default: the run config's)")
       ->check(positive);
   eval_cmd->add_option("--threads", eval_run.threads, "Threads (0: one per core; default: the run config's)")
-      ->check(non_negative);
+      ->check(thread_count);
   eval_cmd->add_flag(
       "--checkpoints", eval_run.checkpoints,
       "Also evaluate every kept step_<N>.ckpt (train.keep_every): the paper's best-over-checkpoints rule");
@@ -312,7 +315,7 @@ int main(int argc, char** argv) {
       ->add_option("--method", bench_step.method, "The method whose step is timed, at its defaults (maps train --help)")
       ->capture_default_str();
   bench_step_cmd->add_option("--threads", bench_step.threads, "Threads (0: one per core)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
   bench_step_cmd->add_option("--seconds", bench_step.seconds, "Time spent in timed steps")
       ->check(positive)
@@ -329,7 +332,7 @@ int main(int argc, char** argv) {
       ->check(positive)
       ->capture_default_str();
   bench_eval_cmd->add_option("--threads", bench_eval.threads, "Evaluator threads (0: one per core)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
   bench_eval_cmd->add_option("--max-envs", bench_eval.max_envs, "Envs alive per task")
       ->check(positive)
@@ -350,7 +353,7 @@ int main(int argc, char** argv) {
                    "Only the cells with index % N == i (a transfer cell: its source's index)")
       ->capture_default_str();
   suite_plan_cmd->add_option("--jobs", suite_plan.jobs, "Cells at once, for the wall-time estimate (0: cores)")
-      ->check(non_negative);
+      ->check(thread_count);
   suite_plan_cmd->add_flag("--cells", suite_plan.list_cells, "List every cell");
   suite_plan_cmd->add_flag("--json", suite_plan.json, "Print one JSON object (every cell and the estimate)");
   suite_plan_cmd->add_option("--costs", suite_plan.costs, "Cost table (default: experiments/suites/costs.json)");
@@ -363,10 +366,10 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   suite_run_cmd->add_option("--out", suite_run.out, "Suite folder")->required();
   suite_run_cmd->add_option("--jobs", suite_run.jobs, "Cells at once (0: cores / threads)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
   suite_run_cmd->add_option("--threads", suite_run.threads, "Op threads per cell (0: one per core)")
-      ->check(non_negative)
+      ->check(thread_count)
       ->capture_default_str();
   suite_run_cmd
       ->add_option("--shard", suite_run.shard,
@@ -380,7 +383,7 @@ int main(int argc, char** argv) {
       suite_cmd->add_subcommand("prepare", "Collect the suite's missing demonstration files (before a cluster run)");
   suite_prepare_cmd->add_option("config", prepare_config, "Suite config (JSON)")->required()->check(CLI::ExistingFile);
   suite_prepare_cmd->add_option("--threads", prepare_threads, "Tasks rolled out at once (0: one per core)")
-      ->check(non_negative);
+      ->check(thread_count);
 
   maps::experiments::SuiteStatusOptions suite_status;
   CLI::App* suite_status_cmd =
@@ -443,6 +446,17 @@ int main(int argc, char** argv) {
   data_import_cmd->add_option("--obs-keys", data_import.obs_keys,
                               "robomimic: observation keys, comma-separated, in column order (default: all, sorted)");
 
+  maps::experiments::SchemaOptions schema;
+  CLI::App* schema_cmd = app.add_subcommand(
+      "schema", "Every key of an input with its type, default, range and meaning (docs/configs.md's table)");
+  schema_cmd
+      ->add_option("kind", schema.kind,
+                   "The input: run-config, suite-config, policy-checkpoint (best.ckpt's record) or "
+                   "training-checkpoint (last.ckpt's)")
+      ->required()
+      ->check(CLI::IsMember({"run-config", "suite-config", "policy-checkpoint", "training-checkpoint"}));
+  schema_cmd->add_flag("--markdown", schema.markdown, "The docs' markdown table instead of JSON");
+
   // Exit codes (docs/cli.md): 0 done, 1 the work failed (bad input files, a failed run), 2 the command line is wrong
   // (CLI11's own codes, 105-109 by kind, are folded into 2), 3 `suite run` left cells to another process.
   try {
@@ -478,6 +492,7 @@ int main(int argc, char** argv) {
     if (*report_cmd) return maps::experiments::run_report(report);
     if (*data_export_cmd) return maps::experiments::run_data_export(data_export);
     if (*data_import_cmd) return maps::experiments::run_data_import(data_import);
+    if (*schema_cmd) return maps::experiments::run_schema(schema);
   } catch (const maps::experiments::UsageError& e) {
     std::cerr << "maps: error: " << e.what() << "\n";
     return 2;

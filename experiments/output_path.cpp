@@ -43,4 +43,25 @@ void check_output_folder(const std::string& option, const std::string& dir) {
   check_writable_folder(option, dir, fs::path(dir));
 }
 
+void check_output_files_in(const std::string& option, const std::string& dir, const std::vector<std::string>& names,
+                           const std::vector<std::string>& appended) {
+  check_output_folder(option, dir);
+  auto check = [&](const std::string& name, bool append) {
+    const fs::path path = fs::path(dir) / name;
+    std::error_code error;
+    const fs::file_status status = fs::symlink_status(path, error);
+    if (!fs::exists(status)) return;
+    if (fs::is_directory(status))
+      throw std::runtime_error(option + " '" + dir + "': '" + path.string() + "' is a folder; the command writes a " +
+                               "file there (move the folder away)");
+    if (!fs::is_regular_file(fs::status(path, error)))
+      throw std::runtime_error(option + " '" + dir + "': '" + path.string() + "' is not a regular file; the command " +
+                               "writes a file there");
+    if (append && !std::ofstream(path, std::ios::app))
+      throw std::runtime_error(option + " '" + dir + "': cannot append to '" + path.string() + "'");
+  };
+  for (const std::string& name : names) check(name, false);
+  for (const std::string& name : appended) check(name, true);
+}
+
 }  // namespace maps::experiments

@@ -7,6 +7,8 @@
 #include <string>
 
 #include "envs/demo_file.h"
+#include "io/json_input.h"
+#include "maps/training/checkpoint_record.h"
 #include "nn/serialize.h"
 
 namespace maps::experiments {
@@ -15,15 +17,7 @@ void write_json_file(const std::string& path, const nlohmann::json& json) {
   nn::write_file_atomically(path, json.dump(2) + "\n");
 }
 
-nlohmann::json read_json_file(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot open '" + path + "'");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    throw std::runtime_error("'" + path + "' is not valid JSON: " + e.what());
-  }
-}
+nlohmann::json read_json_file(const std::string& path) { return io::read_json_file(path); }
 
 std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir) {
   if (config.init_run.empty()) return "";
@@ -39,15 +33,8 @@ core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::str
         (std::filesystem::path(init_run_folder(config, run_dir)) / config.init_checkpoint).string();
     if (!std::filesystem::exists(path))
       throw std::runtime_error("init.run: " + path + " does not exist (the run this one starts from)");
-    core::Standardizer standardizer;
-    try {
-      const nlohmann::json record = nlohmann::json::parse(nn::load_tensors(path).config).at("standardizer");
-      const std::vector<double> mean = record.at("mean"), stddev = record.at("std");
-      standardizer.mean = Eigen::Map<const Eigen::VectorXd>(mean.data(), static_cast<Eigen::Index>(mean.size()));
-      standardizer.std = Eigen::Map<const Eigen::VectorXd>(stddev.data(), static_cast<Eigen::Index>(stddev.size()));
-    } catch (const nlohmann::json::exception& e) {
-      throw std::runtime_error("init.run: " + path + " records no observation statistics (" + e.what() + ")");
-    }
+    const core::Standardizer standardizer =
+        core::read_policy_record(nn::load_tensors(path).config, "init.run: checkpoint " + path, -1).standardizer;
     try {
       data.use_standardizer(standardizer);
     } catch (const std::invalid_argument& e) {
@@ -70,33 +57,33 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config, run));
   const core::DemoDataset& data = *loaded.data;
   loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
+  const nn::Checkpoint saved = nn::load_tensors(best_path);
+  // The trainer's resume state (last.ckpt) in the place of a policy checkpoint is named for what it is.
+  if (core::record_format(saved.config) == core::kTrainingStateFormat)
+    throw std::runtime_error(best_path +
+                             " is a training state (as last.ckpt is: the policy with its optimiser), not a policy "
+                             "checkpoint: use best.ckpt or a kept step_<N>.ckpt");
+  // Sizes are compared after the tensors: a run evaluated on another set's demo file is named as such.
+  const core::PolicyRecord record = core::read_policy_record(saved.config, "checkpoint " + best_path, -1);
   try {
-    loaded.best = nlohmann::json::parse(nn::load(*loaded.policy, best_path));
-  } catch (const std::exception& e) {
-    // The trainer's resume state (last.ckpt) in the place of a policy checkpoint is named for what it is.
-    bool training_state = false;
-    try {
-      training_state = nlohmann::json::parse(nn::load_tensors(best_path).config).value("format", "") == "maps-train 1";
-    } catch (const std::exception&) {
-    }
-    if (training_state)
-      throw std::runtime_error(best_path +
-                               " is a training state (as last.ckpt is: the policy with its optimiser), not a policy "
-                               "checkpoint: use best.ckpt or a kept step_<N>.ckpt");
+    loaded.policy->load_state_dict(saved.tensors);
+  } catch (const std::invalid_argument& e) {
     throw std::runtime_error(run + " was not trained on demo file " + loaded.config.data_file + " (" + data.task_set() +
                              ": " + std::to_string(data.num_tasks()) + " tasks, observations " +
                              std::to_string(data.observation_size()) + ", actions " +
-                             std::to_string(data.action_size()) + "): " + e.what());
+                             std::to_string(data.action_size()) + "): checkpoint " + best_path + ": " + e.what());
   }
+  loaded.best = core::to_json(record);
   // The standardizer the policy was trained with; the demo file must still give the same one.
-  const std::vector<double> mean = loaded.best.at("standardizer").at("mean"),
-                            stddev = loaded.best.at("standardizer").at("std");
   const core::Standardizer& standardizer = data.standardizer();
-  for (std::size_t i = 0; i < mean.size(); ++i)
-    if (std::abs(mean[i] - standardizer.mean[static_cast<Eigen::Index>(i)]) > 1e-9 ||
-        std::abs(stddev[i] - standardizer.std[static_cast<Eigen::Index>(i)]) > 1e-9)
-      throw std::runtime_error(loaded.config.data_file + " is not the demo file " + run +
-                               " was trained on (its observation statistics differ)");
+  if (record.standardizer.size() != standardizer.size())
+    throw std::runtime_error("checkpoint " + best_path + ": its standardizer is for observations of " +
+                             std::to_string(record.standardizer.size()) + " entries, " + loaded.config.data_file +
+                             "'s have " + std::to_string(standardizer.size()));
+  if (((record.standardizer.mean - standardizer.mean).array().abs() > 1e-9).any() ||
+      ((record.standardizer.std - standardizer.std).array().abs() > 1e-9).any())
+    throw std::runtime_error(loaded.config.data_file + " is not the demo file " + run +
+                             " was trained on (its observation statistics differ)");
   loaded.policy->eval();
   loaded.policy->prepare_for_evaluation(data);
   return loaded;

@@ -3,6 +3,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "maps/data/demo_dataset.h"
 #include "maps/training/run_config.h"
@@ -10,6 +11,12 @@
 // A run folder (maps train / maps eval): config.json (the resolved config), last.ckpt, best.ckpt, curve.csv,
 // train.json (the training summary), eval.json (the evaluation).
 namespace maps::experiments {
+
+// The files of a run folder that `maps train` writes whole (through a temporary and a rename), and those it appends
+// to; `maps eval` writes eval.json (eval_modules.json with --each-module); kept steps are step_<N>.ckpt.
+inline const std::vector<std::string> kTrainWrites = {"config.json", "provenance.json", "last.ckpt", "best.ckpt",
+                                                      "train.json"};
+inline const std::vector<std::string> kTrainAppends = {"train.log", "curve.csv"};
 
 // Writes JSON atomically (nn::write_file_atomically: a temporary in the same folder, then rename).
 void write_json_file(const std::string& path, const nlohmann::json& json);

@@ -8,6 +8,8 @@
 
 #include "envs/task_sets.h"
 #include "experiments/run_folder.h"
+#include "experiments/suite_schema.h"
+#include "io/config_schema.h"
 #include "maps/training/run_config.h"
 
 namespace maps::experiments {
@@ -16,14 +18,6 @@ namespace {
 using Json = nlohmann::json;
 
 const std::vector<std::string> kSets = {"gravity", "modified", "mt10"};
-// Every registered method, and "transfer" (MAPS taught a held-out task from a trained run's modules).
-std::vector<std::string> suite_methods() {
-  std::vector<std::string> names;
-  for (const auto& method : core::policy_methods()) names.push_back(method.name);
-  names.push_back("transfer");
-  return names;
-}
-
 std::string joined(const std::vector<std::string>& names) {
   std::string out;
   for (const auto& name : names) out += (out.empty() ? "" : ", ") + name;
@@ -42,38 +36,12 @@ const Json& required(const Json& json, const std::string& where, const std::stri
   return json.at(key);
 }
 
-std::vector<std::string> names_of(const Json& json, const std::string& where) {
-  if (!json.is_array() || json.empty())
-    throw std::invalid_argument(where + ": expected a non-empty array of names, got " + json.dump());
-  std::vector<std::string> out;
-  for (const auto& item : json) {
-    if (!item.is_string()) throw std::invalid_argument(where + ": expected names (strings), got " + item.dump());
-    out.push_back(item.get<std::string>());
-  }
-  return out;
-}
-
-// A non-empty array of integers >= minimum, without repeats.
-template <typename T>
-std::vector<T> integers_of(const Json& json, const std::string& where, long long minimum) {
-  if (!json.is_array() || json.empty())
-    throw std::invalid_argument(where + ": expected a non-empty array of integers, got " + json.dump());
-  std::vector<T> out;
-  for (const auto& item : json) {
-    if (!item.is_number_integer() || item.get<long long>() < minimum)
-      throw std::invalid_argument(where + ": expected integers >= " + std::to_string(minimum) + ", got " + item.dump());
-    const T value = item.get<T>();
-    if (std::find(out.begin(), out.end(), value) != out.end())
-      throw std::invalid_argument(where + ": " + item.dump() + " is listed twice");
-    out.push_back(value);
-  }
-  return out;
-}
-
-int positive_int(const Json& json, const std::string& where) {
-  if (!json.is_number_integer() || json.get<long long>() < 1 || json.get<long long>() > 1000000)
-    throw std::invalid_argument(where + ": expected an integer >= 1, got " + json.dump());
-  return json.get<int>();
+// `value`, found at `path` of the suite config, checked against the schema's field `key` ("grids[].seeds").
+const Json& checked(const Json& value, const std::string& key, const std::string& path) {
+  io::Field field = suite_field(key);
+  field.key = path;
+  io::check_value(field, value, "");
+  return value;
 }
 
 bool is_plain_name(const std::string& name) {
@@ -89,18 +57,16 @@ SuiteSet parse_set(const std::string& name, const Json& json, const std::string&
   set.name = name;
   const Json& data = required(json, where, "data");
   check_keys(data, where + ".data", {"file", "collect_demos", "subsample"});
-  const Json& file = required(data, where + ".data", "file");
-  if (!file.is_string() || file.get<std::string>().empty())
-    throw std::invalid_argument(where + ".data.file: expected a path, got " + file.dump());
-  set.demo_file = file.get<std::string>();
+  set.demo_file =
+      checked(required(data, where + ".data", "file"), "sets.<set>.data.file", where + ".data.file").get<std::string>();
   if (data.contains("collect_demos"))
-    set.collect_demos = positive_int(data["collect_demos"], where + ".data.collect_demos");
-  if (data.contains("subsample")) set.subsample = positive_int(data["subsample"], where + ".data.subsample");
-  if (json.contains("demos")) set.demos = integers_of<int>(json["demos"], where + ".demos", 1);
-  if (json.contains("config")) {
-    if (!json["config"].is_object()) throw std::invalid_argument(where + ".config: expected a partial run config");
-    set.config = json["config"];
-  }
+    set.collect_demos =
+        checked(data["collect_demos"], "sets.<set>.data.collect_demos", where + ".data.collect_demos").get<int>();
+  if (data.contains("subsample"))
+    set.subsample = checked(data["subsample"], "sets.<set>.data.subsample", where + ".data.subsample").get<int>();
+  if (json.contains("demos"))
+    set.demos = checked(json["demos"], "sets.<set>.demos", where + ".demos").get<std::vector<int>>();
+  if (json.contains("config")) set.config = checked(json["config"], "sets.<set>.config", where + ".config");
   return set;
 }
 
@@ -111,9 +77,10 @@ std::vector<int> grid_demos(const Json& grid, const SuiteSet& set, const std::st
     return set.demos;
   }
   const Json& demos = grid["demos"];
-  if (demos.is_array()) return integers_of<int>(demos, where + ".demos", 1);
-  if (!demos.is_object())
-    throw std::invalid_argument(where + ".demos: expected an array of counts or an object of set: counts");
+  if (demos.is_array()) return checked(demos, "grids[].demos", where + ".demos").get<std::vector<int>>();
+  if (!demos.is_object() || demos.empty())
+    throw std::invalid_argument(where + ".demos: expected an array of counts or an object of set: counts, got " +
+                                demos.dump());
   for (const auto& [key, value] : demos.items())
     if (!std::count(kSets.begin(), kSets.end(), key))
       throw std::invalid_argument(where + ".demos: '" + key + "' is not a task set (known: " + joined(kSets) + ")");
@@ -122,7 +89,7 @@ std::vector<int> grid_demos(const Json& grid, const SuiteSet& set, const std::st
       throw std::invalid_argument(where + ".demos: has no counts for " + set.name + ", nor has sets." + set.name);
     return set.demos;
   }
-  return integers_of<int>(demos[set.name], where + ".demos." + set.name, 1);
+  return checked(demos[set.name], "grids[].demos", where + ".demos." + set.name).get<std::vector<int>>();
 }
 
 // A grid's task axis: none, tasks held out of training ("holdout"), or new tasks with few demonstrations each
@@ -154,7 +121,7 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
   if (!holdout && !fresh) return axis;
   axis.kind = holdout ? TaskAxis::Kind::kHoldout : TaskAxis::Kind::kNew;
   const std::string key = holdout ? "holdout" : "new_task";
-  axis.tasks = names_of(grid[key], at + "." + key);
+  axis.tasks = checked(grid[key], "grids[]." + key, at + "." + key).get<std::vector<std::string>>();
   for (const auto& task : axis.tasks) {
     bool found = false;
     for (const auto& set : set_names) {
@@ -164,31 +131,18 @@ TaskAxis task_axis(const Json& grid, const std::vector<std::string>& set_names, 
     if (!found) throw std::invalid_argument(at + "." + key + ": '" + task + "' is not a task of " + joined(set_names));
   }
   if (fresh) {
-    axis.others_demos = positive_int(required(grid, at, "others_demos"), at + ".others_demos");
-    if (grid.contains("freeze")) {
-      const Json& freeze = grid["freeze"];
-      if (!freeze.is_array()) throw std::invalid_argument(at + ".freeze: expected an array of parameter prefixes");
-      axis.freeze = freeze.empty() ? std::vector<std::string>{} : names_of(freeze, at + ".freeze");
-      // The choices of `maps transfer --freeze`: a source is a MAPS run, whose groups are its modules, its head and
-      // its selector, and the selector must learn the new task.
-      for (const auto& prefix : axis.freeze)
-        if (prefix != "modules" && prefix != "head")
-          throw std::invalid_argument(at + ".freeze: '" + prefix +
-                                      "' is not \"modules\" or \"head\" (MAPS's parameter groups that transfer can "
-                                      "freeze; the selector learns the new task)");
-    }
-    if (grid.contains("source_variant")) {
-      const Json& source = grid["source_variant"];
-      if (!source.is_string() || source.get<std::string>().empty())
-        throw std::invalid_argument(
-            at + ".source_variant: expected a variant name (\"base\" or one under \"variants\"), got " + source.dump());
-      axis.source_variant = source.get<std::string>();
-    }
+    axis.others_demos =
+        checked(required(grid, at, "others_demos"), "grids[].others_demos", at + ".others_demos").get<int>();
+    // The choices of `maps transfer --freeze`: a source is a MAPS run, whose groups are its modules, its head and
+    // its selector, and the selector must learn the new task.
+    if (grid.contains("freeze"))
+      axis.freeze = checked(grid["freeze"], "grids[].freeze", at + ".freeze").get<std::vector<std::string>>();
+    if (grid.contains("source_variant"))
+      axis.source_variant =
+          checked(grid["source_variant"], "grids[].source_variant", at + ".source_variant").get<std::string>();
     if (grid.contains("module_lr_scale")) {
-      const Json& scale = grid["module_lr_scale"];
-      if (!scale.is_number() || !(scale.get<double>() >= 0.0))
-        throw std::invalid_argument(at + ".module_lr_scale: expected a number >= 0, got " + scale.dump());
-      axis.module_lr_scale = scale.get<double>();
+      axis.module_lr_scale =
+          checked(grid["module_lr_scale"], "grids[].module_lr_scale", at + ".module_lr_scale").get<double>();
       if (axis.module_lr_scale != 1.0 &&
           std::find(axis.freeze.begin(), axis.freeze.end(), "modules") != axis.freeze.end())
         throw std::invalid_argument(at + ".module_lr_scale: the modules are frozen (freeze " + joined(axis.freeze) +
@@ -218,8 +172,9 @@ Suite parse_suite(const Json& json, const std::string& where) {
   check_keys(json, where, {"description", "defaults", "sets", "variants", "grids"});
   Suite suite;
   suite.source = json;
+  if (json.contains("description")) checked(json["description"], "description", where + ".description");
+  if (json.contains("defaults")) checked(json["defaults"], "defaults", where + ".defaults");
   const Json defaults = json.value("defaults", Json::object());
-  if (!defaults.is_object()) throw std::invalid_argument(where + ".defaults: expected a partial run config");
 
   const Json& sets = required(json, where, "sets");
   if (!sets.is_object() || sets.empty()) throw std::invalid_argument(where + ".sets: expected an object of sets");
@@ -233,9 +188,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
       if (!is_plain_name(name) || name == "base")
         throw std::invalid_argument(where + ".variants: '" + name +
                                     "' is not a variant name (lower-case letters, digits and _; not \"base\")");
-      if (!value.is_object())
-        throw std::invalid_argument(where + ".variants." + name + ": expected a partial run config");
-      variants.emplace(name, value);
+      variants.emplace(name, checked(value, "variants.<variant>", where + ".variants." + name));
     }
   }
 
@@ -249,27 +202,28 @@ Suite parse_suite(const Json& json, const std::string& where) {
     check_keys(grid, at,
                {"name", "sets", "methods", "variants", "demos", "seeds", "holdout", "new_task", "others_demos",
                 "freeze", "module_lr_scale", "source_variant"});
-    const Json& name_json = required(grid, at, "name");
-    if (!name_json.is_string() || !is_plain_name(name_json.get<std::string>()))
+    const Json& name_json = checked(required(grid, at, "name"), "grids[].name", at + ".name");
+    if (!is_plain_name(name_json.get<std::string>()))
       throw std::invalid_argument(at + ".name: expected a name of lower-case letters, digits and _, got " +
                                   name_json.dump());
     const std::string grid_name = name_json.get<std::string>();
     if (!grid_names.insert(grid_name).second)
       throw std::invalid_argument(at + ".name: '" + grid_name + "' names two grids");
-    const auto set_names = names_of(required(grid, at, "sets"), at + ".sets");
+    const auto set_names =
+        checked(required(grid, at, "sets"), "grids[].sets", at + ".sets").get<std::vector<std::string>>();
     for (const auto& s : set_names)
       if (!suite.sets.count(s)) throw std::invalid_argument(at + ".sets: '" + s + "' is not defined under \"sets\"");
-    const auto methods = names_of(required(grid, at, "methods"), at + ".methods");
-    const auto known_methods = suite_methods();
-    for (const auto& m : methods)
-      if (std::find(known_methods.begin(), known_methods.end(), m) == known_methods.end())
-        throw std::invalid_argument(at + ".methods: '" + m + "' is not one of " + joined(known_methods));
+    const auto methods =
+        checked(required(grid, at, "methods"), "grids[].methods", at + ".methods").get<std::vector<std::string>>();
     const auto variant_names =
-        grid.contains("variants") ? names_of(grid["variants"], at + ".variants") : std::vector<std::string>{"base"};
+        grid.contains("variants")
+            ? checked(grid["variants"], "grids[].variants", at + ".variants").get<std::vector<std::string>>()
+            : std::vector<std::string>{"base"};
     for (const auto& v : variant_names)
       if (v != "base" && !variants.count(v))
         throw std::invalid_argument(at + ".variants: '" + v + "' is not defined under \"variants\"");
-    const auto seeds = integers_of<std::uint64_t>(required(grid, at, "seeds"), at + ".seeds", 0);
+    const auto seeds =
+        checked(required(grid, at, "seeds"), "grids[].seeds", at + ".seeds").get<std::vector<std::uint64_t>>();
     const TaskAxis axis = task_axis(grid, set_names, methods, at);
     if (axis.source_variant && *axis.source_variant != "base" && !variants.count(*axis.source_variant))
       throw std::invalid_argument(at + ".source_variant: '" + *axis.source_variant +

@@ -82,7 +82,13 @@ int run_train(const TrainRunOptions& options) {
     return 0;
   }
   if (options.out.empty()) throw UsageError("maps train: --out DIR is required (unless --print-config)");
-  check_output_folder("--out", options.out);
+  std::vector<std::string> writes = kTrainWrites;
+  if (std::filesystem::is_directory(options.out))
+    for (const auto& entry : std::filesystem::directory_iterator(options.out))
+      if (const std::string name = entry.path().filename().string();
+          name.starts_with("step_") && name.ends_with(".ckpt"))
+        writes.push_back(name);
+  check_output_files_in("--out", options.out, writes, kTrainAppends);
   const std::filesystem::path dir(options.out);
   std::ofstream log_file(dir / "train.log", std::ios::app);
   if (!log_file) throw std::runtime_error("cannot append to " + (dir / "train.log").string());

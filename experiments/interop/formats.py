@@ -6,8 +6,10 @@
 
 IN.h5 / OUT.h5 are this project's demo files (format 2, docs/datasets.md). What each format keeps and drops is in
 docs/interop.md. Every file written here goes to a temporary in the same folder first and is renamed over OUT, so a
-failed or killed conversion leaves no half-written file. Errors name the file, the object and what was expected,
-and exit with status 1."""
+failed or killed conversion leaves no half-written file. Every HDF5 file is read from itself alone: one with an
+external link, external raw storage, a virtual dataset, a user-defined link or a soft link that does not resolve is
+refused before anything is read (open_hdf5). Errors name the file, the object and what was expected, and exit with
+status 1."""
 import argparse
 import json
 import os
@@ -418,11 +420,97 @@ def import_robomimic(path, task_set=None, obs_keys=None):
 # ----- helpers ---------------------------------------------------------------------------------------------------
 
 
+SELF_CONTAINED = ("this tool reads a file from itself alone (no external links, external storage, virtual datasets "
+                  "or user-defined links)")
+
+
 def open_hdf5(path):
+    """The HDF5 file at path, open for reading, once check_self_contained has found all its data inside it."""
     try:
-        return h5py.File(path, "r")
+        f = h5py.File(path, "r")
     except OSError as e:
         raise FormatError(f"{path}: cannot open as HDF5 ({e})")
+    try:
+        check_self_contained(f, path)
+    except BaseException:
+        f.close()
+        raise
+    return f
+
+
+def check_self_contained(f, path):
+    """Refuses (FormatError naming the file and the object's path) every object whose data lives outside the file:
+    an external link, a user-defined link, a dataset with external raw storage or a virtual layout (issue 41). A
+    file downloaded from elsewhere could otherwise make an export copy any file of this machine into a file the user
+    then shares. Soft links must resolve inside the file, and a group may be reached by one path only, so that the
+    walk ends. Attributes need no check: they are stored in their object's header."""
+    def refuse(where, what):
+        raise FormatError(f"{path}: '{where}' {what}")
+
+    def describe(value):
+        return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+    def address(obj_id, where):
+        try:
+            return h5py.h5o.get_info(obj_id).addr
+        except (KeyError, RuntimeError, OSError, ValueError) as e:
+            refuse(where, f"cannot be read ({e})")
+
+    soft_links = []
+    seen_groups = {address(f.id, "/")}
+    # A stack, not recursion: a file nested deeper than Python's recursion limit must be refused by name, not crash.
+    stack = [(f.id, "/")]
+    while stack:
+        group, group_path = stack.pop()
+        names = []
+        try:
+            group.links.iterate(names.append)
+        except (KeyError, RuntimeError, OSError, ValueError) as e:
+            refuse(group_path, f"cannot list its members ({e})")
+        for name in names:
+            where = group_path.rstrip("/") + "/" + describe(name)
+            try:
+                kind = group.links.get_info(name).type
+            except (KeyError, RuntimeError, OSError, ValueError) as e:
+                refuse(where, f"is a link that cannot be read ({e})")
+            if kind == h5py.h5l.TYPE_EXTERNAL:
+                file_name, target = group.links.get_val(name)
+                refuse(where, f"is an external link to '{describe(file_name)}:{describe(target)}': {SELF_CONTAINED}")
+            if kind == h5py.h5l.TYPE_SOFT:
+                soft_links.append((group, name, where))
+                continue
+            if kind != h5py.h5l.TYPE_HARD:
+                refuse(where, f"is a user-defined link (type {int(kind)}): {SELF_CONTAINED}")
+            try:
+                obj = h5py.h5o.open(group, name)
+            except (KeyError, RuntimeError, OSError, ValueError) as e:
+                refuse(where, f"cannot be opened ({e})")
+            if isinstance(obj, h5py.h5g.GroupID):
+                here = address(obj, where)
+                if here in seen_groups:
+                    refuse(where, "is a group linked twice (a loop or an alias); a file of this tool reaches each "
+                                  "group by one path")
+                seen_groups.add(here)
+                stack.append((obj, where))
+            elif isinstance(obj, h5py.h5d.DatasetID):
+                try:
+                    dcpl = obj.get_create_plist()
+                    layout, externals = dcpl.get_layout(), dcpl.get_external_count()
+                    files = [describe(dcpl.get_external(i)[0]) for i in range(externals)]
+                except (KeyError, RuntimeError, OSError, ValueError) as e:
+                    refuse(where, f"is a dataset whose storage cannot be read ({e})")
+                if layout == h5py.h5d.VIRTUAL:
+                    refuse(where, f"is a virtual dataset (its data is mapped from other files): {SELF_CONTAINED}")
+                if externals > 0:
+                    listed = ", ".join(f"'{name}'" for name in files)
+                    refuse(where, f"keeps its data in external raw files ({listed}): {SELF_CONTAINED}")
+    # Resolved only once every link is known to be hard or soft, so that resolving one never leaves the file.
+    for group, name, where in soft_links:
+        try:
+            h5py.h5o.get_info(group, name)
+        except (KeyError, RuntimeError, OSError, ValueError):
+            refuse(where, f"is a soft link to '{describe(group.links.get_val(name))}' that does not resolve within "
+                          f"the file (dangling or a loop)")
 
 
 def text(value):

@@ -303,8 +303,9 @@ void check_arguments(const Policy& policy, const Standardizer& standardizer, con
   if (config.max_envs_per_task < 0)
     throw std::invalid_argument("evaluate: max_envs_per_task must be >= 0 (0: one env per episode), got " +
                                 std::to_string(config.max_envs_per_task));
-  if (config.threads < 0)
-    throw std::invalid_argument("evaluate: threads must be >= 0 (0: all cores), got " + std::to_string(config.threads));
+  if (config.threads < 0 || config.threads > ag::kMaxThreads)
+    throw std::invalid_argument("evaluate: threads must be in [0, " + std::to_string(ag::kMaxThreads) +
+                                "] (0: all cores), got " + std::to_string(config.threads));
   if (!expert_returns.empty() && expert_returns.size() != tasks.size())
     throw std::invalid_argument("evaluate: " + std::to_string(expert_returns.size()) + " expert returns for " +
                                 std::to_string(tasks.size()) +

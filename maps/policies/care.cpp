@@ -109,27 +109,29 @@ PolicyMethod care_method() {
   method.name = "care";
   method.summary =
       "CARE-style: k state encoders mixed by attention from a learned task embedding, an actor on [context, mixture]";
-  method.defaults = {{"encoders", 6}, {"encoder_width", 50}, {"context_width", 50}, {"layers", 3},
-                     {"width", 0},    {"attention", "dot"},  {"temperature", 1.0}};
+  method.options = {
+      io::integer_option("encoders", 6, 1, 4096, "k state encoders (CARE's MT10 setting)"),
+      io::integer_option("encoder_width", 50, 1, 4096, "each encoder: S -> 50 -> 50 (ReLU between)"),
+      io::integer_option("context_width", 50, 1, 4096,
+                         "the learned task embedding and the context MLP's two layers (CARE: 2 x 50 "
+                         "over a frozen language-model embedding)"),
+      io::integer_option("layers", 3, 1, 4096, "the actor's hidden layers on [context, mixed encoding]"),
+      io::integer_option("width", 0, 0, 65536, "the actor's width; 0: matched to MAPS's parameter count (CARE: 400)"),
+      io::choice_option("attention", "dot", {"dot", "task"},
+                        "`dot`: softmax_j <E_j(s), stopgrad(context)> (CARE's paper: state and "
+                        "task); `task`: softmax(MLP(embedding) / temperature) (its public code: the "
+                        "task alone)"),
+      io::number_option("temperature", 1.0, 1e-3, 1e3,
+                        "the `task` attention's softmax temperature, in [0.001, 1000] (refused with "
+                        "`dot`, which has none)"),
+  };
   method.check = [](const nlohmann::json& own) {
-    for (const char* key : {"encoders", "encoder_width", "context_width", "layers"})
-      check_option_range(own, "care", key, 1, 4096);
-    check_option_range(own, "care", "width", 0, 65536, " (0: MAPS's parameter count)");
     const std::string attention = own.at("attention").get<std::string>();
-    if (attention != "dot" && attention != "task")
-      throw std::invalid_argument(
-          "config care.attention: expected \"dot\" (CARE's paper) or \"task\" (its public "
-          "code), got \"" +
-          attention + "\"");
     if (attention == "dot" && option_int(own, "encoder_width") != option_int(own, "context_width"))
       throw std::invalid_argument(
           "config care.encoder_width: \"dot\" attention compares encodings with the context, so it must equal "
           "care.context_width");
-    // The logits are divided by it in float32: below 1e-3 a softmax of ordinary logits overflows to NaN.
     const double temperature = own.at("temperature").get<double>();
-    if (!(temperature >= 1e-3) || !(temperature <= 1e3))
-      throw std::invalid_argument("config care.temperature: expected a number in [0.001, 1000], got " +
-                                  own.at("temperature").dump());
     if (attention == "dot" && temperature != 1.0)
       throw std::invalid_argument(
           "config care.temperature: only the \"task\" attention has a temperature (\"dot\" is CARE's paper's "

@@ -107,11 +107,15 @@ PolicyMethod moore_method() {
   method.name = "moore";
   method.summary =
       "MOORE: k state-only experts made orthonormal per state (Gram-Schmidt), mixed by task weights, a head per task";
-  method.defaults = {{"experts", 4}, {"layers", 3}, {"width", 0}, {"orthogonal", true}};
-  method.check = [](const nlohmann::json& own) {
-    check_option_range(own, "moore", "experts", 1, 64);
-    check_option_range(own, "moore", "layers", 1, 16);
-    check_option_range(own, "moore", "width", 0, 65536, " (0: MAPS's parameter count)");
+  method.options = {
+      io::integer_option("experts", 4, 1, 64, "MOORE's k experts (the paper's MT10 setting; 6 on MT50)"),
+      io::integer_option("layers", 3, 1, 16, "layers per expert (ReLU between them, none after the last)"),
+      io::integer_option("width", 0, 0, 65536,
+                         "every expert layer's width; 0: the width at which MOORE has MAPS's "
+                         "parameter count under this config's `maps.*` (the paper: 400)"),
+      io::boolean_option("orthogonal", true,
+                         "the Gram-Schmidt layer; `false` is the plain mixture of experts MOORE's "
+                         "paper compares with"),
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return moore_parameter_count(shape, moore_config(shape, o));

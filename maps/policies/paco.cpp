@@ -200,19 +200,23 @@ PolicyMethod paco_method() {
   PolicyMethod method;
   method.name = "paco";
   method.summary = "PaCo: every layer a task-weighted sum of P parameter sets (theta_k = Phi w_k), loss masking";
-  method.defaults = {{"parameter_sets", 5},    {"layers", 3},           {"width", 0}, {"identical_init", true},
-                     {"mask_threshold", 30.0}, {"reset", "interpolate"}};
-  method.check = [](const nlohmann::json& own) {
-    check_option_range(own, "paco", "parameter_sets", 1, 64);
-    check_option_range(own, "paco", "layers", 1, 16);
-    check_option_range(own, "paco", "width", 0, 65536, " (0: MAPS's parameter count)");
-    const double threshold = own.at("mask_threshold").get<double>();
-    if (!(threshold >= 0.0) || !std::isfinite(threshold))
-      throw std::invalid_argument("config paco.mask_threshold: expected a finite number >= 0 (0: never mask), got " +
-                                  own.at("mask_threshold").dump());
-    const std::string reset = own.at("reset").get<std::string>();
-    if (reset != "interpolate" && reset != "copy")
-      throw std::invalid_argument("config paco.reset: expected \"interpolate\" or \"copy\", got \"" + reset + "\"");
+  method.options = {
+      io::integer_option("parameter_sets", 5, 1, 64,
+                         "PaCo's P parameter sets per layer (the public code's MT10 setting)"),
+      io::integer_option("layers", 3, 1, 16, "hidden layers (ReLU), each compositional, as is the output layer"),
+      io::integer_option("width", 0, 0, 65536,
+                         "hidden width; 0: matched to MAPS's parameter count (the public code's "
+                         "widths live in a config the repository does not include)"),
+      io::boolean_option("identical_init", true,
+                         "every parameter set starts as the first (the public code's "
+                         "`use_identical_init`)"),
+      io::number_option("mask_threshold", 30.0, 0.0, 1e12,
+                        "a task whose mean BC loss in the batch exceeds this is left out of the step "
+                        "and its task weights are reset after it (0: never); the public code's 3e3 "
+                        "is an RL loss scale"),
+      io::choice_option("reset", "interpolate", {"interpolate", "copy"},
+                        "a masked task's new weights: a random convex combination of the other "
+                        "tasks' (`interpolate`) or one of them (`copy`)"),
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return paco_parameter_count(shape, paco_config(shape, o));

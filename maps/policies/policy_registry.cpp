@@ -24,6 +24,18 @@ const std::vector<PolicyMethod>& policy_methods() {
   return entries;
 }
 
+nlohmann::json PolicyMethod::defaults() const {
+  nlohmann::json section = nlohmann::json::object();
+  for (const io::Field& option : options) section[option.key] = option.default_value;
+  return section;
+}
+
+std::vector<std::string> policy_method_names() {
+  std::vector<std::string> names;
+  for (const auto& entry : policy_methods()) names.push_back(entry.name);
+  return names;
+}
+
 std::string policy_method_list() {
   std::string list;
   for (const auto& entry : policy_methods()) list += (list.empty() ? "" : ", ") + entry.name;
@@ -69,17 +81,5 @@ std::int64_t matched_width(double target, const std::function<double(std::int64_
 }
 
 std::int64_t option_int(const nlohmann::json& own, const char* key) { return own.at(key).get<std::int64_t>(); }
-
-void check_option_range(const nlohmann::json& own, const std::string& method, const char* key, double low, double high,
-                        const std::string& note) {
-  const double value = own.at(key).get<double>();
-  if (!(value >= low && value <= high)) {
-    auto text = [](double x) {
-      return x == std::floor(x) && std::abs(x) < 1e15 ? std::to_string(static_cast<long long>(x)) : std::to_string(x);
-    };
-    throw std::invalid_argument("config " + method + "." + key + ": expected " + text(low) + " to " + text(high) +
-                                note + ", got " + own.at(key).dump());
-  }
-}
 
 }  // namespace maps::core

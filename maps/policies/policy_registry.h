@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
+#include "io/config_schema.h"
 #include "maps/policies/maml.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/policy.h"
@@ -28,12 +29,14 @@ struct MethodOptions {
 struct PolicyMethod {
   std::string name;     // the config's "method"
   std::string summary;  // one line: `maps train --help`, docs/configs.md
-  // The method's own config section, named after it ({"moore": {...}}): its keys with their default values. A
-  // given value must have its default's JSON type (an integer for an integer, an array of the element's type).
-  // Empty: the method has no section of its own.
-  nlohmann::json defaults = nlohmann::json::object();
-  // Range checks beyond the types on the filled-in section; throws naming the key ("config moore.experts: ...").
+  // The method's own config section, named after it ({"moore": {...}}): each key with its type, range, default and
+  // meaning (io::integer_option and its kin; the key without the method's name). Empty: no section of its own.
+  std::vector<io::Field> options;
+  // Checks across keys on the filled-in section (top_k at most experts); throws naming the key
+  // ("config top_k_moe.top_k: ..."). Each key's own type and range are the options' to check.
   std::function<void(const nlohmann::json& own)> check;
+  // The section with every key at its default ({} for a method without one).
+  nlohmann::json defaults() const;
   // The parameter count for these shapes, computed before anything is allocated (a typo of 12E8 is refused
   // instead of reaching the allocator).
   std::function<double(const PolicyShape&, const MethodOptions&)> parameters;
@@ -52,6 +55,8 @@ const std::vector<PolicyMethod>& policy_methods();
 const PolicyMethod& policy_method(const std::string& name);
 // "maps, single_bc, ...".
 std::string policy_method_list();
+// {"maps", "single_bc", ...}.
+std::vector<std::string> policy_method_names();
 
 // Each method's entry (at the end of its own .cpp).
 PolicyMethod maps_method();
@@ -74,9 +79,6 @@ double maps_parameter_count(const PolicyShape& shape, const MAPSConfig& config);
 std::int64_t matched_width(double target, const std::function<double(std::int64_t)>& count);
 // An own-section integer as int64 ("width": 0 means matched to MAPS).
 std::int64_t option_int(const nlohmann::json& own, const char* key);
-// Throws "config <method>.<key>: expected <low> to <high><note>, got <value>" unless low <= value <= high.
-void check_option_range(const nlohmann::json& own, const std::string& method, const char* key, double low, double high,
-                        const std::string& note = "");
 
 // The config with its width member chosen by matched_width for MAPS's parameter count when it is 0 (the default).
 template <typename Config>

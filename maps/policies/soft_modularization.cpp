@@ -203,22 +203,23 @@ PolicyMethod soft_modularization_method() {
   PolicyMethod method;
   method.name = "soft_modularization";
   method.summary = "Soft Modularization: L layers of n modules, per-layer n x n softmax routing from state and task";
-  method.defaults = {{"module_layers", 2}, {"modules", 2},        {"module_width", 0},
-                     {"base_width", 400},  {"gating_width", 256}, {"aggregation", "softmax"},
-                     {"init", "official"}};
-  method.check = [](const nlohmann::json& own) {
-    check_option_range(own, "soft_modularization", "module_layers", 2, 16);
-    check_option_range(own, "soft_modularization", "modules", 1, 64);
-    check_option_range(own, "soft_modularization", "module_width", 0, 65536, " (0: MAPS's parameter count)");
-    check_option_range(own, "soft_modularization", "base_width", 1, 65536);
-    check_option_range(own, "soft_modularization", "gating_width", 1, 65536);
-    const std::string aggregation = own.at("aggregation").get<std::string>();
-    if (aggregation != "softmax" && aggregation != "sum" && aggregation != "mean")
-      throw std::invalid_argument(
-          "config soft_modularization.aggregation: expected \"softmax\" (the official code), \"sum\" (the paper) or "
-          "\"mean\" (mtrl), got \"" +
-          aggregation + "\"");
-    check_init(own.at("init").get<std::string>(), "config soft_modularization.init");
+  method.options = {
+      io::integer_option("module_layers", 2, 2, 16, "L layers of modules (the paper's MT10 \"Shallow\"; \"Deep\": 4)"),
+      io::integer_option("modules", 2, 1, 64, "n modules per layer (Deep: 4)"),
+      io::integer_option("module_width", 0, 0, 65536,
+                         "each module's width; 0: the paper's proportions (modules 256, base 400, "
+                         "gating 256, scaled by one factor from `base_width` and `gating_width`) at "
+                         "MAPS's parameter count; the paper: 256 (Deep: 128)"),
+      io::integer_option("base_width", 400, 1, 65536,
+                         "the base MLP's two layers and the task embedding (at `module_width` 256)"),
+      io::integer_option("gating_width", 256, 1, 65536, "the routing network's two layers (at `module_width` 256)"),
+      io::choice_option("aggregation", "softmax", {"softmax", "sum", "mean"},
+                        "the last layer's sum over modules: `softmax` (the official code's weights), "
+                        "`sum` (the paper's Eq. 9, unweighted), `mean` (mtrl's)"),
+      io::choice_option("init", "official", {"official", "pytorch"},
+                        "the initialisation: `official` (the official code's: routing heads and "
+                        "action layer U(+-3e-3), other layers U(+-1/sqrt(output width)) with bias "
+                        "0.1), `pytorch` (torch.nn.Linear's)"),
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return soft_modularization_parameter_count(shape, soft_modularization_config(shape, o));

@@ -168,20 +168,25 @@ PolicyMethod top_k_moe_method() {
   method.name = "top_k_moe";
   method.summary =
       "Sparsely-gated MoE: noisy top-k gating on [state, task] over expert MLPs, importance and load losses";
-  method.defaults = {{"experts", 4}, {"top_k", 2}, {"layers", 3}, {"width", 0}, {"balance", 0.01}, {"noise", true}};
+  method.options = {
+      io::integer_option("experts", 4, 2, 64, "expert MLPs on [state, one-hot task]"),
+      io::integer_option(
+          "top_k", 2, 2, 64,
+          "experts each row runs (the others do not run for it); at least 2: one chosen expert has softmax "
+          "weight 1 whatever its logit, and the gate would learn nothing from the BC loss"),
+      io::integer_option("layers", 3, 1, 64, "hidden layers per expert (ReLU)"),
+      io::integer_option("width", 0, 0, 65536, "expert width; 0: matched to MAPS's parameter count"),
+      io::number_option("balance", 0.01, 0.0, 1e6,
+                        "weight of the importance and load losses (CV^2 each; Shazeer et al.'s "
+                        "reference port's value)"),
+      io::boolean_option("noise", true,
+                         "noisy gating in training (eps * softplus(x W_noise)); without noise the "
+                         "load loss is not defined and is 0"),
+  };
   method.check = [](const nlohmann::json& own) {
-    check_option_range(own, "top_k_moe", "layers", 1, 64);
-    // One chosen expert has softmax weight 1 whatever its logit: the gate would get no gradient from the BC loss.
-    for (const char* key : {"experts", "top_k"})
-      check_option_range(own, "top_k_moe", key, 2, 64, " (with top_k = 1 the gate learns nothing from the BC loss)");
     if (option_int(own, "top_k") > option_int(own, "experts"))
       throw std::invalid_argument("config top_k_moe.top_k: expected at most top_k_moe.experts (" +
                                   own.at("experts").dump() + "), got " + own.at("top_k").dump());
-    check_option_range(own, "top_k_moe", "width", 0, 65536, " (0: MAPS's parameter count)");
-    const double balance = own.at("balance").get<double>();
-    if (!(balance >= 0.0) || !std::isfinite(balance))
-      throw std::invalid_argument("config top_k_moe.balance: expected a finite number >= 0, got " +
-                                  own.at("balance").dump());
   };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return top_k_moe_parameter_count(shape, top_k_moe_config(shape, o));

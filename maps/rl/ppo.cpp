@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "io/json_input.h"
 #include "maps/rl/gae.h"
 
 namespace maps::rl {
@@ -445,12 +446,7 @@ void PPOTrainer::save_checkpoint() const {
 
 std::string PPOTrainer::load_tensors_from(const std::string& path, bool with_optimizer) {
   nn::Checkpoint ckpt = nn::load_tensors(path);
-  Json j;
-  try {
-    j = Json::parse(ckpt.config);
-  } catch (const std::exception& e) {
-    throw std::runtime_error("PPO checkpoint " + path + ": the state text is not JSON: " + e.what());
-  }
+  const Json j = io::parse_json(ckpt.config, "PPO checkpoint " + path + "'s state text");
   if (j.value("format", "") != kCheckpointFormat)
     throw std::runtime_error("PPO checkpoint " + path + ": not a " + kCheckpointFormat + " file");
   nn::NamedTensors model_state;
@@ -478,12 +474,26 @@ std::string PPOTrainer::load_tensors_from(const std::string& path, bool with_opt
       adam_v_[i].copy_(need("ppo.adam_v." + named[i].name));
     }
   }
-  obs_rms_.set_state(to_vector_d(need("ppo.obs_mean")), to_vector_d(need("ppo.obs_var")), j.at("obs_count"));
+  // The counts and the running return: a record edited or damaged by hand names the checkpoint, not the JSON library.
+  double obs_count = 0.0, return_count = 0.0, discounted_return = 0.0;
+  try {
+    obs_count = j.at("obs_count").get<double>();
+    return_count = j.at("return_count").get<double>();
+    if (with_optimizer) discounted_return = j.at("discounted_return").get<double>();
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error("PPO checkpoint " + path + ": obs_count, return_count and discounted_return must be " +
+                             "numbers (" + e.what() + ")");
+  }
+  if (!(obs_count >= 0.0) || !(return_count >= 0.0) || !std::isfinite(obs_count) || !std::isfinite(return_count) ||
+      !std::isfinite(discounted_return))
+    throw std::runtime_error("PPO checkpoint " + path + ": obs_count and return_count must be finite and >= 0, " +
+                             "discounted_return finite");
+  obs_rms_.set_state(to_vector_d(need("ppo.obs_mean")), to_vector_d(need("ppo.obs_var")), obs_count);
   if (obs_rms_.size() != env_.spec().observation_size)
     throw std::runtime_error("PPO checkpoint " + path + ": observation statistics of the wrong size");
   RunningMeanStd ret_stats(1);
-  ret_stats.set_state(to_vector_d(need("ppo.return_mean")), to_vector_d(need("ppo.return_var")), j.at("return_count"));
-  reward_scaler_.set_state(with_optimizer ? j.at("discounted_return").get<double>() : 0.0, ret_stats);
+  ret_stats.set_state(to_vector_d(need("ppo.return_mean")), to_vector_d(need("ppo.return_var")), return_count);
+  reward_scaler_.set_state(discounted_return, ret_stats);
   episode_actions_.clear();
   if (with_optimizer && extra.count("ppo.episode_actions")) {
     const ag::RowMatrixD actions = ag::to_eigen_double(extra["ppo.episode_actions"]);
@@ -515,7 +525,7 @@ bool PPOTrainer::resume() {
   resume_checked_ = true;
   if (out_dir_.empty() || !std::filesystem::exists(checkpoint_path())) return false;
   const std::string path = checkpoint_path();
-  const Json j = Json::parse(load_tensors_from(path, /*with_optimizer=*/true));
+  const Json j = io::parse_json(load_tensors_from(path, /*with_optimizer=*/true), "PPO checkpoint " + path);
   if (j.value("task", "") != env_.spec().task)
     throw std::runtime_error("PPO checkpoint " + path + " was trained on task '" + j.value("task", "") + "', not '" +
                              env_.spec().task + "'");

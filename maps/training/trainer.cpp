@@ -17,6 +17,7 @@
 
 #include "autograd/float_environment.h"
 #include "envs/portable_random.h"
+#include "maps/training/checkpoint_record.h"
 #include "nn/optim/adam.h"
 #include "nn/serialize.h"
 
@@ -54,25 +55,17 @@ void save_last(const std::string& path, const Policy& policy, const optim::Adam&
   for (auto& t : with_prefix(adam.state(), kAdamPrefix)) tensors.push_back(std::move(t));
   std::ostringstream rng_text;
   rng_text << rng;
-  const Json state{
-      {"format", "maps-train 1"},
-      {"step", progress.step},
-      {"best_step", progress.best_step},
-      {"best_validation", std::isfinite(progress.best_validation) ? Json(progress.best_validation) : Json(nullptr)},
-      {"rng", rng_text.str()}};
-  nn::save_tensors(path, tensors, state.dump());
+  TrainingState state;
+  state.step = progress.step;
+  state.best_step = progress.best_step;
+  state.best_validation = progress.best_validation;
+  state.rng = rng_text.str();
+  nn::save_tensors(path, tensors, to_json(state).dump());
 }
 
 Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, std::mt19937_64& rng) {
   const nn::Checkpoint checkpoint = nn::load_tensors(path);
-  Json state;
-  try {
-    state = Json::parse(checkpoint.config);
-  } catch (const std::exception& e) {
-    throw std::runtime_error("training checkpoint " + path + ": unreadable state (" + e.what() + ")");
-  }
-  if (state.value("format", "") != "maps-train 1")
-    throw std::runtime_error("training checkpoint " + path + " is not a maps-train 1 checkpoint");
+  const TrainingState state = read_training_state(checkpoint.config, "training checkpoint " + path);
   try {
     policy.load_state_dict(strip_prefix(checkpoint.tensors, kPolicyPrefix));
     adam.load_state(strip_prefix(checkpoint.tensors, kAdamPrefix));
@@ -80,11 +73,10 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, s
     throw std::runtime_error("training checkpoint " + path + " does not fit this policy: " + e.what());
   }
   Progress progress;
-  progress.step = state.at("step").get<std::int64_t>();
-  progress.best_step = state.at("best_step").get<std::int64_t>();
-  progress.best_validation =
-      state.at("best_validation").is_number() ? state["best_validation"].get<double>() : INFINITY;
-  std::istringstream rng_text(state.at("rng").get<std::string>());
+  progress.step = state.step;
+  progress.best_step = state.best_step;
+  progress.best_validation = state.best_validation;
+  std::istringstream rng_text(state.rng);
   rng_text >> rng;
   if (rng_text.fail()) throw std::runtime_error("training checkpoint " + path + ": unreadable RNG state");
   return progress;
@@ -133,17 +125,13 @@ std::string format_seconds(double seconds) {
   return text;
 }
 
-// What best.ckpt and step_<N>.ckpt say of the policy they hold: its step, its validation loss where one was
-// computed at that step, and the observation standardizer it expects.
+// What best.ckpt and step_<N>.ckpt say of the policy they hold (checkpoint_record.h).
 Json policy_record(const DemoDataset& data, std::int64_t step, std::optional<double> validation_bc) {
-  const Standardizer& standardizer = data.standardizer();
-  Json record{
-      {"step", step},
-      {"standardizer",
-       {{"mean", std::vector<double>(standardizer.mean.data(), standardizer.mean.data() + standardizer.mean.size())},
-        {"std", std::vector<double>(standardizer.std.data(), standardizer.std.data() + standardizer.std.size())}}}};
-  if (validation_bc) record["validation_bc"] = *validation_bc;
-  return record;
+  PolicyRecord record;
+  record.step = step;
+  record.validation_bc = validation_bc;
+  record.standardizer = data.standardizer();
+  return to_json(record);
 }
 
 bool starts_with(const std::string& name, const std::string& prefix) { return name.rfind(prefix, 0) == 0; }
@@ -245,11 +233,7 @@ LossTerms optimizer_step(Policy& policy, Batch& batch, const std::vector<ag::Ten
 std::int64_t trained_steps(const std::string& run_dir) {
   const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
   if (!fs::exists(last_path)) return 0;
-  try {
-    return Json::parse(nn::load_tensors(last_path).config).at("step").get<std::int64_t>();
-  } catch (const Json::exception& e) {
-    throw std::runtime_error("training checkpoint " + last_path + ": unreadable state (" + e.what() + ")");
-  }
+  return read_training_state(nn::load_tensors(last_path).config, "training checkpoint " + last_path).step;
 }
 
 TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainConfig& config,
@@ -340,6 +324,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
         curve << "step";
         for (const auto& name : term_names) curve << "," << name;
         curve << ",validation_bc,steps_per_second" << (cpu_column ? ",cpu_seconds" : "") << "\n";
+        if (!curve.flush()) throw std::runtime_error("cannot append to " + curve_path);
       }
     }
     for (std::size_t j = 0; j + 1 < term_names.size(); ++j) term_sums[j] += terms.terms[j].second.item();
@@ -359,6 +344,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       const double cpu_now = process_cpu_seconds();
       if (cpu_column) curve << "," << cpu_now - window_cpu_start;
       curve << "\n";
+      // A row that cannot be written stops the run (last.ckpt keeps its progress) instead of a curve with a gap.
+      if (!curve.flush()) throw std::runtime_error("cannot append to " + curve_path);
       window_cpu_start = cpu_now;
       if (log) {
         std::ostringstream line;

@@ -420,8 +420,9 @@ TEST(ParallelFor, RangesAreFixedByCountAndRangesOnAnyThreadCount) {
   ag::parallel_for(100, 1, [](std::int64_t, std::int64_t) { EXPECT_EQ(ag::parallel_ranges(100, 1), 1); });
 }
 
-TEST(ParallelFor, RejectsAThreadCountBelowOne) {
-  expect_throw_with([] { ag::set_num_threads(0); }, {"threads must be >= 1, got 0"});
+TEST(ParallelFor, RejectsAThreadCountBelowOneOrAboveTheBound) {
+  expect_throw_with([] { ag::set_num_threads(0); }, {"threads must be in [1, 256], got 0"});
+  expect_throw_with([] { ag::set_num_threads(ag::kMaxThreads + 1); }, {"threads must be in [1, 256], got 257"});
   EXPECT_EQ(ag::num_threads(), 1);
 }
 

@@ -79,7 +79,7 @@ class BenchStep(unittest.TestCase):
                 self.assertAlmostEqual(result["gemm_gflop_counted"] / result["gflop_per_step"], 1.0, delta=0.05)
         done = run("bench", "step", "--method", "nope", "--seconds", "0.05")
         self.assertNotEqual(done.returncode, 0)
-        self.assertIn("'nope'", done.stderr)
+        self.assertIn('got "nope"', done.stderr)
         self.assertIn("moore", done.stderr)
 
     def test_bad_set_and_threads_are_named(self):

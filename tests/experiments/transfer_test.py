@@ -126,13 +126,13 @@ class Transfer(unittest.TestCase):
         fixture = pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json"
         for change, needle in [
                 (lambda g: g.update(source_variant="wide"), "grids[2].source_variant: 'wide' is not defined under"),
-                (lambda g: g.update(source_variant=3), "source_variant: expected a variant name"),
+                (lambda g: g.update(source_variant=3), "source_variant: expected a non-empty string"),
                 (lambda g: g.update(methods=["mt_bc"]), "freeze: only with method transfer"),
                 (lambda g: [g.update(methods=["mt_bc"]), g.pop("freeze"), g.pop("module_lr_scale")],
                  "source_variant: only with method transfer"),
                 (lambda g: g.update(module_lr_scale=0.1, freeze=["modules"]), "the modules are frozen"),
-                (lambda g: g.update(freeze=["modulez"]), "freeze: 'modulez' is not \"modules\" or \"head\""),
-                (lambda g: g.update(freeze=["modules", "selector"]), "freeze: 'selector' is not"),
+                (lambda g: g.update(freeze=["modulez"]), 'freeze[0]: expected "modules" or "head", got "modulez"'),
+                (lambda g: g.update(freeze=["modules", "selector"]), 'freeze[1]: expected "modules" or "head", got "selector"'),
                 (lambda g: None, "'tuned' has a run config")]:
             config = json.loads(fixture.read_text())
             change(config["grids"][-1])
@@ -361,9 +361,10 @@ class Transfer(unittest.TestCase):
         self.assertEqual(ran, transfers)
 
     def test_a_failed_source_fails_its_transfer_cells_by_name(self):
-        # The holdout run diverges (a learning rate of 1e30): its transfer cells fail naming it, and are counted failed.
+        # The holdout run fails (train.freeze names no parameter, which only its training finds): its transfer cells
+        # fail naming it, and are counted failed.
         config = json.loads((pathlib.Path(__file__).resolve().parent / "fixtures" / "transfer-tiny.json").read_text())
-        config["variants"]["diverges"] = {"train": {"learning_rate": 1e30}}
+        config["variants"]["diverges"] = {"train": {"freeze": ["no_such_parameter"]}}
         config["grids"][0]["variants"] = ["diverges"]
         config["grids"][1].update(source_variant="diverges", methods=["transfer"])
         del config["grids"][2]

@@ -83,8 +83,8 @@ TEST(Zoo, EveryMethodIsRegisteredWithASummaryAndItsOwnSection) {
   for (const auto& c : kZoo) {
     const auto& entry = core::policy_method(c.method);
     EXPECT_FALSE(entry.summary.empty()) << c.method;
-    EXPECT_FALSE(entry.defaults.empty()) << c.method;
-    EXPECT_EQ(core::to_json(config_of(c.method, c.small))[c.method].size(), entry.defaults.size()) << c.method;
+    EXPECT_FALSE(entry.defaults().empty()) << c.method;
+    EXPECT_EQ(core::to_json(config_of(c.method, c.small))[c.method].size(), entry.defaults().size()) << c.method;
   }
 }
 
@@ -171,12 +171,12 @@ TEST(Zoo, OwnSectionsAreCheckedByNameAndType) {
   EXPECT_THAT(error_of([] {
                 config_of("moore", {{"experts", 2.5}});
               }),
-              HasSubstr("config moore.experts: wrong type (2.5), expected an integer"));
-  EXPECT_THAT(error_of([] { config_of("moore", {{"experts", 0}}); }), HasSubstr("config moore.experts: expected 1"));
+              HasSubstr("config moore.experts: expected an integer in [1, 64], got 2.5"));
+  EXPECT_THAT(error_of([] { config_of("moore", {{"experts", 0}}); }), HasSubstr("config moore.experts: expected an integer in [1, 64], got 0"));
   EXPECT_THAT(error_of([] {
                 config_of("moore", {{"orthogonal", 1}});
               }),
-              HasSubstr("config moore.orthogonal: wrong type (1), expected true or false"));
+              HasSubstr("config moore.orthogonal: expected true or false, got 1"));
   // CARE's temperature: only the task attention has one, and float32 logits divided by a tiny one overflow.
   EXPECT_THAT(error_of([] {
                 config_of("care", {{"temperature", 5.0}});
@@ -185,7 +185,7 @@ TEST(Zoo, OwnSectionsAreCheckedByNameAndType) {
   EXPECT_THAT(error_of([] {
                 config_of("care", {{"attention", "task"}, {"temperature", 1e-40}});
               }),
-              HasSubstr("config care.temperature: expected a number in [0.001, 1000], got 1e-40"));
+              HasSubstr("config care.temperature: expected a finite number in [0.001, 1000], got 1e-40"));
   EXPECT_NO_THROW(config_of("care", {{"attention", "task"}, {"temperature", 0.5}}));
   // Another method's section is checked too, and kept out of this run's resolved config.
   EXPECT_THAT(error_of([] {

@@ -1,0 +1,385 @@
+#include "maps/training/run_config_fields.h"
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <type_traits>
+#include <utility>
+
+#include "autograd/parallel.h"
+
+namespace maps::core {
+namespace {
+
+using Json = nlohmann::json;
+
+// Far above any run of this library, low enough that a typo (an extra zero or three) is caught at load rather than
+// hours into a run or inside an allocation.
+constexpr long double kMaxDemos = 1000000;   // demonstrations per task, subsampling strides
+constexpr long double kMaxSteps = 1e12;      // optimiser steps and intervals between events
+constexpr long double kMaxRows = 100000000;  // states per task in a batch or a validation set
+constexpr long double kMaxModules = 4096;    // MAPS's M
+constexpr long double kMaxWidth = 65536;     // a layer's size (as `maps demo --hidden`)
+constexpr long double kMaxWeight = 1e6;      // a loss weight
+
+// The spec's parts an entry sets; the kind, the type's own bounds and the default come from the member it names.
+struct Limits {
+  long double min = -std::numeric_limits<long double>::infinity();
+  long double max = std::numeric_limits<long double>::infinity();
+  bool min_exclusive = false;
+  std::vector<std::string> choices;
+  bool non_empty = false;
+  bool required = false;
+  std::string type_name;  // when the docs name the type otherwise than the member's C++ type does
+
+  Limits&& not_empty() && {
+    non_empty = true;
+    return std::move(*this);
+  }
+  Limits&& must_be_given() && {
+    required = true;
+    return std::move(*this);
+  }
+  Limits&& documented_as(std::string name) && {
+    type_name = std::move(name);
+    return std::move(*this);
+  }
+};
+
+// [low, high]
+Limits range(long double low, long double high) {
+  Limits limits;
+  limits.min = low;
+  limits.max = high;
+  return limits;
+}
+// (low, high]
+Limits above(long double low, long double high) {
+  Limits limits = range(low, high);
+  limits.min_exclusive = true;
+  return limits;
+}
+Limits one_of(std::vector<std::string> choices) {
+  Limits limits;
+  limits.choices = std::move(choices);
+  return limits;
+}
+Limits any() { return Limits(); }
+
+template <typename T>
+struct Is_pair_vector : std::false_type {};
+template <typename V>
+struct Is_pair_vector<std::vector<std::pair<std::string, V>>> : std::true_type {
+  using value_type = V;
+};
+
+// The kind, documented type name and bounds of a member of C++ type T: the value must fit the type it is stored in.
+template <typename T>
+void describe_type(io::Field& f) {
+  using std::numeric_limits;
+  auto integer = [&f](auto lowest, auto highest, const char* name) {
+    f.min = std::max(f.min, static_cast<long double>(lowest));
+    f.max = std::min(f.max, static_cast<long double>(highest));
+    return std::string(name);
+  };
+  if constexpr (std::is_same_v<T, bool>) {
+    f.kind = io::ValueKind::kBoolean;
+    f.type_name = "bool";
+  } else if constexpr (std::is_same_v<T, int>) {
+    f.kind = io::ValueKind::kInteger;
+    f.type_name = integer(numeric_limits<int>::min(), numeric_limits<int>::max(), "int");
+  } else if constexpr (std::is_same_v<T, std::int64_t>) {
+    f.kind = io::ValueKind::kInteger;
+    f.type_name = integer(numeric_limits<std::int64_t>::min(), numeric_limits<std::int64_t>::max(), "int64");
+  } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+    f.kind = io::ValueKind::kInteger;
+    f.type_name = integer(0, numeric_limits<std::uint64_t>::max(), "uint64");
+  } else if constexpr (std::is_same_v<T, double>) {
+    f.kind = io::ValueKind::kNumber;
+    f.type_name = "float";
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    f.kind = io::ValueKind::kString;
+    f.type_name = "string";
+  } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+    f.kind = io::ValueKind::kStringList;
+    f.type_name = "string list";
+  } else if constexpr (std::is_same_v<T, std::vector<std::int64_t>>) {
+    f.kind = io::ValueKind::kIntegerList;
+    f.type_name = integer(numeric_limits<std::int64_t>::min(), numeric_limits<std::int64_t>::max(), "int64") + " list";
+  } else if constexpr (Is_pair_vector<T>::value) {
+    using V = typename Is_pair_vector<T>::value_type;
+    if constexpr (std::is_same_v<V, int>) {
+      f.kind = io::ValueKind::kIntegerMap;
+      f.type_name = "object name: " + integer(numeric_limits<int>::min(), numeric_limits<int>::max(), "int");
+    } else {
+      static_assert(std::is_same_v<V, double>);
+      f.kind = io::ValueKind::kNumberMap;
+      f.type_name = "object name: float";
+    }
+  } else {
+    static_assert(sizeof(T) == 0, "a run config member of a type the schema does not know");
+  }
+}
+
+template <typename T>
+Json to_value(const T& member) {
+  if constexpr (Is_pair_vector<T>::value) {
+    Json object = Json::object();
+    for (const auto& [name, value] : member) object[name] = value;
+    return object;
+  } else {
+    return Json(member);
+  }
+}
+
+template <typename T>
+T from_value(const Json& value) {
+  if constexpr (Is_pair_vector<T>::value) {
+    T out;
+    for (const auto& [name, inner] : value.items())
+      out.emplace_back(name, inner.template get<typename Is_pair_vector<T>::value_type>());
+    return out;
+  } else {
+    return value.get<T>();
+  }
+}
+
+class Table {
+ public:
+  template <typename Access>
+  void add(const char* key, Access access, Limits limits, std::string meaning) {
+    using T = std::remove_cvref_t<decltype(access(std::declval<RunConfig&>()))>;
+    RunConfigField field;
+    io::Field& f = field.spec;
+    f.key = key;
+    f.min = limits.min;
+    f.max = limits.max;
+    f.min_exclusive = limits.min_exclusive;
+    f.choices = std::move(limits.choices);
+    f.non_empty = limits.non_empty;
+    f.required = limits.required;
+    describe_type<T>(f);
+    if (!limits.type_name.empty()) f.type_name = limits.type_name;
+    f.meaning = std::move(meaning);
+    RunConfig defaults;
+    if (!f.required) f.default_value = to_value(access(defaults));
+    field.get = [access](const RunConfig& c) { return to_value(access(const_cast<RunConfig&>(c))); };
+    field.set = [access](RunConfig& c, const Json& value) { access(c) = from_value<T>(value); };
+    fields_.push_back(std::move(field));
+  }
+  std::vector<RunConfigField> take() { return std::move(fields_); }
+
+ private:
+  std::vector<RunConfigField> fields_;
+};
+
+std::vector<RunConfigField> make_fields() {
+  Table table;
+  auto add = [&table](const char* key, auto access, Limits limits, std::string meaning) {
+    table.add(key, access, std::move(limits), std::move(meaning));
+  };
+  add(
+      "method", [](RunConfig & c) -> auto& { return c.method; }, one_of(policy_method_names()),
+      "a registered method (`maps train --help` lists them with a line each): `maps`, `single_bc` (one MLP per "
+      "task), `mt_bc` (one MLP on [state, one-hot task]), `mt_mh_bc` (a shared trunk with a head per task), "
+      "`maml`, and the zoo's modular methods ([zoo.md](zoo.md)): `moore`, `paco`, `care`, `top_k_moe`, "
+      "`soft_modularization`");
+  add(
+      "seed", [](RunConfig & c) -> auto& { return c.seed; }, any(),
+      "draws the demonstrations, the initialisation, the batches and MAML's fine-tuning batches; runs of every "
+      "method with the same seed see the same demonstrations (paired comparisons)");
+  add(
+      "data.file", [](RunConfig & c) -> auto& { return c.data_file; }, any().not_empty().must_be_given(),
+      "the demo file (HDF5, [datasets.md](datasets.md)); a relative path is relative to the working directory "
+      "of `maps train`");
+  add(
+      "data.demos_per_task", [](RunConfig & c) -> auto& { return c.data.demos_per_task; }, range(0, kMaxDemos),
+      "training demonstrations per task, drawn without replacement from the task's `mask/train` demos (0: all "
+      "of them)");
+  add(
+      "data.tasks", [](RunConfig & c) -> auto& { return c.data.tasks; }, any(),
+      "only these tasks of the file (empty: all); the run's task ids follow the set's order among them");
+  add(
+      "data.holdout", [](RunConfig & c) -> auto& { return c.data.holdout; }, any(),
+      "leave these tasks of the file out (a leave-one-out run that transfer later teaches them to)");
+  add(
+      "data.task_demos", [](RunConfig & c) -> auto& { return c.data.task_demos; },
+      range(1, kMaxDemos).documented_as("object name: int"),
+      "training demonstrations of particular tasks in place of `demos_per_task` (a new task's few demos), each "
+      "at least 1 and only for tasks the run trains (not held out, not left out by `data.tasks`). Every task of "
+      "the file is drawn in its order whatever is kept, so a task gets the same demonstrations in a run of all "
+      "tasks, a leave-one-out run and a run of that task alone (same seed and counts)");
+  add(
+      "data.draws", [](RunConfig & c) -> auto& { return c.data.draws; }, one_of({"sequential", "per_task"}),
+      "how demos and subsampling offsets are drawn: `sequential`, one stream through the file's tasks, so a "
+      "task's draw also depends on the counts of the tasks before it (every run made before the key); "
+      "`per_task`, a stream per task from the seed and the task's name, so its draw depends on the seed and its "
+      "own count only (transfer's comparison, where the new task's count varies and the other tasks' "
+      "demonstrations must not)");
+  add(
+      "data.subsample", [](RunConfig & c) -> auto& { return c.data.subsample; }, range(1, kMaxDemos),
+      "keep every k-th state-action pair of each training demo, from an offset drawn in [0, k) (GAIL's "
+      "protocol; validation states are never subsampled)");
+  add(
+      "train.steps", [](RunConfig & c) -> auto& { return c.train.steps; }, range(1, kMaxSteps),
+      "optimiser steps (the paper's code: 30000; the study: 20000)");
+  add(
+      "train.learning_rate", [](RunConfig & c) -> auto& { return c.train.learning_rate; }, above(0, 1e3),
+      "Adam's step size");
+  add(
+      "train.states_per_task", [](RunConfig & c) -> auto& { return c.train.states_per_task; }, range(1, kMaxRows),
+      "training states per task in each batch (balanced: every task each step); the paper: 128 HalfCheetah, 32 "
+      "MT10");
+  add(
+      "train.validate_every", [](RunConfig & c) -> auto& { return c.train.validate_every; }, range(1, kMaxSteps),
+      "steps between validations (the BC loss on the validation demos)");
+  add(
+      "train.checkpoint_every", [](RunConfig & c) -> auto& { return c.train.checkpoint_every; }, range(1, kMaxSteps),
+      "steps between writes of `last.ckpt` (what a killed run resumes from)");
+  add(
+      "train.validation_states_per_task", [](RunConfig & c) -> auto& { return c.train.validation_states_per_task; },
+      range(0, kMaxRows),
+      "validation states per task, evenly spaced through the task's validation demos (a fixed subset; 0: every "
+      "validation state)");
+  add(
+      "train.keep_every", [](RunConfig & c) -> auto& { return c.train.keep_every; }, range(0, kMaxSteps),
+      "also keep `step_<N>.ckpt` every N steps (0: never), for `maps eval --checkpoints` (the paper's "
+      "best-over-checkpoints rule)");
+  add(
+      "train.bc_loss", [](RunConfig & c) -> auto& { return c.train.bc_loss; }, one_of({"mean", "sampled"}),
+      "`mean`: squared error of the mean action; `sampled`: of a Gaussian sample with a learned "
+      "state-independent log-std (the paper's code; not for `maml`)");
+  add(
+      "train.freeze", [](RunConfig & c) -> auto& { return c.train.freeze; }, any(),
+      "parameters whose name starts with one of these are not trained and stay bit for bit as they started "
+      "(transfer: `[\"modules\"]`, `[\"modules\", \"head\"]`); a prefix that names no parameter is an error "
+      "listing the names");
+  add(
+      "train.lr_scale", [](RunConfig & c) -> auto& { return c.train.lr_scale; },
+      range(0, 1e6).documented_as("object prefix: float"),
+      "learning-rate factors by parameter-name prefix (transfer with fine-tuned modules: `{\"modules\": 0.1}`); "
+      "refused for a prefix that overlaps a `train.freeze` one");
+  add(
+      "train.validation_tasks", [](RunConfig & c) -> auto& { return c.train.validation_tasks; }, any(),
+      "judge checkpoints (the best validation loss) on these tasks' validation states only; empty: every "
+      "task's. Transfer's comparison judges a multi-task run taught a new task on the new task, as it judges "
+      "the runs of that task alone");
+  add(
+      "train.flush_denormal", [](RunConfig & c) -> auto& { return c.train.flush_denormal; }, any(),
+      "training flushes denormal floats to zero (3-6x faster steps once MAPS's selector sharpens; "
+      "docs/performance.md, \"Denormals\"); `false` computes with IEEE denormals, bit for bit as runs made "
+      "before the key existed");
+  add(
+      "train.optimizer", [](RunConfig & c) -> auto& { return c.train.optimizer; }, one_of({"joint", "alternating"}),
+      "`joint`: one Adam step on every parameter per batch; `alternating`: the paper's code's (`train.py`): the "
+      "selector's parameters step first, then the loss is computed again with the stepped selector (a fresh "
+      "sampled-BC draw) and the modules and head step (MAPS with a learned selector only)");
+  add(
+      "train.adam_eps", [](RunConfig & c) -> auto& { return c.train.adam_eps; }, range(1e-30, 1),
+      "Adam's epsilon (torch's default; the paper's code 1e-5); added in float32, where a smaller value rounds to 0 "
+      "and a step divides by zero");
+  add(
+      "maps.modules", [](RunConfig & c) -> auto& { return c.maps.modules; }, range(1, kMaxModules),
+      "M, the proto-policy modules");
+  add(
+      "maps.module_hidden", [](RunConfig & c) -> auto& { return c.maps.module_hidden; },
+      range(1, kMaxWidth).not_empty(), "each module's layer sizes; the last is its feature size");
+  add(
+      "maps.selector_hidden", [](RunConfig & c) -> auto& { return c.maps.selector_hidden; }, range(1, kMaxWidth),
+      "the selector G(s, k)'s hidden sizes ([S + K] -> ... -> M, softmax)");
+  add(
+      "maps.activation", [](RunConfig & c) -> auto& { return c.maps.activation; },
+      one_of({"tanh", "relu", "sigmoid", "identity"}),
+      "after every module layer and in the selector's hidden layers: `tanh`, `relu`, `sigmoid`, `identity`");
+  add(
+      "maps.bc_weight", [](RunConfig & c) -> auto& { return c.maps.bc_weight; }, range(0, kMaxWeight),
+      "weight of the BC loss in the total");
+  add(
+      "maps.selector_weight", [](RunConfig & c) -> auto& { return c.maps.selector_weight; }, range(0, kMaxWeight),
+      "weight of the weighted selector losses in the total");
+  add(
+      "maps.selector_losses", [](RunConfig & c) -> auto& { return c.maps.selector_losses; }, range(0, kMaxWeight),
+      "the selector losses and their weights (lambda); the paper's MT10 weights are `{\"share\": 1, "
+      "\"explore\": 0.1, \"sparse\": 0.5, \"smooth\": 1}`; a weight of 0 is the ablation; an object given "
+      "replaces the whole default (name every loss you want)");
+  add(
+      "maps.selector", [](RunConfig & c) -> auto& { return c.maps.selector; }, one_of({"learned", "uniform", "task"}),
+      "`learned`: G(s, k); `uniform`: every score 1/M, no selector losses (the control; the policy then does "
+      "not see the task, which reaches MAPS through the selector alone); `task`: G(k), the selector with its "
+      "state input zeroed, one fixed mixture of modules per task (the control for whether routing needs the "
+      "state; the first layer's state columns stay, unused)");
+  add(
+      "maps.observations", [](RunConfig & c) -> auto& { return c.maps.observations; },
+      one_of({"standardized", "raw_clipped"}),
+      "`standardized`: modules and selector see standardised observations; `raw_clipped`: the paper's code's "
+      "inputs (modules: raw clipped to [-5, 5]; selector: raw)");
+  add(
+      "maml.inner_lr", [](RunConfig & c) -> auto& { return c.maml.inner_lr; }, range(0, 1e3),
+      "inner-loop and fine-tuning SGD step size (0: no adaptation, theta itself for every task: the control "
+      "without MAML's inner step)");
+  add(
+      "maml.inner_steps", [](RunConfig & c) -> auto& { return c.maml.inner_steps; }, range(1, 1000),
+      "SGD steps on the support rows per meta-training task");
+  add(
+      "maml.first_order", [](RunConfig & c) -> auto& { return c.maml.first_order; }, any(),
+      "drop the second-order terms (first-order MAML)");
+  add(
+      "maml.query_per_task", [](RunConfig & c) -> auto& { return c.maml.query_per_task; }, range(1, kMaxRows),
+      "query rows per task in each meta-batch (the paper: 160 HalfCheetah, 40 MT10)");
+  add(
+      "maml.finetune_steps", [](RunConfig & c) -> auto& { return c.maml.finetune_steps; }, range(0, 1000000),
+      "the most SGD steps per task before evaluation (0: evaluated unadapted)");
+  add(
+      "maml.validate", [](RunConfig & c) -> auto& { return c.maml.validate; }, one_of({"unadapted", "adapted"}),
+      "what chooses the checkpoint: `unadapted` (theta's validation error) or `adapted` (the fine-tuned "
+      "policies')");
+  add(
+      "baselines.hidden", [](RunConfig & c) -> auto& { return c.baseline_hidden; }, range(1, kMaxWidth).not_empty(),
+      "the MLP of Single BC, MT-BC, MT-MH-BC and MAML (refused for the methods it does not size: `maps`, whose "
+      "sizes are `maps.*_hidden`, and the zoo's, whose sizes are in their own sections)");
+  add(
+      "eval.episodes", [](RunConfig & c) -> auto& { return c.eval_episodes; }, range(1, 1000000),
+      "`maps eval`'s episodes per task (held-out seeds from 4,000,000,000)");
+  add(
+      "eval.threads", [](RunConfig & c) -> auto& { return c.eval_threads; }, range(0, ag::kMaxThreads),
+      "`maps eval`'s threads (0: one per core; at most 256)");
+  add(
+      "eval.tasks", [](RunConfig & c) -> auto& { return c.eval_tasks; }, any(),
+      "`maps eval` scores only these of the run's tasks (empty: all); a suite's new-task cells score the new "
+      "task alone");
+  add(
+      "init.run", [](RunConfig & c) -> auto& { return c.init_run; }, any(),
+      "start from this run folder's parameters (a relative path is relative to the run folder itself: a suite's "
+      "transfer cell names its source `../<cell>`) (transfer; `maps transfer` writes it): parameters of the "
+      "same name are copied, a [state, task] input layer gets each task's column by name (a new task: the mean "
+      "of the known ones), and the run standardises observations with that checkpoint's statistics; the "
+      "starting parameters are validated as step 0 and are best.ckpt's if no trained step beats them (best step "
+      "0: training on the new data only made the policy worse on validation)");
+  add(
+      "init.checkpoint", [](RunConfig & c) -> auto& { return c.init_checkpoint; }, any().not_empty(),
+      "the checkpoint of `init.run` to start from");
+  return table.take();
+}
+
+}  // namespace
+
+const std::vector<RunConfigField>& run_config_fields() {
+  static const std::vector<RunConfigField> fields = make_fields();
+  return fields;
+}
+
+std::vector<io::Field> run_config_schema() {
+  std::vector<io::Field> schema;
+  for (const RunConfigField& field : run_config_fields()) {
+    schema.push_back(field.spec);
+    if (field.spec.key != "baselines.hidden") continue;
+    for (const PolicyMethod& method : policy_methods())
+      for (io::Field option : method.options) {
+        option.key = method.name + "." + option.key;
+        schema.push_back(std::move(option));
+      }
+  }
+  return schema;
+}
+
+}  // namespace maps::core
