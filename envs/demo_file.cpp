@@ -18,6 +18,7 @@
 
 #include "envs/portable_random.h"
 #include "io/hdf5_self_contained.h"
+#include "io/isolated.h"
 #include "io/json_input.h"
 
 namespace maps::envs {
@@ -32,6 +33,8 @@ using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen:
 constexpr std::int64_t kFormatVersion = 2;
 constexpr const char* kObsKey = "flat";
 constexpr hid_t kInvalidId = -1;
+// A demo file of this project reads in under a second; the paper-scale MT10 file (350 demos) in about 0.1 s.
+constexpr double kIsolatedReadSeconds = 300.0;
 
 // robomimic's data attribute env_args (robomimic/utils/file_utils.py reads it with json.loads; its code reads the
 // kind from "type", though its docs say "env_type"): 2 is its EnvType.GYM_TYPE, the nearest of its kinds; env_kwargs
@@ -415,6 +418,16 @@ class Reader {
       fail(d.path, "expected a " + std::to_string(rank) + "-d dataset, found rank " + std::to_string(ndims));
     d.dims.assign(static_cast<std::size_t>(rank), 0);
     if (H5Sget_simple_extent_dims(space.get(), d.dims.data(), nullptr) < 0) fail_hdf5(d.path, "cannot get shape");
+    // A damaged extent would have the reader allocate terabytes (std::bad_alloc after seconds of paging): what a
+    // dataset declares must fit what a file of this size can hold, compressed 64-fold at most, or 64 MB.
+    long double elements = 1;
+    for (hsize_t x : d.dims) elements *= static_cast<long double>(x);
+    std::error_code size_error;
+    const auto file_bytes = static_cast<long double>(fs::file_size(file_, size_error));
+    if (elements * 8 > std::max<long double>(64.0L * (1 << 20), 64.0L * file_bytes))
+      fail(d.path, "declares " + shape_string(d.dims) + " elements, more than a file of " +
+                       std::to_string(static_cast<unsigned long long>(file_bytes)) +
+                       " bytes can hold (a damaged file?)");
     Handle type = check_id(H5Dget_type(id), H5Tclose, d.path, "get type");
     d.type_class = H5Tget_class(type.get());
     if (std::find(classes.begin(), classes.end(), d.type_class) == classes.end())
@@ -833,8 +846,31 @@ void write_demo_file(const std::string& path, const DemoFile& file) {
 }
 
 DemoFile read_demo_file(const std::string& path) {
+  // libhdf5 1.10 can crash on a damaged file (a buffer overflow in H5HG_read, reading a variable-length string whose
+  // global heap entry is damaged: found by the property test, DemoFileProperty) or loop in it. So the file is read
+  // first by a child process; its death or hang is a refusal. A file the child read or refused is read here again,
+  // which returns it or throws the child's error.
+  const io::IsolatedOutcome probe = io::run_isolated(
+      [&path] {
+        const QuietHdf5Errors quiet;
+        Reader(path).read();
+      },
+      kIsolatedReadSeconds);
+  if (!probe.finished)
+    throw std::runtime_error(
+        "demo file '" + path + "': " +
+        (probe.timed_out ? "reading it took more than " + std::to_string(static_cast<int>(kIsolatedReadSeconds)) + " s"
+         : probe.signal != 0
+             ? "the HDF5 library crashed reading it (signal " + std::to_string(probe.signal) + ")"
+             : "reading it failed in the HDF5 library (exit status " + std::to_string(probe.exit_status) + ")") +
+        ": the file is damaged (libhdf5 " + std::to_string(H5_VERS_MAJOR) + "." + std::to_string(H5_VERS_MINOR) + "." +
+        std::to_string(H5_VERS_RELEASE) + " cannot read it safely)");
   const QuietHdf5Errors quiet;
-  return Reader(path).read();
+  try {
+    return Reader(path).read();
+  } catch (const std::bad_alloc&) {
+    throw std::runtime_error("demo file '" + path + "': out of memory while reading it (a size in it is damaged?)");
+  }
 }
 
 std::pair<std::vector<int>, std::vector<int>> split_train_valid(int n_demos, double train_fraction,

@@ -1,5 +1,4 @@
 #include "envs/expert_policy.h"
-#include "io/json_input.h"
 
 #include <unistd.h>
 
@@ -7,8 +6,11 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <stdexcept>
+
+#include "io/json_input.h"
 
 namespace maps::envs {
 namespace {
@@ -198,14 +200,32 @@ ExpertPolicy ExpertPolicy::load(const std::string& path) {
   std::ostringstream text;
   text << in.rdbuf();
   const json document = io::parse_json(text.str(), where);
+  if (!document.is_object()) throw std::runtime_error(where + ": expected a JSON object");
   const json& format = field(document, "format", where);
   if (!format.is_string() || format.get<std::string>() != kFormat) {
     throw std::runtime_error(where + ": field 'format' is not \"" + std::string(kFormat) + "\"");
   }
+  // Compared as a 64-bit integer: read as an int, 2^32 + 1 became version 1.
   const json& version = field(document, "version", where);
-  if (!version.is_number_integer() || version.get<int>() != kVersion) {
+  const bool supported = version.is_number_unsigned()  ? version.get<std::uint64_t>() == kVersion
+                         : version.is_number_integer() ? version.get<std::int64_t>() == kVersion
+                                                       : false;
+  if (!supported) {
     throw std::runtime_error(where + ": unsupported version " + version.dump() + " (this build reads " +
                              std::to_string(kVersion) + ")");
+  }
+  std::set<std::string> known;
+  for (const io::Field& f : expert_file_schema()) known.insert(f.key);
+  for (const auto& [key, value] : document.items()) {
+    if (!known.count(key)) throw std::runtime_error(where + ": unknown field '" + key + "'");
+    for (const io::Field& f : expert_file_schema())
+      if (f.key == key && f.key != "layers") {
+        try {
+          io::check_value(f, value, "field ");
+        } catch (const std::invalid_argument& e) {
+          throw std::runtime_error(where + ": " + e.what());
+        }
+      }
   }
   ExpertPolicy policy;
   const json& task = field(document, "task", where);
@@ -230,6 +250,46 @@ ExpertPolicy ExpertPolicy::load(const std::string& path) {
     throw std::runtime_error(where + " is inconsistent: " + e.what());
   }
   return policy;
+}
+
+const std::vector<io::Field>& expert_file_schema() {
+  static const std::vector<io::Field> schema = [] {
+    auto make = [](std::string key, io::ValueKind kind, std::string type, std::string meaning) {
+      io::Field f;
+      f.key = std::move(key);
+      f.kind = kind;
+      f.type_name = std::move(type);
+      f.meaning = std::move(meaning);
+      f.required = true;
+      return f;
+    };
+    std::vector<io::Field> s;
+    s.push_back(make("format", io::ValueKind::kString, "string", "the file's kind"));
+    s.back().choices = {kFormat};
+    s.push_back(make("version", io::ValueKind::kInteger, "int", "the format's version"));
+    s.back().min = s.back().max = kVersion;
+    s.push_back(make("task", io::ValueKind::kString, "string", "the task the expert was trained on"));
+    s.back().non_empty = true;
+    s.push_back(make("obs_mean", io::ValueKind::kNumberList, "float list", "the observations' running mean"));
+    s.back().non_empty = true;
+    s.push_back(make("obs_var", io::ValueKind::kNumberList, "float list", "their running variance"));
+    s.back().non_empty = true;
+    s.back().min = 0;
+    s.push_back(make("obs_clip", io::ValueKind::kNumber, "float", "normalised observations are clipped to +-this"));
+    s.back().min = 0;
+    s.back().min_exclusive = true;
+    s.back().max = 1e6;
+    s.push_back(make("obs_epsilon", io::ValueKind::kNumber, "float", "added to the variance before its root"));
+    s.back().min = 0;
+    s.back().max = 1;
+    s.push_back(make("layers", io::ValueKind::kObject, "list of {weight, bias}",
+                     "the MLP's layers: weight rows [out][in], bias [out]; each layer takes the last one's outputs"));
+    s.push_back(make("log_std", io::ValueKind::kNumberList, "float list", "the Gaussian's log-std per action"));
+    s.back().non_empty = true;
+    s.push_back(make("metadata", io::ValueKind::kObject, "object", "free-form: training steps, seed, measured return"));
+    return s;
+  }();
+  return schema;
 }
 
 }  // namespace maps::envs

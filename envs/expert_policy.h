@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "io/config_schema.h"
+
 // A trained expert as plain Eigen: observation normalisation, a tanh MLP giving the mean
 // action, and a state-independent log-std. PPO (maps/rl) trains it; envs/ only runs it, so
 // envs/ needs no autograd.
@@ -39,5 +41,9 @@ struct ExpertPolicy {
   void save(const std::string& path) const;
   static ExpertPolicy load(const std::string& path);
 };
+
+// The keys of an expert file, with their types and ranges (`maps schema expert`); load() checks each through it and
+// refuses a key outside it. "layers" (a list of {"weight": rows of numbers, "bias": numbers}) is checked by shape.
+const std::vector<io::Field>& expert_file_schema();
 
 }  // namespace maps::envs

@@ -26,6 +26,10 @@ int run_formats_script(const std::vector<std::string>& args) {
   all.insert(all.end(), args.begin(), args.end());
   const int code = run_program(kPython, all, nullptr);
   if (code == 127) throw std::runtime_error("cannot run " + kPython);
+  // h5py shares libhdf5, which can crash on a damaged file (docs/reliability.md): a death is said, not a bare status.
+  if (code > 128)
+    throw std::runtime_error(script.string() + " died of signal " + std::to_string(code - 128) + " converting '" +
+                             args[args.size() - 2] + "' (libhdf5 crashes on some damaged files: the input is damaged)");
   return code;
 }
 

@@ -451,10 +451,10 @@ int main(int argc, char** argv) {
       "schema", "Every key of an input with its type, default, range and meaning (docs/configs.md's table)");
   schema_cmd
       ->add_option("kind", schema.kind,
-                   "The input: run-config, suite-config, policy-checkpoint (best.ckpt's record) or "
-                   "training-checkpoint (last.ckpt's)")
+                   "The input: run-config, suite-config, policy-checkpoint (best.ckpt's record), "
+                   "training-checkpoint (last.ckpt's) or expert (an expert file)")
       ->required()
-      ->check(CLI::IsMember({"run-config", "suite-config", "policy-checkpoint", "training-checkpoint"}));
+      ->check(CLI::IsMember({"run-config", "suite-config", "policy-checkpoint", "training-checkpoint", "expert"}));
   schema_cmd->add_flag("--markdown", schema.markdown, "The docs' markdown table instead of JSON");
 
   // Exit codes (docs/cli.md): 0 done, 1 the work failed (bad input files, a failed run), 2 the command line is wrong

@@ -19,6 +19,18 @@ void write_json_file(const std::string& path, const nlohmann::json& json) {
 
 nlohmann::json read_json_file(const std::string& path) { return io::read_json_file(path); }
 
+core::RunConfig parse_run_config_from(const nlohmann::json& json, const std::string& where) {
+  try {
+    return core::parse_run_config(json);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(where + ": " + e.what());
+  }
+}
+
+core::RunConfig read_run_config(const std::string& path) {
+  return parse_run_config_from(read_json_file(path), "'" + path + "'");
+}
+
 std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir) {
   if (config.init_run.empty()) return "";
   const std::filesystem::path folder(config.init_run);
@@ -49,12 +61,16 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   namespace fs = std::filesystem;
   const fs::path dir(run);
   TrainedRun loaded;
-  loaded.config = core::parse_run_config(read_json_file((dir / "config.json").string()));
+  loaded.config = read_run_config((dir / "config.json").string());
   if (!data_file.empty()) loaded.config.data_file = data_file;
   const std::string best_path = (dir / checkpoint).string();
   if (!fs::exists(best_path))
     throw std::runtime_error(run + " has no " + checkpoint + ": train it first (maps train --out " + run + ")");
-  loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config, run));
+  try {
+    loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config, run));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(run + ": the demonstrations its config.json names: " + e.what());
+  }
   const core::DemoDataset& data = *loaded.data;
   loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
   const nn::Checkpoint saved = nn::load_tensors(best_path);
@@ -83,7 +99,8 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   if (((record.standardizer.mean - standardizer.mean).array().abs() > 1e-9).any() ||
       ((record.standardizer.std - standardizer.std).array().abs() > 1e-9).any())
     throw std::runtime_error(loaded.config.data_file + " is not the demo file " + run +
-                             " was trained on (its observation statistics differ)");
+                             " was trained on (its observation statistics differ from those " + best_path +
+                             " records)");
   loaded.policy->eval();
   loaded.policy->prepare_for_evaluation(data);
   return loaded;

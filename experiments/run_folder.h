@@ -22,6 +22,11 @@ inline const std::vector<std::string> kTrainAppends = {"train.log", "curve.csv"}
 void write_json_file(const std::string& path, const nlohmann::json& json);
 nlohmann::json read_json_file(const std::string& path);
 
+// A run config file (a run folder's config.json, `maps train --config`), parsed and checked; an error names the file.
+core::RunConfig read_run_config(const std::string& path);
+// The same for a config given as JSON that came from `where` (a file and its --set overrides).
+core::RunConfig parse_run_config_from(const nlohmann::json& json, const std::string& where);
+
 // The run's demonstrations, as its config draws them (standardised as init.run's checkpoint says, if it names one).
 core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::string& run_dir);
 

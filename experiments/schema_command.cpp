@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "envs/expert_policy.h"
 #include "experiments/suite_schema.h"
 #include "io/config_schema.h"
 #include "maps/training/checkpoint_record.h"
@@ -21,6 +22,8 @@ int run_schema(const SchemaOptions& options) {
     fields = core::policy_record_schema();
   } else if (options.kind == "training-checkpoint") {
     fields = core::training_state_schema();
+  } else if (options.kind == "expert") {
+    fields = envs::expert_file_schema();
   } else {
     throw std::invalid_argument("maps schema: unknown kind '" + options.kind + "'");
   }

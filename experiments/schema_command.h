@@ -5,7 +5,7 @@
 namespace maps::experiments {
 
 struct SchemaOptions {
-  std::string kind;  // run-config, suite-config, policy-checkpoint, training-checkpoint
+  std::string kind;  // run-config, suite-config, policy-checkpoint, training-checkpoint, expert
   bool markdown = false;
 };
 

@@ -21,6 +21,8 @@
 #include <vector>
 
 #include "experiments/run_folder.h"
+#include "io/config_schema.h"
+#include "io/json_input.h"
 #include "maps/training/run_config.h"
 
 namespace maps::experiments {
@@ -45,25 +47,42 @@ Suite read_manifest(const fs::path& out) {
   if (!fs::exists(path))
     throw std::runtime_error(out.string() + " is not a suite folder: it has no suite.json (maps suite run writes it)");
   const Json manifest = read_json_file(path.string());
-  if (!manifest.is_object() || manifest.value("format", "") != kSuiteFormat || !manifest.contains("cells") ||
+  if (!manifest.is_object() || io::string_or(manifest, "format", "") != kSuiteFormat || !manifest.contains("cells") ||
       !manifest["cells"].is_array())
     throw std::runtime_error(path.string() + ": not a " + std::string(kSuiteFormat) +
                              " manifest (expected \"format\" and \"cells\")");
   Suite suite;
-  suite.path = manifest.value("config_file", "");
+  suite.path = io::string_or(manifest, "config_file", "");
   suite.source = manifest.value("config", Json::object());
   try {
+    std::set<std::string> names;
     for (const auto& entry : manifest["cells"]) {
+      // Each integer within its range: read as an int, 2^32 + 1 demonstrations became 1.
+      const auto integer = [&](const char* key, long double low, long double high) {
+        io::Field field;
+        field.key = "cells[" + std::to_string(suite.cells.size()) + "]." + key;
+        field.kind = io::ValueKind::kInteger;
+        field.min = low;
+        field.max = high;
+        try {
+          io::check_value(field, entry.at(key), "");
+        } catch (const std::invalid_argument& e) {
+          throw std::runtime_error(path.string() + ": " + e.what());
+        }
+        return entry.at(key);
+      };
       SuiteCell cell;
-      cell.index = entry.at("index").get<int>();
+      cell.index = integer("index", 0, 100000000).get<int>();
       cell.name = entry.at("name").get<std::string>();
+      if (cell.name.empty() || !names.insert(cell.name).second)
+        throw std::runtime_error(path.string() + ": cell name '" + cell.name + "' is empty or given twice");
       cell.grid = entry.at("grid").get<std::string>();
       cell.set = entry.at("set").get<std::string>();
       cell.method = entry.at("method").get<std::string>();
       cell.variant = entry.at("variant").get<std::string>();
-      cell.demos = entry.at("demos").get<int>();
-      cell.subsample = entry.at("subsample").get<int>();
-      cell.seed = entry.at("seed").get<std::uint64_t>();
+      cell.demos = integer("demos", 1, 1000000).get<int>();
+      cell.subsample = integer("subsample", 1, 1000000).get<int>();
+      cell.seed = integer("seed", 0, io::kMaxUint64).get<std::uint64_t>();
       cell.request = entry.at("request");
       try {
         core::parse_run_config(cell.request);
@@ -139,8 +158,9 @@ std::optional<Json> read_result(const fs::path& dir, const SuiteCell& cell, std:
   } catch (const std::exception& e) {
     return reject("unreadable (" + std::string(e.what()) + ")");
   }
-  if (!result.is_object() || result.value("format", "") != kCellFormat) return reject("not a maps-suite-cell/1 result");
-  if (!result.contains("cell") || !result["cell"].is_object() || result["cell"].value("name", "") != cell.name)
+  if (!result.is_object() || io::string_or(result, "format", "") != kCellFormat)
+    return reject("not a maps-suite-cell/1 result");
+  if (!result.contains("cell") || !result["cell"].is_object() || io::string_or(result["cell"], "name", "") != cell.name)
     return reject("names another cell");
   if (!result.contains("config") || !same_run_config(result["config"], cell.request))
     return reject("was trained with another run config");
@@ -189,7 +209,7 @@ bool cell_is_locked(const fs::path& dir) {
 }
 
 fs::path source_dir(const fs::path& dir, const SuiteCell& cell) {
-  const std::string relative = cell.request.contains("init") ? cell.request["init"].value("run", "") : "";
+  const std::string relative = cell.request.contains("init") ? io::string_or(cell.request["init"], "run", "") : "";
   if (relative.empty()) return {};
   // "../a/" names the folder "../a" does: without the trailing separator, so that both find the same cell.
   const fs::path source = (dir / relative).lexically_normal();
@@ -199,7 +219,7 @@ fs::path source_dir(const fs::path& dir, const SuiteCell& cell) {
 fs::path source_checkpoint(const fs::path& dir, const SuiteCell& cell) {
   const fs::path source = source_dir(dir, cell);
   if (source.empty()) return {};
-  return source / cell.request["init"].value("checkpoint", "best.ckpt");
+  return source / io::string_or(cell.request["init"], "checkpoint", "best.ckpt");
 }
 
 void clear_cell(const fs::path& dir) {
@@ -223,7 +243,7 @@ fs::path replaced_folder(const fs::path& dir, std::string finished) {
 fs::path retire_cell(const fs::path& dir) {
   std::string finished;
   try {
-    finished = read_json_file((dir / "result.json").string()).value("finished", finished);
+    finished = io::string_or(read_json_file((dir / "result.json").string()), "finished", finished);
   } catch (const std::exception&) {
   }
   const fs::path kept = replaced_folder(dir, finished);

@@ -29,6 +29,7 @@
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
 #include "experiments/training_attempts.h"
+#include "io/json_input.h"
 
 namespace maps::experiments {
 

@@ -22,6 +22,7 @@
 #include "experiments/suite_costs.h"
 #include "experiments/suite_folder.h"
 #include "experiments/suite_run.h"
+#include "io/json_input.h"
 #include "maps/training/curve_cost.h"
 #include "maps/training/trainer.h"
 
@@ -211,8 +212,8 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     s.state = "failed";
     try {
       const Json error = read_json_file((dir / "error.json").string());
-      s.detail = error.value("stage", "?") + ": " + error.value("error", "?") + " (see " +
-                 (dir / error.value("log", "")).string() + ")";
+      s.detail = io::string_or(error, "stage", "?") + ": " + io::string_or(error, "error", "?") + " (see " +
+                 (dir / io::string_or(error, "log", "")).string() + ")";
     } catch (const std::exception& e) {
       s.detail = e.what();
     }

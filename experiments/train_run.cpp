@@ -54,7 +54,7 @@ void check_existing_run(const std::string& out, const nlohmann::json& resolved, 
   const std::string config_path = (std::filesystem::path(out) / "config.json").string();
   if (!std::filesystem::exists(config_path)) return;
   // Compared after resolving both, so a folder written before a key existed (its default then implied) resumes.
-  const nlohmann::json existing = core::to_json(core::parse_run_config(read_json_file(config_path)));
+  const nlohmann::json existing = core::to_json(read_run_config(config_path));
   if (existing == resolved) return;
   nlohmann::json existing_but_steps = existing, resolved_but_steps = resolved;
   existing_but_steps["train"].erase("steps");
@@ -75,7 +75,8 @@ void check_existing_run(const std::string& out, const nlohmann::json& resolved, 
 int run_train(const TrainRunOptions& options) {
   nlohmann::json json = read_json_file(options.config_path);
   apply_overrides(json, options.overrides);
-  const core::RunConfig config = core::parse_run_config(json);
+  const core::RunConfig config = parse_run_config_from(
+      json, "--config '" + options.config_path + "'" + (options.overrides.empty() ? "" : " with its --set overrides"));
   const nlohmann::json resolved = core::to_json(config);
   if (options.print_config) {
     std::cout << resolved.dump(2) << std::endl;

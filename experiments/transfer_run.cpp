@@ -48,9 +48,9 @@ int run_transfer(const TransferOptions& options) {
   const fs::path source_dir = fs::absolute(options.run);
   core::RunConfig source;
   try {
-    source = core::parse_run_config(read_json_file((source_dir / "config.json").string()));
+    source = read_run_config((source_dir / "config.json").string());
   } catch (const std::exception& e) {
-    throw std::invalid_argument("--run " + options.run + ": its config.json: " + e.what());
+    throw std::invalid_argument("--run " + options.run + ": " + e.what());
   }
   if (source.method != "maps")
     throw std::invalid_argument("--run " + options.run + " is a " + source.method +

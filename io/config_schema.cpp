@@ -130,6 +130,11 @@ std::string shown(const nlohmann::json& value) {
 }  // namespace
 
 std::string expectation(const Field& f) {
+  if (f.nullable) {
+    Field plain = f;
+    plain.nullable = false;
+    return expectation(plain) + " or null";
+  }
   if (f.kind == ValueKind::kObject) return "an object";
   if (is_list(f.kind)) {
     std::string element = scalar_expectation(f, element_kind(f.kind));
@@ -146,6 +151,7 @@ std::string expectation(const Field& f) {
 }
 
 void check_value(const Field& f, const nlohmann::json& value, const std::string& prefix) {
+  if (f.nullable && value.is_null()) return;
   auto fail = [&](const std::string& where, const std::string& expected, const nlohmann::json& got) {
     throw std::invalid_argument(prefix + where + ": expected " + expected + ", got " + shown(got));
   };

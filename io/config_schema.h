@@ -39,6 +39,7 @@ struct Field {
   bool non_empty = false;            // a string or list must not be empty
   bool unique = false;               // a list must not name an element twice
   bool required = false;             // no default: the key must be given
+  bool nullable = false;             // null is a value too (a loss not computed yet)
   nlohmann::json default_value;      // as the docs show it; null: "required", or "none" (the key is optional)
   std::string meaning;               // the docs' text: what it does, and what a special value (0: all) means
 };

@@ -45,4 +45,10 @@ nlohmann::json read_json_file(const std::string& path) {
   return parse_json(text.str(), "'" + path + "'");
 }
 
+std::string string_or(const nlohmann::json& json, const std::string& key, const std::string& fallback) {
+  if (!json.is_object()) return fallback;
+  const auto found = json.find(key);
+  return found != json.end() && found->is_string() ? found->get<std::string>() : fallback;
+}
+
 }  // namespace maps::io

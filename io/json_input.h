@@ -27,4 +27,8 @@ nlohmann::json parse_json(std::string_view text, const std::string& what);
 // naming it.
 nlohmann::json read_json_file(const std::string& path);
 
+// `json[key]` when `json` is an object holding a string there, else `fallback`. nlohmann's value() throws a bare
+// type_error ("type must be string") for a key of another type, which names neither the file nor the key.
+std::string string_or(const nlohmann::json& json, const std::string& key, const std::string& fallback);
+
 }  // namespace maps::io

@@ -19,6 +19,7 @@ import pathlib
 import sys
 
 TASK_FIELDS = ("score", "return_mean", "success_rate")
+MAX_JSON_DEPTH = 64  # the C++ reader's limit (io/json_input.cpp); no result.json nests deeper
 
 
 def finished_cells(root):
@@ -34,12 +35,29 @@ def finished_cells(root):
 
 
 def load(path):
+    """path's JSON; exits 2 naming the file when it cannot be read or nests past MAX_JSON_DEPTH levels (json
+    recurses once a level: a deep enough file would otherwise end in a RecursionError traceback)."""
+    too_deep = (f"compare_suites: {path} nests JSON deeper than {MAX_JSON_DEPTH} levels (arrays and objects inside "
+                f"each other); no input of this tool nests so deep")
     try:
         with open(path, encoding="utf-8") as f:
-            return json.load(f)
+            value = json.load(f)
     except (OSError, ValueError) as e:
         print(f"compare_suites: cannot read {path}: {e}", file=sys.stderr)
         sys.exit(2)
+    except RecursionError:
+        print(too_deep, file=sys.stderr)
+        sys.exit(2)
+    # Iterative: the check must not recurse on the depth it is there to bound.
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)):
+            if depth > MAX_JSON_DEPTH:
+                print(too_deep, file=sys.stderr)
+                sys.exit(2)
+            stack.extend((child, depth + 1) for child in (item.values() if isinstance(item, dict) else item))
+    return value
 
 
 def same_number(a, b):

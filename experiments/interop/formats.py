@@ -21,6 +21,7 @@ import numpy as np
 
 FORMAT_VERSION = 2
 OBS_KEY = "flat"
+MAX_JSON_DEPTH = 64  # the C++ reader's limit (io/json_input.cpp); no input of this tool nests deeper
 
 
 class FormatError(Exception):
@@ -279,9 +280,11 @@ def import_minari(folder, task_set=None):
     """A Minari dataset folder (this project's export or any other with a flat Box observation)."""
     data_dir = pathlib.Path(folder) / "data"
     try:
-        metadata = json.loads((data_dir / "metadata.json").read_text())
+        metadata = read_json(data_dir / "metadata.json")
     except (OSError, ValueError) as e:
         raise FormatError(f"{data_dir / 'metadata.json'}: cannot read Minari's metadata ({e})")
+    if not isinstance(metadata, dict):
+        raise FormatError(f"{data_dir / 'metadata.json'}: expected a JSON object, got {type(metadata).__name__}")
     if metadata.get("data_format", "hdf5") != "hdf5":
         raise FormatError(f"{folder}: data_format '{metadata['data_format']}'; only Minari's hdf5 backend is read")
     path = data_dir / "main_data.hdf5"
@@ -324,8 +327,7 @@ def import_minari(folder, task_set=None):
         raise FormatError(f"{path}: observation widths differ across episodes")
     demos = {"episodes": episodes}
     if "maps" in metadata:
-        demos.update({key: metadata["maps"][key] for key in ("task_set", "task_names", "env_version",
-                                                              "creation_command", "extra_json", "train", "valid")})
+        demos.update(maps_metadata(data_dir / "metadata.json", metadata["maps"]))
     else:
         name = task_set or str(metadata.get("dataset_id", pathlib.Path(folder).name))
         tasks = max(e["task_index"] for e in episodes) + 1
@@ -338,6 +340,24 @@ def import_minari(folder, task_set=None):
         demos["task_set"] = task_set
     check_task_indices(path, demos)
     return demos
+
+
+def maps_metadata(path, maps):
+    """The "maps" entry of a Minari metadata.json (this project's export), each key of its type: a hand-edited or
+    damaged one is refused naming the key, not met later as a crash."""
+    kinds = {"task_set": str, "task_names": list, "env_version": str, "creation_command": str, "extra_json": str,
+             "train": list, "valid": list}
+    if not isinstance(maps, dict):
+        raise FormatError(f"{path}: \"maps\" is {type(maps).__name__}, expected an object")
+    for key, kind in kinds.items():
+        if not isinstance(maps.get(key), kind):
+            raise FormatError(f"{path}: \"maps\".{key} is missing or not a {kind.__name__}")
+    if not all(isinstance(name, str) for name in maps["task_names"]):
+        raise FormatError(f"{path}: \"maps\".task_names holds a non-string")
+    for key in ("train", "valid"):
+        if not all(isinstance(i, int) and not isinstance(i, bool) for i in maps[key]):
+            raise FormatError(f"{path}: \"maps\".{key} holds a non-integer")
+    return {key: maps[key] for key in kinds}
 
 
 # ----- robomimic -------------------------------------------------------------------------------------------------
@@ -422,6 +442,26 @@ def import_robomimic(path, task_set=None, obs_keys=None):
 
 SELF_CONTAINED = ("this tool reads a file from itself alone (no external links, external storage, virtual datasets "
                   "or user-defined links)")
+
+
+def read_json(path):
+    """path's JSON; FormatError naming the file when arrays and objects nest inside each other past MAX_JSON_DEPTH
+    levels. json recurses once a level, so a deep enough file would otherwise end in a RecursionError traceback."""
+    too_deep = FormatError(f"{path} nests JSON deeper than {MAX_JSON_DEPTH} levels (arrays and objects inside each "
+                           f"other); no input of this tool nests so deep")
+    try:
+        value = json.loads(pathlib.Path(path).read_text())
+    except RecursionError:
+        raise too_deep from None
+    # Iterative: the check must not recurse on the depth it is there to bound.
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)):
+            if depth > MAX_JSON_DEPTH:
+                raise too_deep
+            stack.extend((child, depth + 1) for child in (item.values() if isinstance(item, dict) else item))
+    return value
 
 
 def open_hdf5(path):

@@ -12,10 +12,11 @@
 3. DIR/modules.md: the usage and the forced-module scores of those tasks, with the strips.
 """
 import argparse
-import json
 import pathlib
 import subprocess
 import sys
+
+from suite_results import JsonTooDeep, read_json
 
 
 def short(task):
@@ -25,7 +26,7 @@ def short(task):
 def read_probe(path):
     """eval_modules.json (maps-eval-modules/1), checked; exits naming the file when it is not one."""
     try:
-        record = json.loads(path.read_text())
+        record = read_json(path)
         if record.get("format") != "maps-eval-modules/1":
             raise ValueError(f"format {record.get('format')!r}, expected 'maps-eval-modules/1'")
         count = len(record["tasks"])
@@ -43,7 +44,10 @@ def usage_by_task(cell):
     for name in ("eval.json", "result.json"):
         path = cell / name
         if path.exists():
-            record = json.loads(path.read_text())
+            try:
+                record = read_json(path)
+            except JsonTooDeep as e:
+                sys.exit(str(e))
             tasks = record["eval"]["tasks"] if name == "result.json" else record["tasks"]
             if all("module_usage" in t for t in tasks):
                 return {short(t["task"]): t["module_usage"] for t in tasks}

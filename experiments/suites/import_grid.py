@@ -19,6 +19,8 @@ import re
 import shutil
 import sys
 
+from suite_results import JsonTooDeep, read_json
+
 # Keys a run folder written before they existed lacks; the value they then had.
 IMPLIED = {"baselines": {"hidden": [128, 128, 128]}}
 
@@ -39,7 +41,7 @@ def main(old_dir, out_dir):
     if not manifest_path.exists():
         sys.exit(f"import_grid: {manifest_path} is missing: write it first (maps suite run CONFIG --out {out_dir}"
                  " --shard 99999/100000 runs no cell and writes only suite.json)")
-    manifest = json.loads(manifest_path.read_text())
+    manifest = read_json(manifest_path)
     cells = {c["name"]: c for c in manifest["cells"]}
     sets = {c["set"] for c in manifest["cells"]}
     if len(sets) != 1:
@@ -59,7 +61,7 @@ def main(old_dir, out_dir):
         cell = cells.get(name)
         if cell is None:
             sys.exit(f"import_grid: {folder}: no cell {name} in {manifest_path}")
-        old_config = json.loads((folder / "config.json").read_text())
+        old_config = read_json(folder / "config.json")
         if not same_config(old_config, cell["request"]) or int(k) != cell["subsample"]:
             sys.exit(f"import_grid: {folder}: its config.json is not the run config of cell {name}")
         target = out_dir / "cells" / name
@@ -70,8 +72,8 @@ def main(old_dir, out_dir):
         (target / "config.json").write_text(json.dumps(cell["request"], indent=2) + "\n")
         identity = {key: cell[key] for key in ("index", "name", "grid", "set", "method", "variant", "demos",
                                                 "subsample", "seed")}
-        train = json.loads((folder / "train.json").read_text())
-        evaluation = json.loads((folder / "eval.json").read_text())
+        train = read_json(folder / "train.json")
+        evaluation = read_json(folder / "eval.json")
         # The old folders kept the last process's training time and the evaluation's: their sum stands in for the
         # wall time (a resumed run's earlier processes are not in it).
         result = {"format": "maps-suite-cell/1", "cell": identity, "config": cell["request"], "train": train,
@@ -88,4 +90,7 @@ def main(old_dir, out_dir):
 if __name__ == "__main__":
     if len(sys.argv) != 3:
         sys.exit(__doc__)
-    main(sys.argv[1], sys.argv[2])
+    try:
+        main(sys.argv[1], sys.argv[2])
+    except JsonTooDeep as e:
+        sys.exit(f"import_grid: {e}")

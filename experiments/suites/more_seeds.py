@@ -27,7 +27,7 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, is_keep_only, label, load_suite, maps_partner  # noqa: E402
+from suite_results import SuiteError, is_keep_only, label, load_suite, maps_partner, read_json  # noqa: E402
 from suite_stats import fmt, paired, significance  # noqa: E402
 
 
@@ -198,7 +198,7 @@ def main(argv=None):
         parser.error(f"--seeds {args.seeds!r}: expected comma-separated integers, e.g. 3,4")
     config_path = pathlib.Path(args.config)
     try:
-        config = json.loads(config_path.read_text())
+        config = read_json(config_path)
     except (OSError, ValueError) as e:
         print(f"more_seeds: {config_path}: unreadable ({e}); expected a suite config JSON", file=sys.stderr)
         return 2

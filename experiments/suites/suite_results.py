@@ -18,6 +18,7 @@ from collections import Counter, namedtuple
 from dataclasses import dataclass, field
 
 SUITE_FORMAT = "maps-suite/1"
+MAX_JSON_DEPTH = 64  # the C++ reader's limit (io/json_input.cpp); no file of a suite folder nests deeper
 CELL_FORMAT = "maps-suite-cell/1"
 SET_ORDER = ["gravity", "modified", "mt10"]
 METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer", "moore", "paco", "care", "top_k_moe",
@@ -29,6 +30,32 @@ GroupKey = namedtuple("GroupKey", "set label demos subsample")
 
 class SuiteError(Exception):
     """A suite folder that cannot be reported at all (no suite.json, nothing finished)."""
+
+
+class JsonTooDeep(ValueError):
+    """A JSON file whose arrays and objects nest past MAX_JSON_DEPTH levels. A ValueError, so that every reader
+    treats it as it treats a damaged file (read_cell's callers skip the cell, load_suite raises SuiteError)."""
+
+
+def read_json(path):
+    """path's JSON, or JsonTooDeep naming the file when it nests past MAX_JSON_DEPTH levels: json recurses once a
+    level, so a deep enough file would otherwise end in a RecursionError traceback, and the readers that walk a
+    config (same_where_both_say) recurse too."""
+    too_deep = JsonTooDeep(f"{path} nests JSON deeper than {MAX_JSON_DEPTH} levels (arrays and objects inside each "
+                           f"other); no input of this tool nests so deep")
+    try:
+        value = json.loads(pathlib.Path(path).read_text())
+    except RecursionError:
+        raise too_deep from None
+    # Iterative: the check must not recurse on the depth it is there to bound.
+    stack = [(value, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, (dict, list)):
+            if depth > MAX_JSON_DEPTH:
+                raise too_deep
+            stack.extend((child, depth + 1) for child in (item.values() if isinstance(item, dict) else item))
+    return value
 
 
 @dataclass
@@ -245,7 +272,7 @@ def optional_float(value):
 
 def read_cell(path):
     """The Cell of one result.json; raises ValueError/KeyError/TypeError/... on a damaged file."""
-    result = json.loads(path.read_text())
+    result = read_json(path)
     if result.get("format") != CELL_FORMAT:
         raise ValueError(f"format {result.get('format')!r}, expected {CELL_FORMAT!r}")
     ident, config, train, ev = result["cell"], result["config"], result["train"], result["eval"]
@@ -292,7 +319,7 @@ def cpus_of(result):
 def read_error(path):
     """(stage, message) of an error.json; a damaged one says so rather than stopping the report."""
     try:
-        error = json.loads(path.read_text())
+        error = read_json(path)
         return str(error.get("stage", "?")), str(error.get("error", "(no message)"))
     except (OSError, ValueError, AttributeError) as e:
         return "?", f"unreadable error.json ({e})"
@@ -312,7 +339,7 @@ def load_suite(root):
     if not suite_file.is_file():
         raise SuiteError(f"{suite_file}: no such file; is {root} a suite folder written by `maps suite`?")
     try:
-        meta = json.loads(suite_file.read_text())
+        meta = read_json(suite_file)
         planned = list(meta.get("cells", []))
         suite = Suite(root, str(meta.get("config_file", "")), dict(meta.get("config", {})), planned)
     except (OSError, ValueError, AttributeError, TypeError) as e:

@@ -100,10 +100,14 @@ const std::vector<io::Field>& training_state_schema() {
     io::Field best_step =
         field("best_step", io::ValueKind::kInteger, "int64", -1, kMaxStep, "best.ckpt's step (-1: none yet)");
     best_step.required = true;
+    io::Field best_validation = field("best_validation", io::ValueKind::kNumber, "float or null", 0, kInf,
+                                      "best.ckpt's validation loss (null: none yet)");
+    best_validation.required = true;
+    best_validation.nullable = true;
     io::Field rng = field("rng", io::ValueKind::kString, "string", -kInf, kInf, "the batch generator's state");
     rng.required = true;
     rng.non_empty = true;
-    return std::vector<io::Field>{format, step, best_step, rng};
+    return std::vector<io::Field>{format, step, best_step, best_validation, rng};
   }();
   return schema;
 }
@@ -165,31 +169,15 @@ PolicyRecord read_policy_record(const std::string& text, const std::string& wher
 }
 
 TrainingState read_training_state(const std::string& text, const std::string& where) {
-  std::vector<io::Field> schema = training_state_schema();
-  // best_validation is a number or null (no validation yet): outside the scalar kinds, checked here.
-  Json record = parse_record(text, where, [&] {
-    auto with = schema;
-    with.push_back(field("best_validation", io::ValueKind::kNumber, "float", 0, kInf, ""));
-    return with;
-  }());
-  check_fields(record, where, schema);
+  const Json record = parse_record(text, where, training_state_schema());
+  check_fields(record, where, training_state_schema());
   TrainingState s;
   s.step = record.at("step").get<std::int64_t>();
   s.best_step = record.at("best_step").get<std::int64_t>();
   if (s.best_step > s.step)
     throw std::runtime_error(where + ": record key best_step " + std::to_string(s.best_step) + " is past step " +
                              std::to_string(s.step));
-  if (!record.contains("best_validation")) throw std::runtime_error(where + ": the record has no 'best_validation'");
-  const Json& best = record.at("best_validation");
-  if (!best.is_null()) {
-    io::Field f = field("best_validation", io::ValueKind::kNumber, "float", 0, kInf, "");
-    try {
-      io::check_value(f, best, "");
-    } catch (const std::invalid_argument& e) {
-      throw std::runtime_error(where + ": record key " + std::string(e.what()) + " (or null)");
-    }
-    s.best_validation = best.get<double>();
-  }
+  if (const Json& best = record.at("best_validation"); !best.is_null()) s.best_validation = best.get<double>();
   s.rng = record.at("rng").get<std::string>();
   return s;
 }

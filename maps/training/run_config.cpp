@@ -17,12 +17,15 @@ namespace {
 using Json = nlohmann::json;
 
 void check_keys(const Json& json, const std::string& where, const std::set<std::string>& known) {
-  if (!json.is_object()) throw std::invalid_argument("config " + where + ": expected a JSON object");
+  if (!json.is_object())
+    throw std::invalid_argument((where.empty() ? "config" : "config " + where) + ": expected a JSON object, got " +
+                                json.dump().substr(0, 80));
   for (const auto& [key, value] : json.items()) {
     if (!known.count(key)) {
       std::string list;
       for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-      throw std::invalid_argument("config " + where + ": unknown key '" + key + "' (known: " + list + ")");
+      throw std::invalid_argument((where.empty() ? "config" : "config " + where) + ": unknown key '" + key +
+                                  "' (known: " + list + ")");
     }
   }
 }

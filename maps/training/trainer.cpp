@@ -1,6 +1,7 @@
 #include "maps/training/trainer.h"
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -93,10 +94,17 @@ void truncate_curve(const std::string& path, std::int64_t step) {
   const auto columns = std::count(header.begin(), header.end(), ',');
   std::string kept = header + "\n";
   std::string line;
-  while (std::getline(in, line)) {
+  for (int number = 2; std::getline(in, line); ++number) {
     // A row cut short by a kill mid-append has fewer columns; the resumed run writes it again.
     if (std::count(line.begin(), line.end(), ',') != columns) continue;
-    if (std::stoll(line.substr(0, line.find(','))) <= step) kept += line + "\n";
+    const std::string first = line.substr(0, line.find(','));
+    std::int64_t row_step = 0;
+    const auto [end, error] = std::from_chars(first.data(), first.data() + first.size(), row_step);
+    if (error != std::errc() || end != first.data() + first.size() || row_step < 0)
+      throw std::runtime_error(path + " line " + std::to_string(number) + ": the step '" + first.substr(0, 40) +
+                               "' is not a step number (a damaged curve: move it away, and the resumed run starts a "
+                               "new one from its checkpoint's step)");
+    if (row_step <= step) kept += line + "\n";
   }
   in.close();
   nn::write_file_atomically(path, kept);

@@ -32,7 +32,7 @@ inline bool integer_in_range(const io::Field& f, long double x) {
 
 // Edge values of a scalar of the field: the bounds, one past them, zero, -1, other types, null, an object.
 inline std::vector<Trial> scalar_trials(const io::Field& f, ValueKind kind) {
-  std::vector<Trial> trials = {{Json(nullptr), false}, {Json::object(), false}, {Json::array({1}), false}};
+  std::vector<Trial> trials = {{Json(nullptr), f.nullable}, {Json::object(), false}, {Json::array({1}), false}};
   const double nan = std::nan("");
   const double inf = std::numeric_limits<double>::infinity();
   switch (kind) {
@@ -123,19 +123,23 @@ struct WalkCounts {
 };
 
 // Tries every trial value of every field: `parse(field, value)` reads an input holding the value at the field's key
-// and returns normally when it accepts it; `refused(field, trial, error)` checks a refusal (std::invalid_argument,
-// the only exception allowed), `accepted(field, trial)` an acceptance, which a value outside the key's range must
+// and returns normally when it accepts it; `refused(field, trial, error)` checks a refusal (an `Error`, the only
+// exception allowed), `accepted(field, trial)` an acceptance, which a value outside the key's range must
 // never get.
-template <typename Parse, typename Refused, typename Accepted>
-WalkCounts walk_schema(const std::vector<Field>& fields, Parse parse, Refused refused, Accepted accepted) {
+// `through_text`: the parser reads the value from JSON text, where NaN and the infinities are written as null.
+template <typename Error = std::invalid_argument, typename Parse, typename Refused, typename Accepted>
+WalkCounts walk_schema(const std::vector<Field>& fields, Parse parse, Refused refused, Accepted accepted,
+                       bool through_text = false) {
   WalkCounts counts;
   for (const Field& field : fields) {
-    for (const Trial& trial : trials_of(field)) {
+    for (Trial trial : trials_of(field)) {
+      if (through_text && trial.value.is_number_float() && !std::isfinite(trial.value.get<double>()))
+        trial = {Json(nullptr), field.nullable};
       ++counts.tried;
       const std::string what = field.key + " = " + trial.value.dump();
       try {
         parse(field, trial.value);
-      } catch (const std::invalid_argument& e) {
+      } catch (const Error& e) {
         ++counts.refused;
         refused(field, trial, std::string(e.what()));
         continue;
@@ -156,7 +160,8 @@ WalkCounts walk_schema(const std::vector<Field>& fields, Parse parse, Refused re
 inline Json::json_pointer pointer_of(std::string dotted) {
   for (char& c : dotted)
     if (c == '.') c = '/';
-  return Json::json_pointer("/" + dotted);
+  dotted.insert(dotted.begin(), '/');
+  return Json::json_pointer(dotted);
 }
 
 }  // namespace maps::io

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 #include <string>
@@ -164,14 +165,24 @@ TEST_F(ExpertPolicyFile, WrongFormatOrTypeIsAnError) {
   EXPECT_THAT([&] { ExpertPolicy::load(path("other.json")); },
               ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("format")));
   make_policy().save(path("expert.json"));
-  std::string text = read(path("expert.json"));
-  const auto at = text.find("\"obs_clip\": ");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, 12, "\"obs_clip\": \"ten\", \"ignored\": ");
-  write(path("typed.json"), text);
-  EXPECT_THAT(
-      [&] { ExpertPolicy::load(path("typed.json")); },
-      ::testing::ThrowsMessage<std::runtime_error>(::testing::AllOf(HasSubstr("typed.json"), HasSubstr("obs_clip"))));
+  const nlohmann::json good = nlohmann::json::parse(read(path("expert.json")));
+  auto refused_with = [&](const char* key, const nlohmann::json& value, const std::string& needle) {
+    nlohmann::json bad = good;
+    bad[key] = value;
+    write(path("typed.json"), bad.dump());
+    EXPECT_THAT(
+        [&] { ExpertPolicy::load(path("typed.json")); },
+        ::testing::ThrowsMessage<std::runtime_error>(::testing::AllOf(HasSubstr("typed.json"), HasSubstr(needle))))
+        << key << " = " << value.dump();
+  };
+  refused_with("obs_clip", "ten", "obs_clip");
+  refused_with("obs_clip", 0, "field obs_clip: expected a finite number in (0, 1000000], got 0");
+  refused_with("obs_epsilon", -1, "field obs_epsilon");
+  refused_with("obs_var", {1.0, -1.0}, "field obs_var[1]");
+  // Read as an int, 2^32 + 1 was version 1.
+  refused_with("version", 4294967297ULL, "unsupported version 4294967297");
+  refused_with("ignored", 1, "unknown field 'ignored'");
+  refused_with("metadata", 3, "field metadata: expected an object");
 }
 
 TEST_F(ExpertPolicyFile, InconsistentFileNamesFileAndProblem) {

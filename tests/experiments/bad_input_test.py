@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """Bad input anywhere (issue 15, item 7): every `maps` subcommand given wrong CLI values, missing, damaged or
 foreign files and configs must exit non-zero with a message on stderr that names the input and what was
-expected; never a crash, an uncaught exception, a Python traceback or silence. Run by ctest as:
-bad_input_test.py path/to/maps."""
+expected; never a crash, an uncaught exception, a Python traceback or silence. Issue 41: every numeric option
+is swept with the edge values of its type and documented range. Run by ctest as: bad_input_test.py path/to/maps."""
 import json
+import math
 import pathlib
 import re
 import subprocess
@@ -17,6 +18,89 @@ WORK = None  # scratch folder
 
 CRASH_SIGNS = ["terminate called", "Segmentation fault", "Aborted", "core dumped", "Traceback (most recent call",
                "AddressSanitizer", "runtime error:"]
+
+# No such option: the tool refuses it only after every value before it is parsed and checked, so a value that
+# gets that far was accepted, and nothing ran.
+STOP = "--bad-input-sweep-stop"
+REFUSE, ACCEPT = "refused", "accepted"
+# The edge values of every numeric type: 2^31 and 2^32 + 1 (which wraps to 1 in a 32-bit int) past int, 2^63 past
+# int64, 2^64 past uint64, a double's largest decade and past it, NaN, infinities, a fraction, a word, nothing.
+EDGE_VALUES = ["0", "-1", "1", "1e308", "1000000000", "2147483648", "4294967297", "9223372036854775808",
+               "18446744073709551616", "99999999999999999999999", "2.5", "nan", "inf", "-inf", "1e400", "abc", ""]
+# An INT whose --help shows no upper bound is a C++ int; the tool's 64-bit ones all show their range, because
+# CLI11 2.1 saturates a number past int64 instead of refusing it.
+TYPE_RANGE = {"INT": (-2**31, 2**31 - 1), "INT64": (-2**63, 2**63 - 1), "UINT": (0, 2**64 - 1)}
+
+
+def subcommands(prefix=()):
+    """{command: its --help} for every subcommand under prefix, read from the Subcommands list of each --help."""
+    usage = subprocess.run([MAPS, *prefix, "--help"], capture_output=True, text=True).stdout
+    found = {prefix: usage} if prefix else {}
+    if "Subcommands:" in usage:
+        for name in re.findall(r"^  ([a-z][\w-]*)(?:  |$)", usage.split("Subcommands:", 1)[1], re.M):
+            found.update(subcommands((*prefix, name)))
+    return found
+
+
+def numeric_options(usage):
+    """(option, INT|UINT|FLOAT, check or None) of every numeric option in a --help text."""
+    pattern = re.compile(r"^\s+(--[\w-]+) (INT|UINT|FLOAT)(?::([A-Z0-9_]+(?: in \[[^\]]*\])?))?", re.M)
+    return pattern.findall(usage)
+
+
+def number(text):
+    return int(text) if re.fullmatch(r"-?\d+", text) else float(text)
+
+
+def documented_range(check):
+    """(low, high, low included) of a check as --help names it; None for one the sweep does not know."""
+    if not check:
+        return (-math.inf, math.inf, True)
+    if check in ("POSITIVE", "NONNEGATIVE"):
+        return (0, math.inf, check == "NONNEGATIVE")
+    if check == "UINT64":
+        return TYPE_RANGE["UINT"] + (True,)
+    bounds = re.fullmatch(r"(?:INT|FLOAT) in \[(\S+) - (\S+)\]", check)
+    return (number(bounds[1]), number(bounds[2]), True) if bounds else None
+
+
+def edge_values(check):
+    """EDGE_VALUES and the documented range's bounds with one past each."""
+    low, high, _ = documented_range(check)
+    bounds = [str(x) for x in (low, low - 1, high, high + 1) if math.isfinite(x)]
+    return list(dict.fromkeys(EDGE_VALUES + bounds))
+
+
+def verdict(kind, check, text):
+    """REFUSE for a value outside the option's type or documented range, ACCEPT inside both."""
+    low, high, low_included = documented_range(check)
+    if kind == "INT" and math.isfinite(high):
+        kind = "INT64"
+    if kind == "FLOAT":
+        try:
+            value = float(text)
+        except ValueError:
+            return REFUSE
+        if not math.isfinite(value):
+            return REFUSE
+    elif re.fullmatch(r"-?\d+", text):
+        value = int(text)
+        if not TYPE_RANGE[kind][0] <= value <= TYPE_RANGE[kind][1]:
+            return REFUSE
+    else:
+        return REFUSE
+    if value < low or value > high or (value == low and not low_included):
+        return REFUSE
+    return ACCEPT
+
+
+def without(args, option):
+    """args without option and its value (the sweep gives it instead)."""
+    args = list(args)
+    while option in args:
+        at = args.index(option)
+        del args[at:at + 2]
+    return args
 
 
 class BadInputTest(unittest.TestCase):
@@ -49,50 +133,71 @@ class BadInputTest(unittest.TestCase):
         self.expect_refused(["collect", "--set", "nope", "--out", "x.h5"], "--set")
         self.expect_refused(["collect", "--set", "mt10", "--demos", "-3", "--out", "x.h5"], "--demos")
         self.expect_refused(["collect", "--set", "mt10", "--demos", "many", "--out", "x.h5"], "--demos")
-        self.expect_refused(["train", "--config", self.config("ok.json"), "--out", "r", "--threads", "-1"], "--threads")
+        self.expect_refused(["train", "--config", self.config("ok.json"), "--out", "r", "--threads", "-1"],
+                            "--threads")
         self.expect_refused(["bench", "step", "--set", "nope"], "nope")
+        self.expect_refused(["schema", "no-such-kind"], "no-such-kind")
         self.expect_refused(["expert-eval", "--task", "gravity/9.9"], "gravity/9.9")
         self.expect_refused(["render", "--task", "mt10/no-such-task", "--out", "x.png"], "mt10/no-such-task")
         self.expect_refused(["suite", "run", ROOT / "experiments/suites/tiny.json", "--out", "o", "--shard", "3/2"],
                             "3/2")
 
     def test_every_numeric_option_refuses_bad_values(self):
-        """Every INT, UINT and FLOAT option of every subcommand (read from its --help, so a new option is swept
-        too), given values of the wrong kind, out of range, infinite, NaN or past its type: refused naming the
-        option, before any work starts (the base arguments are valid, so an accepted value would run)."""
+        """Every INT, UINT and FLOAT option of every subcommand (subcommands and options read from --help, so a new
+        one is swept too) given the edge values of its type and documented range. A value outside them is refused
+        naming the option, before any work starts (the base arguments are valid, so an accepted value would run).
+        A value inside them must get through parsing: it is tried with an unknown option after it, which the tool
+        refuses only once every value is parsed and checked, so nothing runs."""
         config = self.config("sweep.json")
         run_dir = pathlib.Path(WORK) / "sweep_run"
         run_dir.mkdir(exist_ok=True)
         tiny = ROOT / "experiments/suites/tiny.json"
-        commands = {
-            ("demo",): [], ("train-expert",): ["--task", "gravity/1.0", "--out", "sweep_te"],
-            ("collect",): ["--set", "mt10", "--out", "sweep.h5"], ("render",): ["--task", "gravity/1.0", "--out", "s.png"],
+        # Valid arguments for the commands with numeric options; one without an entry is swept with none (its
+        # missing required options are reported after the values are checked).
+        bases = {
+            ("train-expert",): ["--task", "gravity/1.0", "--out", "sweep_te"],
+            ("collect",): ["--set", "mt10", "--out", "sweep.h5"],
+            ("render",): ["--task", "gravity/1.0", "--out", "s.png"],
             ("expert-eval",): ["--task", "gravity/1.0"], ("train",): ["--config", config, "--out", "sweep_train"],
-            ("eval",): ["--run", run_dir], ("bench", "step"): [], ("suite", "run"): [tiny, "--out", "sweep_suite"],
-            ("suite", "plan"): [tiny]}
-        option_line = re.compile(r"^\s+(--[\w-]+) (INT|UINT|FLOAT)(?::(\S+))?")
-        swept = 0
-        for command, base in commands.items():
-            usage = subprocess.run([MAPS, *command, "--help"], capture_output=True, text=True).stdout
-            for line in usage.splitlines():
-                match = option_line.match(line)
-                if not match:
-                    continue
-                option, kind, check = match.groups()
-                bad = ["abc", "nan", "inf", "-inf", "1e400", ""]
-                if kind in ("INT", "UINT"):
-                    bad += ["2.5", "99999999999999999999999"]
-                if check and check.startswith("POSITIVE"):
-                    bad += ["0", "-1"]
-                elif check and (check.startswith("NONNEGATIVE") or check.startswith("UINT64")):
-                    bad += ["-1"]
-                elif check and check.startswith("FLOAT in"):
-                    bad += ["-0.5", "1e6"]
-                for value in bad:
-                    with self.subTest(command=" ".join(command), option=option, value=value):
-                        self.expect_refused([*command, *base, option, value], option, timeout=30)
+            ("transfer",): ["--run", run_dir, "--task", "gravity/0.5", "--demos", "2", "--out", "sweep_transfer"],
+            ("eval",): ["--run", run_dir], ("suite", "run"): [tiny, "--out", "sweep_suite"],
+            ("suite", "plan"): [tiny], ("suite", "prepare"): [tiny], ("suite", "calibrate"): ["--work", "sweep_cal"]}
+        commands = subcommands()
+        self.assertIn(("schema",), commands, "maps schema is not among the subcommands --help lists")
+        swept, tried, refused, accepted = 0, 0, 0, 0
+        covered = set()  # (command, option, value) tried as must-refuse
+        for command, usage in commands.items():
+            for option, kind, check in numeric_options(usage):
+                self.assertIsNotNone(documented_range(check), f"maps {' '.join(command)} {option}: the sweep does "
+                                     f"not know the range of '{check}'; teach documented_range() it")
+                base = without(bases.get(command, []), option)
+                for value in edge_values(check):
+                    expected = verdict(kind, check, value)
+                    args = [*command, *base, option, value]
+                    tried += 1
+                    if expected == REFUSE:
+                        covered.add((command, option, value))
+                    with self.subTest(command=" ".join(command), option=option, value=value, expected=expected):
+                        if expected == REFUSE:
+                            self.expect_refused(args, option, timeout=30)
+                            refused += 1
+                            continue
+                        stderr = self.expect_refused([*args, STOP], timeout=30)
+                        self.assertTrue(STOP in stderr or (command not in bases and " is required" in stderr),
+                                        f"maps {' '.join(map(str, args))} refused a value inside the type and range "
+                                        f"--help gives ({kind}:{check}):\n{stderr}")
+                        accepted += 1
                 swept += 1
-        self.assertGreaterEqual(swept, 30, "fewer numeric options than the tool has: is the --help format changed?")
+        print(f"\nbad_input sweep: {swept} options, {tried} values tried, {refused} refused, {accepted} accepted "
+              f"({len(commands)} subcommands)", file=sys.stderr)
+        self.assertGreaterEqual(swept, 40, "fewer numeric options than the tool has: is the --help format changed?")
+        # A billion threads ended in std::terminate; 257 is one past the bound.
+        with_threads = {command for command, option, _ in covered if option == "--threads"}
+        self.assertGreaterEqual(len(with_threads), 8, "fewer commands with --threads than the tool has")
+        for command in with_threads:
+            for value in ("1000000000", "257"):
+                self.assertTrue((command, "--threads", value) in covered,
+                                f"maps {' '.join(command)} --threads {value} not tried as a value to refuse")
 
     def test_unwritable_outputs_are_refused_before_any_work(self):
         """An output under a file (a folder that cannot exist) or naming a folder as a file is refused at once,

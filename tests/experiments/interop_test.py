@@ -112,6 +112,54 @@ class Interop(unittest.TestCase):
                 self.assertEqual(bool(ep["terminations"][-1]) + bool(ep["truncations"][-1]), 1)
             self.assertEqual(meta["total_steps"], total)
 
+    def test_deeply_nested_metadata_is_refused(self):
+        """Issue 41: a metadata.json nested past 64 levels of arrays and objects is refused naming it (exit 1, as
+        the C++ readers refuse such JSON), not a RecursionError traceback; 64 levels still import."""
+        exported = pathlib.Path(WORK) / "nested.minari"
+        maps("data", "export", "--format", "minari", self.demos, "--out", exported)
+        meta = json.loads((exported / "data" / "metadata.json").read_text())
+        # The object itself is level 1, so the arrays under one of its keys make levels 2 and on.
+        cases = {"levels_64": "[" * 63 + "]" * 63, "levels_65": "[" * 64 + "]" * 64,
+                 "levels_100000": None}
+        for name, nested in cases.items():
+            with self.subTest(name):
+                folder = pathlib.Path(WORK) / f"nested_{name}"
+                shutil.copytree(exported, folder)
+                text = "[" * 100000 + "]" * 100000 if nested is None else \
+                    json.dumps(meta)[:-1] + f', "nested": {nested}}}'
+                (folder / "data" / "metadata.json").write_text(text)
+                out = pathlib.Path(WORK) / f"nested_{name}.h5"
+                proc = maps("data", "import", "--format", "minari", folder, "--out", out, check=False)
+                self.assertNotIn("Traceback", proc.stderr)
+                if name == "levels_64":
+                    self.assertEqual(proc.returncode, 0, proc.stderr)
+                    self.assertTrue(same_file(self.demos, out), "64 levels: the import changed the file")
+                    continue
+                self.assertEqual(proc.returncode, 1, proc.stderr)
+                self.assertIn(f"{folder / 'data' / 'metadata.json'} nests JSON deeper than 64 levels", proc.stderr)
+                self.assertFalse(out.exists())
+
+    def test_damaged_metadata_is_refused_by_name(self):
+        """A metadata.json that is not an object, or whose "maps" entry lacks a key or has one of another type, is
+        refused naming the file and the key (it was an AttributeError or KeyError traceback)."""
+        exported = pathlib.Path(WORK) / "damaged.minari"
+        maps("data", "export", "--format", "minari", self.demos, "--out", exported)
+        meta = json.loads((exported / "data" / "metadata.json").read_text())
+        broken = {"a_list": [1], "maps_empty": dict(meta, maps={}),
+                  "train_a_string": dict(meta, maps=dict(meta["maps"], train="0,1")),
+                  "task_name_a_number": dict(meta, maps=dict(meta["maps"], task_names=[1]))}
+        for name, content in broken.items():
+            with self.subTest(name):
+                folder = pathlib.Path(WORK) / f"damaged_{name}"
+                shutil.copytree(exported, folder)
+                (folder / "data" / "metadata.json").write_text(json.dumps(content))
+                out = pathlib.Path(WORK) / f"damaged_{name}.h5"
+                proc = maps("data", "import", "--format", "minari", folder, "--out", out, check=False)
+                self.assertEqual(proc.returncode, 1, proc.stderr)
+                self.assertNotIn("Traceback", proc.stderr)
+                self.assertIn(str(folder / "data" / "metadata.json"), proc.stderr)
+                self.assertFalse(out.exists())
+
     def test_datasets_made_elsewhere_import(self):
         rng = np.random.default_rng(0)
         # D4RL as its generation scripts write it: float32, bool terminals, no timeouts or next_observations.

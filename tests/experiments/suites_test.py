@@ -751,6 +751,57 @@ class Errors(unittest.TestCase):
             self.assertFalse({"mt10/single_bc_d5_s1", "gravity/maps_d10_s1", "mt10/maps-m5_d5_s0",
                               "gravity/mt_bc_d5_s1", "mt10/maps_d10_s1"} & cells)
 
+    def test_json_nested_too_deep_is_refused_by_name(self):
+        """Issue 41: a suite folder's JSON nested past 64 levels of arrays and objects inside each other is refused
+        naming the file, as the C++ readers refuse it, rather than ending in a RecursionError traceback (100000
+        levels) or being read (65); 64 levels are read. The report, more_seeds.py and compare_suites.py."""
+        too_deep = "nests JSON deeper than 64 levels (arrays and objects inside each other)"
+
+        def nest(path, levels):
+            # The object itself is level 1, the arrays under one of its keys the levels below it.
+            text = json.dumps(json.loads(path.read_text()))
+            path.write_text(text[:-1] + ', "nested": ' + "[" * (levels - 1) + "]" * (levels - 1) + "}")
+
+        with tempfile.TemporaryDirectory() as tmp:
+            suite = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite)
+            very_deep = suite / "cells" / "mt10" / "single_bc_d5_s1" / "result.json"
+            very_deep.write_text("[" * 100000 + "]" * 100000)
+            one_too_deep = suite / "cells" / "gravity" / "maps_d10_s1" / "result.json"
+            nest(one_too_deep, 65)
+            nest(suite / "cells" / "gravity" / "mt_bc_d5_s1" / "result.json", 64)
+            failed = suite / "cells" / "gravity" / "mt_bc_d10_s1" / "error.json"
+            failed.write_text('{"stage": ' + "[" * 100000 + "]" * 100000 + "}")
+            code, stdout, stderr = run_report(suite)
+            self.assertEqual(code, 0, stderr)
+            self.assertNotIn("Traceback", stderr)
+            for path in (very_deep, one_too_deep):
+                self.assertIn(f"report: {path}: damaged result, skipped (JsonTooDeep: {path} {too_deep}", stderr)
+            md = (suite / "report" / "report.md").read_text()
+            self.assertIn("34 finished, 1 missing (not run or not finished), 1 failed, 2 damaged", md)
+            self.assertIn(f"unreadable error.json ({failed} {too_deep}", md)
+
+            more_seeds_config = pathlib.Path(tmp) / "deep_config.json"
+            more_seeds_config.write_text('{"grids": ' + "[" * 100000 + "]" * 100000 + "}")
+            done = subprocess.run([sys.executable, str(SUITES / "more_seeds.py"), str(suite), str(more_seeds_config)],
+                                  capture_output=True, text=True, timeout=120)
+            self.assertEqual(done.returncode, 2, done.stderr)
+            self.assertIn(f"{more_seeds_config} {too_deep}", done.stderr)
+            self.assertNotIn("Traceback", done.stderr)
+
+            done = subprocess.run([sys.executable, str(ROOT / "experiments" / "cluster" / "compare_suites.py"),
+                                   str(FIXTURE), str(suite)], capture_output=True, text=True, timeout=120)
+            self.assertEqual(done.returncode, 2, done.stdout + done.stderr)
+            self.assertRegex(done.stderr, f"compare_suites: .*/result.json {re.escape(too_deep)}")
+            self.assertNotIn("Traceback", done.stderr)
+
+            suite_json = suite / "suite.json"
+            suite_json.write_text("[" * 100000 + "]" * 100000)
+            code, stdout, stderr = run_report(suite)
+            self.assertEqual(code, 2, stderr)
+            self.assertIn(f"{suite_json} {too_deep}", stderr)
+            self.assertNotIn("Traceback", stderr)
+
     def test_a_folder_without_suite_json_says_so(self):
         with tempfile.TemporaryDirectory() as tmp:
             code, stdout, stderr = run_report(tmp)

@@ -111,7 +111,7 @@ class Transfer(unittest.TestCase):
         damaged = work() / "damaged_source"
         damaged.mkdir()
         (damaged / "config.json").write_text("[]")
-        refused(1, "--run damaged_source: its config.json: config : expected a JSON object", "damaged_source")
+        refused(1, "damaged_source/config.json': config: expected a JSON object", "damaged_source")
         # A transfer refused by its folder (another transfer there) leaves that folder's request.json as it was.
         run("transfer", "--run", "without_reach", "--task", "mt10/reach", "--demos", "1", "--out", "kept",
             "--steps", "4")
