@@ -376,7 +376,11 @@ class Reader {
     try {
       io::check_self_contained(id, file_);
     } catch (const std::runtime_error& e) {
-      fail("", e.what());
+      // "HDF5 file 'F': ..." -> "demo file 'F': ...": the file named once.
+      std::string what = e.what();
+      const std::string prefix = "HDF5 file '" + file_ + "': ";
+      if (what.rfind(prefix, 0) == 0) what = what.substr(prefix.size());
+      fail("", what);
     }
     return file;
   }
@@ -423,7 +427,8 @@ class Reader {
     long double elements = 1;
     for (hsize_t x : d.dims) elements *= static_cast<long double>(x);
     std::error_code size_error;
-    const auto file_bytes = static_cast<long double>(fs::file_size(file_, size_error));
+    const std::uintmax_t size = fs::file_size(file_, size_error);
+    const long double file_bytes = size_error ? 0.0L : static_cast<long double>(size);
     if (elements * 8 > std::max<long double>(64.0L * (1 << 20), 64.0L * file_bytes))
       fail(d.path, "declares " + shape_string(d.dims) + " elements, more than a file of " +
                        std::to_string(static_cast<unsigned long long>(file_bytes)) +
@@ -845,32 +850,34 @@ void write_demo_file(const std::string& path, const DemoFile& file) {
   }
 }
 
-DemoFile read_demo_file(const std::string& path) {
-  // libhdf5 1.10 can crash on a damaged file (a buffer overflow in H5HG_read, reading a variable-length string whose
-  // global heap entry is damaged: found by the property test, DemoFileProperty) or loop in it. So the file is read
-  // first by a child process; its death or hang is a refusal. A file the child read or refused is read here again,
-  // which returns it or throws the child's error.
-  const io::IsolatedOutcome probe = io::run_isolated(
-      [&path] {
-        const QuietHdf5Errors quiet;
-        Reader(path).read();
-      },
-      kIsolatedReadSeconds);
-  if (!probe.finished)
-    throw std::runtime_error(
-        "demo file '" + path + "': " +
-        (probe.timed_out ? "reading it took more than " + std::to_string(static_cast<int>(kIsolatedReadSeconds)) + " s"
-         : probe.signal != 0
-             ? "the HDF5 library crashed reading it (signal " + std::to_string(probe.signal) + ")"
-             : "reading it failed in the HDF5 library (exit status " + std::to_string(probe.exit_status) + ")") +
-        ": the file is damaged (libhdf5 " + std::to_string(H5_VERS_MAJOR) + "." + std::to_string(H5_VERS_MINOR) + "." +
-        std::to_string(H5_VERS_RELEASE) + " cannot read it safely)");
+DemoFile read_demo_file_in_process(const std::string& path) {
   const QuietHdf5Errors quiet;
   try {
     return Reader(path).read();
   } catch (const std::bad_alloc&) {
     throw std::runtime_error("demo file '" + path + "': out of memory while reading it (a size in it is damaged?)");
   }
+}
+
+DemoFile read_demo_file(const std::string& path) {
+  // libhdf5 1.10 can crash on a damaged file (a buffer overflow in H5HG_read, reading a variable-length string whose
+  // global heap entry is damaged: found by the property test, DemoFileProperty) or loop in it. So the file is read
+  // first by a child process; its death or hang is a refusal. A file the child read or refused is read here again,
+  // which returns it or throws the child's error.
+  const io::IsolatedOutcome probe =
+      io::run_isolated([&path] { read_demo_file_in_process(path); }, kIsolatedReadSeconds);
+  if (!probe.finished) {
+    const std::string how =
+        probe.timed_out ? "reading it took more than " + std::to_string(static_cast<int>(kIsolatedReadSeconds)) + " s"
+        : probe.signal != 0 ? "reading it killed the process (signal " + std::to_string(probe.signal) + ")"
+        : probe.exit_status != 0
+            ? "reading it ended the process (exit status " + std::to_string(probe.exit_status) + ")"
+            : "the process reading it died";
+    throw DemoFileReaderDied("demo file '" + path + "': " + how + ": the file is damaged (libhdf5 " +
+                             std::to_string(H5_VERS_MAJOR) + "." + std::to_string(H5_VERS_MINOR) + "." +
+                             std::to_string(H5_VERS_RELEASE) + " crashes on some damaged files)");
+  }
+  return read_demo_file_in_process(path);
 }
 
 std::pair<std::vector<int>, std::vector<int>> split_train_valid(int n_demos, double train_fraction,

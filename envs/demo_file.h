@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -86,6 +87,18 @@ void write_demo_file(const std::string& path, const DemoFile& file);
 // file, not an HDF5 file, truncated or damaged file, missing group/dataset/attribute (by path),
 // wrong type, rank or shape, a mask naming a demo that does not exist, NaN or infinite data.
 DemoFile read_demo_file(const std::string& path);
+
+// read_demo_file's refusal of a file whose reading killed the child process that read it first: libhdf5 1.10.8
+// crashes or aborts on some damaged files (docs/reliability.md). Its own type, so that tests and fuzzers can tell it
+// from a refusal the reader made.
+class DemoFileReaderDied : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// read_demo_file without the child process: a crash while reading is the caller's. For the fuzzer, which must see a
+// crash of this project's reader as one.
+DemoFile read_demo_file_in_process(const std::string& path);
 
 // Split of n_demos demonstrations into (train, valid) index lists, each sorted ascending. Every
 // index is in exactly one list; valid gets floor((1 - train_fraction) * n) demos (as robomimic's

@@ -3,6 +3,7 @@
 #include "experiments/eval_run.h"
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -98,7 +99,8 @@ int run_eval(const EvalRunOptions& options) {
       const std::string name = entry.path().filename().string();
       if (name.rfind("step_", 0) == 0 && name.size() > 10 && name.ends_with(".ckpt") &&
           name.find_first_not_of("0123456789", 5) == name.size() - 5)
-        kept.emplace_back(std::stoll(name.substr(5, name.size() - 10)), name);
+        if (long long step = 0; std::from_chars(name.data() + 5, name.data() + name.size() - 5, step).ec == std::errc())
+          kept.emplace_back(step, name);  // a number past long long's range is no kept step of this tool
     }
     std::sort(kept.begin(), kept.end());
     if (kept.empty())

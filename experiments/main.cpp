@@ -96,8 +96,10 @@ CLI::Validator range_check(double low, double high) {
 int main(int argc, char** argv) {
   const CLI::Validator positive = sign_check(false);
   const CLI::Validator non_negative = sign_check(true);
-  // 0: one per core; a count past ag::kMaxThreads is refused (a billion threads ended in std::terminate).
+  // 0: one per core (at most ag::kMaxThreads); a larger count is refused (a billion threads ended in std::terminate).
   const CLI::Validator thread_count = integer_check(0, maps::ag::kMaxThreads);
+  // Cells at once are processes, each with its own threads: a cluster node or a plan may count far more of them.
+  const CLI::Validator job_count = integer_check(0, 65536);
 
   CLI::App app{"maps: multi-task imitation learning on a from-scratch autograd engine"};
   app.name("maps");
@@ -353,7 +355,7 @@ int main(int argc, char** argv) {
                    "Only the cells with index % N == i (a transfer cell: its source's index)")
       ->capture_default_str();
   suite_plan_cmd->add_option("--jobs", suite_plan.jobs, "Cells at once, for the wall-time estimate (0: cores)")
-      ->check(thread_count);
+      ->check(job_count);
   suite_plan_cmd->add_flag("--cells", suite_plan.list_cells, "List every cell");
   suite_plan_cmd->add_flag("--json", suite_plan.json, "Print one JSON object (every cell and the estimate)");
   suite_plan_cmd->add_option("--costs", suite_plan.costs, "Cost table (default: experiments/suites/costs.json)");
@@ -366,7 +368,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   suite_run_cmd->add_option("--out", suite_run.out, "Suite folder")->required();
   suite_run_cmd->add_option("--jobs", suite_run.jobs, "Cells at once (0: cores / threads)")
-      ->check(thread_count)
+      ->check(job_count)
       ->capture_default_str();
   suite_run_cmd->add_option("--threads", suite_run.threads, "Op threads per cell (0: one per core)")
       ->check(thread_count)
@@ -470,7 +472,8 @@ int main(int argc, char** argv) {
   // --threads 0 means one per core in every command; these take the count as given.
   for (int* threads :
        {&train_run.threads, &bench_step.threads, &bench_eval.threads, &suite_run.threads, &transfer.threads})
-    if (*threads == 0) *threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    if (*threads == 0)
+      *threads = std::min(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), maps::ag::kMaxThreads);
 
   try {
     if (*demo_cmd) return maps::experiments::run_demo(demo);

@@ -6,10 +6,13 @@
 #include <thread>
 #include <vector>
 
+#include "autograd/parallel.h"
+
 namespace maps::experiments {
 
 int worker_count(int requested, std::size_t tasks) {
-  const int wanted = requested > 0 ? requested : static_cast<int>(std::thread::hardware_concurrency());
+  const int wanted =
+      requested > 0 ? requested : std::min(static_cast<int>(std::thread::hardware_concurrency()), ag::kMaxThreads);
   return std::clamp(wanted, 1, std::max(1, static_cast<int>(tasks)));
 }
 

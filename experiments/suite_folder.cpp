@@ -73,13 +73,19 @@ Suite read_manifest(const fs::path& out) {
       };
       SuiteCell cell;
       cell.index = integer("index", 0, 100000000).get<int>();
-      cell.name = entry.at("name").get<std::string>();
+      const auto text = [&](const char* key) {
+        if (!entry.contains(key) || !entry.at(key).is_string())
+          throw std::runtime_error(path.string() + ": cells[" + std::to_string(suite.cells.size()) + "]." + key +
+                                   ": expected a string");
+        return entry.at(key).get<std::string>();
+      };
+      cell.name = text("name");
       if (cell.name.empty() || !names.insert(cell.name).second)
         throw std::runtime_error(path.string() + ": cell name '" + cell.name + "' is empty or given twice");
-      cell.grid = entry.at("grid").get<std::string>();
-      cell.set = entry.at("set").get<std::string>();
-      cell.method = entry.at("method").get<std::string>();
-      cell.variant = entry.at("variant").get<std::string>();
+      cell.grid = text("grid");
+      cell.set = text("set");
+      cell.method = text("method");
+      cell.variant = text("variant");
       cell.demos = integer("demos", 1, 1000000).get<int>();
       cell.subsample = integer("subsample", 1, 1000000).get<int>();
       cell.seed = integer("seed", 0, io::kMaxUint64).get<std::uint64_t>();
@@ -167,12 +173,16 @@ std::optional<Json> read_result(const fs::path& dir, const SuiteCell& cell, std:
   const auto number = [](const Json& object, const char* key) {
     return object.is_object() && object.contains(key) && object[key].is_number();
   };
-  if (!result.contains("train") || !number(result["train"], "steps") || !number(result["train"], "best_step") ||
+  // Steps are read as integers later (suite run's summary): 1e300 there would not convert.
+  const auto step = [](const Json& object, const char* key) {
+    return object.is_object() && object.contains(key) && object[key].is_number_integer();
+  };
+  if (!result.contains("train") || !step(result["train"], "steps") || !step(result["train"], "best_step") ||
       !number(result["train"], "best_validation_bc"))
     return reject("has no training summary (steps, best_step, best_validation_bc)");
   const Json& eval = result.contains("eval") ? result["eval"] : Json();
-  if (!number(eval, "mean_score") || !number(eval, "best_step") || !eval.contains("tasks") ||
-      !eval["tasks"].is_array() || eval["tasks"].empty())
+  if (!number(eval, "mean_score") || !step(eval, "best_step") || !eval.contains("tasks") || !eval["tasks"].is_array() ||
+      eval["tasks"].empty())
     return reject("has no evaluation (mean_score, best_step, tasks)");
   for (const auto& task : eval["tasks"])
     if (!number(task, "score") || !task.contains("task") || !task["task"].is_string())

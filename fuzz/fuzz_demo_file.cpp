@@ -273,7 +273,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (int edits = 0; edits < 8 && !recipe.done(); ++edits) apply(file, recipe);
   H5Fclose(file);
   try {
-    const maps::envs::DemoFile read = maps::envs::read_demo_file(work);
+    const maps::envs::DemoFile read = maps::envs::read_demo_file_in_process(work);
     maps::core::DataConfig config;
     config.demos_per_task = 1;
     config.subsample = 1;

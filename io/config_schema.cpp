@@ -109,7 +109,7 @@ bool scalar_fits(const Field& f, ValueKind kind, const nlohmann::json& value) {
     case ValueKind::kString: {
       if (!value.is_string()) return false;
       const std::string& text = value.get_ref<const std::string&>();
-      if (f.non_empty && text.empty()) return false;
+      if (f.non_empty && !is_list(f.kind) && text.empty()) return false;  // a list's non_empty is the list's
       if (f.choices.empty()) return true;
       for (const std::string& choice : f.choices)
         if (choice == text) return true;

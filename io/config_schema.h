@@ -65,6 +65,8 @@ Field number_option(std::string key, double default_value, double min, double ma
 Field boolean_option(std::string key, bool default_value, std::string meaning);
 Field choice_option(std::string key, std::string default_value, std::vector<std::string> choices, std::string meaning);
 
+static_assert(std::numeric_limits<long double>::digits >= 64, "bounds compare 64-bit integers exactly as long double");
+
 // Limits shared by several inputs.
 inline constexpr long double kMaxInt64 = static_cast<long double>(std::numeric_limits<std::int64_t>::max());
 inline constexpr long double kMaxUint64 = static_cast<long double>(std::numeric_limits<std::uint64_t>::max());

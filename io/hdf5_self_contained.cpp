@@ -13,7 +13,6 @@ constexpr const char* kWhy =
     "user-defined links)";
 
 struct Walk {
-  std::string file_name;
   hid_t lapl = H5I_INVALID_HID;  // refuses to traverse external links
   std::set<std::string> groups;  // the groups seen, by address
   std::string error;             // the first refusal; the walk stops there
@@ -24,7 +23,8 @@ herr_t refuse_external_traversal(const char*, const char*, const char*, const ch
   return -1;
 }
 
-// An object's address in the file, as a string (HDF5 1.12 named it a token).
+// An object's address in the file, as a string (HDF5 1.12 named it a token). H5Oget_info_by_name2 needs HDF5 1.10.3
+// or later (Debian 12 has 1.10.8).
 std::string object_key(hid_t group, const char* name, hid_t lapl, H5O_type_t& type) {
 #if H5_VERSION_GE(1, 12, 0)
   H5O_info2_t info;
@@ -136,7 +136,6 @@ herr_t visit_link(hid_t group, const char* name, const H5L_info_t* info, void* d
 
 void check_self_contained(hid_t file, const std::string& file_name) {
   Walk walk;
-  walk.file_name = file_name;
   walk.lapl = H5Pcreate(H5P_LINK_ACCESS);
   if (walk.lapl < 0 || H5Pset_elink_cb(walk.lapl, refuse_external_traversal, nullptr) < 0) {
     if (walk.lapl >= 0) H5Pclose(walk.lapl);

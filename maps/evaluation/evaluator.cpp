@@ -352,7 +352,7 @@ EvaluationResult run_evaluation(const EnvFactory& make_env, bool registry_tasks,
   const auto start = Clock::now();
   const int hardware = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   // More threads than tasks is useful: the extra ones step the envs of the tasks in progress.
-  const int threads = config.threads > 0 ? config.threads : hardware;
+  const int threads = config.threads > 0 ? config.threads : std::min(hardware, ag::kMaxThreads);
 
   std::vector<TaskRun> runs(tasks.size());
   std::vector<std::exception_ptr> errors(tasks.size());

@@ -178,7 +178,7 @@ PolicyMethod top_k_moe_method() {
       io::integer_option("width", 0, 0, 65536, "expert width; 0: matched to MAPS's parameter count"),
       io::number_option("balance", 0.01, 0.0, 1e6,
                         "weight of the importance and load losses (CV^2 each; Shazeer et al.'s "
-                        "reference port's value)"),
+                        "reference port's value; 0: none)"),
       io::boolean_option("noise", true,
                          "noisy gating in training (eps * softplus(x W_noise)); without noise the "
                          "load loss is not defined and is 0"),

@@ -447,7 +447,7 @@ void PPOTrainer::save_checkpoint() const {
 std::string PPOTrainer::load_tensors_from(const std::string& path, bool with_optimizer) {
   nn::Checkpoint ckpt = nn::load_tensors(path);
   const Json j = io::parse_json(ckpt.config, "PPO checkpoint " + path + "'s state text");
-  if (j.value("format", "") != kCheckpointFormat)
+  if (io::string_or(j, "format", "") != kCheckpointFormat)
     throw std::runtime_error("PPO checkpoint " + path + ": not a " + kCheckpointFormat + " file");
   nn::NamedTensors model_state;
   std::map<std::string, ag::Tensor> extra;
@@ -526,9 +526,9 @@ bool PPOTrainer::resume() {
   if (out_dir_.empty() || !std::filesystem::exists(checkpoint_path())) return false;
   const std::string path = checkpoint_path();
   const Json j = io::parse_json(load_tensors_from(path, /*with_optimizer=*/true), "PPO checkpoint " + path);
-  if (j.value("task", "") != env_.spec().task)
-    throw std::runtime_error("PPO checkpoint " + path + " was trained on task '" + j.value("task", "") + "', not '" +
-                             env_.spec().task + "'");
+  if (io::string_or(j, "task", "") != env_.spec().task)
+    throw std::runtime_error("PPO checkpoint " + path + " was trained on task '" + io::string_or(j, "task", "") +
+                             "', not '" + env_.spec().task + "'");
   check_same_recipe(path, j.value("config", Json::object()));
   steps_done_ = j.at("steps_done");
   iteration_ = j.at("iteration");

@@ -32,7 +32,8 @@ constexpr long double kInf = std::numeric_limits<long double>::infinity();
 // The record as an object, with no key outside the schema (nested keys: "standardizer.mean").
 Json parse_record(const std::string& text, const std::string& where, const std::vector<io::Field>& schema) {
   const Json record = io::parse_json(text, where + "'s record");
-  if (!record.is_object()) throw std::runtime_error(where + ": the record is " + record.dump() + ", not an object");
+  if (!record.is_object())
+    throw std::runtime_error(where + ": the record is " + record.dump().substr(0, 80) + ", not an object");
   std::set<std::string> known;
   for (const io::Field& f : schema) known.insert(f.key.substr(0, f.key.find('.')));
   for (const auto& [key, value] : record.items())
@@ -146,7 +147,7 @@ PolicyRecord read_policy_record(const std::string& text, const std::string& wher
   if (record.contains("standardizer")) {
     const Json& s = record.at("standardizer");
     if (!s.is_object())
-      throw std::runtime_error(where + ": record key standardizer is " + s.dump() + ", not an object");
+      throw std::runtime_error(where + ": record key standardizer is " + s.dump().substr(0, 80) + ", not an object");
     for (const auto& [key, value] : s.items())
       if (key != "mean" && key != "std")
         throw std::runtime_error(where + ": unknown key 'standardizer." + key + "' in the record");

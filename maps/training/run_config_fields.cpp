@@ -257,8 +257,8 @@ std::vector<RunConfigField> make_fields() {
   add(
       "train.lr_scale", [](RunConfig & c) -> auto& { return c.train.lr_scale; },
       range(0, 1e6).documented_as("object prefix: float"),
-      "learning-rate factors by parameter-name prefix (transfer with fine-tuned modules: `{\"modules\": 0.1}`); "
-      "refused for a prefix that overlaps a `train.freeze` one");
+      "learning-rate factors by parameter-name prefix (transfer with fine-tuned modules: `{\"modules\": 0.1}`; 0: "
+      "not moved, as if frozen); refused for a prefix that overlaps a `train.freeze` one");
   add(
       "train.validation_tasks", [](RunConfig & c) -> auto& { return c.train.validation_tasks; }, any(),
       "judge checkpoints (the best validation loss) on these tasks' validation states only; empty: every "
@@ -293,10 +293,10 @@ std::vector<RunConfigField> make_fields() {
       "after every module layer and in the selector's hidden layers: `tanh`, `relu`, `sigmoid`, `identity`");
   add(
       "maps.bc_weight", [](RunConfig & c) -> auto& { return c.maps.bc_weight; }, range(0, kMaxWeight),
-      "weight of the BC loss in the total");
+      "weight of the BC loss in the total (0: the selector losses alone)");
   add(
       "maps.selector_weight", [](RunConfig & c) -> auto& { return c.maps.selector_weight; }, range(0, kMaxWeight),
-      "weight of the weighted selector losses in the total");
+      "weight of the weighted selector losses in the total (0: none of them)");
   add(
       "maps.selector_losses", [](RunConfig & c) -> auto& { return c.maps.selector_losses; }, range(0, kMaxWeight),
       "the selector losses and their weights (lambda); the paper's MT10 weights are `{\"share\": 1, "

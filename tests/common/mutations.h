@@ -151,8 +151,9 @@ struct PropertyCounts {
 
 // Writes each of `cases` mutants of `original` (made by `mutate`) to `path` and calls `read(path)`: a refusal must be
 // a std::exception naming `path`'s file (or `must_name`: a folder the file belongs to); an acceptance must pass
-// `accepted_ok` (the checked fields equal the original's, or the invariants hold). A read slower than 10 s is a hang.
-// Prints one line of counts for docs/reliability.md.
+// `accepted_ok` (the checked fields equal the original's, or the invariants hold). A read slower than 60 s is a hang (a
+// damaged header can make libhdf5 allocate gigabytes for seconds before it fails). Prints one line of counts for
+// docs/reliability.md.
 inline PropertyCounts check_mutants(const std::string& format, const std::string& original, const std::string& path,
                                     int cases, const std::function<std::string(std::mt19937_64&, std::string&)>& mutate,
                                     const std::function<void(const std::string&)>& read,
@@ -192,7 +193,7 @@ inline PropertyCounts check_mutants(const std::string& format, const std::string
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     counts.slowest_seconds = std::max(counts.slowest_seconds, seconds);
     if (seconds > 1.0) std::cout << format << " mutant " << i << " (" << how << ") took " << seconds << " s\n";
-    EXPECT_LT(seconds, 10.0) << format << " mutant " << i << " (" << how << "): a hang";
+    EXPECT_LT(seconds, 60.0) << format << " mutant " << i << " (" << how << "): a hang";
     if (refused) continue;
     ++counts.accepted;
     std::string why;

@@ -77,7 +77,8 @@ inline std::vector<Trial> scalar_trials(const io::Field& f, ValueKind kind) {
     }
     case ValueKind::kString:
       trials.insert(trials.end(), {{1, false}, {true, false}});
-      trials.push_back({"", !f.non_empty && f.choices.empty()});
+      // A list's non_empty is the list's, not its strings'.
+      trials.push_back({"", (f.kind == ValueKind::kStringList || !f.non_empty) && f.choices.empty()});
       trials.push_back({"no such choice", f.choices.empty()});
       for (const std::string& choice : f.choices) trials.push_back({choice, true});
       break;
