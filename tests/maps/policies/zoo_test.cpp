@@ -172,7 +172,10 @@ TEST(Zoo, OwnSectionsAreCheckedByNameAndType) {
                 config_of("moore", {{"experts", 2.5}});
               }),
               HasSubstr("config moore.experts: expected an integer in [1, 64], got 2.5"));
-  EXPECT_THAT(error_of([] { config_of("moore", {{"experts", 0}}); }), HasSubstr("config moore.experts: expected an integer in [1, 64], got 0"));
+  EXPECT_THAT(error_of([] {
+                config_of("moore", {{"experts", 0}});
+              }),
+              HasSubstr("config moore.experts: expected an integer in [1, 64], got 0"));
   EXPECT_THAT(error_of([] {
                 config_of("moore", {{"orthogonal", 1}});
               }),
