@@ -29,6 +29,7 @@
 #include "experiments/train_run.h"
 #include "experiments/transfer_run.h"
 #include "experiments/usage_error.h"
+#include "experiments/version.h"
 #include "maps/policies/policy_registry.h"
 
 namespace {
@@ -103,6 +104,12 @@ int main(int argc, char** argv) {
 
   CLI::App app{"maps: multi-task imitation learning on a from-scratch autograd engine"};
   app.name("maps");
+  // The version, the commit and what the build computes with: what a bug report or a speed figure needs.
+  app.set_version_flag("--version", [] {
+    return std::string("maps ") + maps::experiments::tool_version() + "\ncommit " +
+           maps::experiments::tool_git_commit() + "\nbuild " + MAPS_BUILD_DESCRIPTION + "\nfloat32 GEMM kernel " +
+           maps::ag::float32_gemm_kernel();
+  });
   app.require_subcommand(0, 1);
 
   maps::experiments::DemoOptions demo;

@@ -35,6 +35,13 @@ class Tool(unittest.TestCase):
     def print_config(self, *extra):
         return json.loads(run("train", "--config", self.config, "--print-config", *extra).stdout)
 
+    def test_version_names_the_commit_and_the_build(self):
+        lines = run("--version").stdout.splitlines()
+        self.assertRegex(lines[0], r"^maps \d+\.\d+\.\d+$")
+        self.assertRegex(lines[1], r"^commit ([0-9a-f]{40}(-dirty)?|unknown)")
+        self.assertTrue(lines[2].startswith("build ") and "MAPS_NATIVE=" in lines[2], lines[2])
+        self.assertTrue(lines[3].startswith("float32 GEMM kernel "), lines[3])
+
     def test_print_config_resolves_every_default_and_set_overrides(self):
         config = self.print_config()
         self.assertEqual(config["train"]["steps"], 100)
