@@ -216,16 +216,17 @@ ExpertPolicy ExpertPolicy::load(const std::string& path) {
   }
   std::set<std::string> known;
   for (const io::Field& f : expert_file_schema()) known.insert(f.key);
-  for (const auto& [key, value] : document.items()) {
+  for (const auto& [key, value] : document.items())
     if (!known.count(key)) throw std::runtime_error(where + ": unknown field '" + key + "'");
-    for (const io::Field& f : expert_file_schema())
-      if (f.key == key && f.key != "layers") {
-        try {
-          io::check_value(f, value, "field ");
-        } catch (const std::invalid_argument& e) {
-          throw std::runtime_error(where + ": " + e.what());
-        }
-      }
+  for (const io::Field& f : expert_file_schema()) {
+    // format and version were checked above with their own messages, layers is checked by shape below; a missing
+    // field is named where it is read.
+    if (f.key == "format" || f.key == "version" || f.key == "layers" || !document.contains(f.key)) continue;
+    try {
+      io::check_value(f, document.at(f.key), "field ");
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error(where + ": " + e.what());
+    }
   }
   ExpertPolicy policy;
   const json& task = field(document, "task", where);

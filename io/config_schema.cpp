@@ -50,6 +50,9 @@ std::string number_text(long double x) {
 }
 
 bool bounded_below(const Field& f) { return !std::isinf(f.min); }
+
+// Whether a number lies within the field's bounds (a NaN does not).
+bool within(const Field& f, long double x) { return (f.min_exclusive ? x > f.min : x >= f.min) && x <= f.max; }
 bool bounded_above(const Field& f) { return !std::isinf(f.max); }
 
 // The range of one scalar, in words for errors ("in [1, 100]", ">= 0", "> 0").
@@ -97,14 +100,14 @@ bool scalar_fits(const Field& f, ValueKind kind, const nlohmann::json& value) {
         x = static_cast<long double>(value.get<std::int64_t>());
       else
         return false;
-      return (f.min_exclusive ? x > f.min : x >= f.min) && x <= f.max;
+      return within(f, x);
     }
     case ValueKind::kNumber: {
       if (!value.is_number()) return false;
       const long double x = value.is_number_unsigned()  ? static_cast<long double>(value.get<std::uint64_t>())
                             : value.is_number_integer() ? static_cast<long double>(value.get<std::int64_t>())
                                                         : static_cast<long double>(value.get<double>());
-      return std::isfinite(x) && (f.min_exclusive ? x > f.min : x >= f.min) && x <= f.max;
+      return std::isfinite(x) && within(f, x);
     }
     case ValueKind::kString: {
       if (!value.is_string()) return false;
@@ -128,6 +131,25 @@ std::string shown(const nlohmann::json& value) {
 }
 
 }  // namespace
+
+nlohmann::json::json_pointer key_pointer(std::string dotted_key) {
+  for (char& c : dotted_key)
+    if (c == '.') c = '/';
+  dotted_key.insert(dotted_key.begin(), '/');
+  return nlohmann::json::json_pointer(dotted_key);
+}
+
+const nlohmann::json* find_key(const nlohmann::json& document, const std::string& dotted_key) {
+  const nlohmann::json* node = &document;
+  for (std::size_t start = 0;;) {
+    const std::size_t dot = dotted_key.find('.', start);
+    const std::string part = dotted_key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
+    if (!node->is_object() || !node->contains(part)) return nullptr;
+    node = &node->at(part);
+    if (dot == std::string::npos) return node;
+    start = dot + 1;
+  }
+}
 
 std::string expectation(const Field& f) {
   if (f.nullable) {

@@ -44,6 +44,13 @@ struct Field {
   std::string meaning;               // the docs' text: what it does, and what a special value (0: all) means
 };
 
+// A field's dotted key ("train.steps") as a JSON pointer ("/train/steps"): where its value sits in a document, to
+// write it there (json[pointer] makes the objects on the way).
+nlohmann::json::json_pointer key_pointer(std::string dotted_key);
+
+// The value at a dotted key, or nullptr when a part of the way is missing or is not an object.
+const nlohmann::json* find_key(const nlohmann::json& document, const std::string& dotted_key);
+
 // Throws std::invalid_argument "<prefix><key>: expected <expectation>, got <value>" unless `value` is of the
 // field's kind and within its range. A NaN or an infinity is never a number here.
 void check_value(const Field& field, const nlohmann::json& value, const std::string& prefix = "config ");

@@ -48,20 +48,26 @@ std::string quoted(const char* name) {
   return text;
 }
 
+// A soft or external link's value (its target), or "" when it cannot be read.
+std::vector<char> link_value(hid_t group, const char* name, std::size_t size, hid_t lapl) {
+  std::vector<char> value(size + 1, '\0');
+  if (H5Lget_val(group, name, value.data(), value.size(), lapl) < 0) return {};
+  return value;
+}
+
 // The path a soft link holds.
 std::string soft_target(hid_t group, const char* name, std::size_t size, hid_t lapl) {
-  std::vector<char> value(size + 1, '\0');
-  if (H5Lget_val(group, name, value.data(), value.size(), lapl) < 0) return "?";
-  return std::string(value.data());
+  const std::vector<char> value = link_value(group, name, size, lapl);
+  return value.empty() ? "?" : std::string(value.data());
 }
 
 std::string external_target(hid_t group, const char* name, std::size_t size, hid_t lapl) {
-  std::vector<char> value(size + 1, '\0');
-  if (H5Lget_val(group, name, value.data(), value.size(), lapl) < 0) return "?";
+  std::vector<char> value = link_value(group, name, size, lapl);
   unsigned flags = 0;
   const char* file = nullptr;
   const char* object = nullptr;
-  if (H5Lunpack_elink_val(value.data(), value.size(), &flags, &file, &object) < 0 || !file || !object) return "?";
+  if (value.empty() || H5Lunpack_elink_val(value.data(), value.size(), &flags, &file, &object) < 0 || !file || !object)
+    return "?";
   return std::string(file) + ":" + object;
 }
 

@@ -41,20 +41,11 @@ Json parse_record(const std::string& text, const std::string& where, const std::
   return record;
 }
 
-const Json* find(const Json& record, const std::string& key) {
-  const std::size_t dot = key.find('.');
-  if (!record.contains(key.substr(0, dot))) return nullptr;
-  const Json& outer = record.at(key.substr(0, dot));
-  if (dot == std::string::npos) return &outer;
-  if (!outer.is_object() || !outer.contains(key.substr(dot + 1))) return nullptr;
-  return &outer.at(key.substr(dot + 1));
-}
-
 // Checks every field of the schema that is present, and that the required ones are; errors as runtime_error
 // naming the checkpoint.
 void check_fields(const Json& record, const std::string& where, const std::vector<io::Field>& schema) {
   for (const io::Field& f : schema) {
-    const Json* value = find(record, f.key);
+    const Json* value = io::find_key(record, f.key);
     if (!value) {
       if (f.required) throw std::runtime_error(where + ": the record has no '" + f.key + "'");
       continue;

@@ -79,40 +79,37 @@ void check_across_keys(const RunConfig& c, const PolicyMethod& chosen) {
         c.init_checkpoint + "\"");
 }
 
-// The value at a dotted key ("train.steps"), or nullptr when it is not given.
-const Json* find_key(const Json& json, const std::string& key) {
-  const Json* node = &json;
-  for (std::size_t start = 0;;) {
-    const std::size_t dot = key.find('.', start);
-    const std::string part = key.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-    if (!node->is_object() || !node->contains(part)) return nullptr;
-    node = &node->at(part);
-    if (dot == std::string::npos) return node;
-    start = dot + 1;
-  }
+// The run config's top-level keys and each section's keys, from the table of keys (computed once).
+struct Layout {
+  std::set<std::string> top_keys;
+  std::map<std::string, std::set<std::string>> sections;
+};
+const Layout& layout() {
+  static const Layout cached = [] {
+    Layout l;
+    for (const RunConfigField& field : run_config_fields()) {
+      const std::string& key = field.spec.key;
+      const std::size_t dot = key.find('.');
+      l.top_keys.insert(key.substr(0, dot));
+      if (dot != std::string::npos) l.sections[key.substr(0, dot)].insert(key.substr(dot + 1));
+    }
+    for (const auto& method : policy_methods())
+      if (!method.options.empty()) l.top_keys.insert(method.name);
+    return l;
+  }();
+  return cached;
 }
 
 }  // namespace
 
 RunConfig parse_run_config(const Json& json) {
   RunConfig c;
-  // The sections and their keys, from the table of keys.
-  std::map<std::string, std::set<std::string>> sections;
-  std::set<std::string> top_keys;
-  for (const RunConfigField& field : run_config_fields()) {
-    const std::string& key = field.spec.key;
-    const std::size_t dot = key.find('.');
-    top_keys.insert(key.substr(0, dot));
-    if (dot != std::string::npos) sections[key.substr(0, dot)].insert(key.substr(dot + 1));
-  }
-  for (const auto& method : policy_methods())
-    if (!method.options.empty()) top_keys.insert(method.name);
-  check_keys(json, "", top_keys);
-  for (const auto& [section, keys] : sections)
+  check_keys(json, "", layout().top_keys);
+  for (const auto& [section, keys] : layout().sections)
     if (json.contains(section)) check_keys(json.at(section), section, keys);
   if (!json.contains("data")) throw std::invalid_argument("config: \"data\": {\"file\": ...} is required");
   for (const RunConfigField& field : run_config_fields()) {
-    const Json* value = find_key(json, field.spec.key);
+    const Json* value = io::find_key(json, field.spec.key);
     if (!value) {
       if (field.spec.required)
         throw std::invalid_argument("config " + field.spec.key + ": required (" + io::expectation(field.spec) + ")");
@@ -157,14 +154,7 @@ Json transfer_request(Json request, const std::string& task, int demos, const st
 
 Json to_json(const RunConfig& c) {
   Json out = Json::object();
-  for (const RunConfigField& field : run_config_fields()) {
-    const std::string& key = field.spec.key;
-    const std::size_t dot = key.find('.');
-    if (dot == std::string::npos)
-      out[key] = field.get(c);
-    else
-      out[key.substr(0, dot)][key.substr(dot + 1)] = field.get(c);
-  }
+  for (const RunConfigField& field : run_config_fields()) out[io::key_pointer(field.spec.key)] = field.get(c);
   if (!c.method_options.empty()) out[c.method] = c.method_options;
   return out;
 }

@@ -134,14 +134,6 @@ inline nlohmann::json json_mutant(const nlohmann::json& original, std::mt19937_6
   return out;
 }
 
-// A dotted key ("train.steps") as a JSON pointer ("/train/steps").
-inline nlohmann::json::json_pointer pointer_of(std::string dotted) {
-  for (char& c : dotted)
-    if (c == '.') c = '/';
-  dotted.insert(dotted.begin(), '/');
-  return nlohmann::json::json_pointer(dotted);
-}
-
 struct PropertyCounts {
   int tried = 0;
   int refused = 0;

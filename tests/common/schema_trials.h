@@ -157,12 +157,4 @@ WalkCounts walk_schema(const std::vector<Field>& fields, Parse parse, Refused re
   return counts;
 }
 
-// A dotted key ("train.steps") as a JSON pointer ("/train/steps"), to put a value there or read it back.
-inline Json::json_pointer pointer_of(std::string dotted) {
-  for (char& c : dotted)
-    if (c == '.') c = '/';
-  dotted.insert(dotted.begin(), '/');
-  return Json::json_pointer(dotted);
-}
-
 }  // namespace maps::io

@@ -78,7 +78,7 @@ class RunFolderProperty : public TempFolderTest {
 bool config_holds(const core::RunConfig& config, std::string& why) {
   const Json written = core::to_json(config);
   for (const io::Field& field : core::run_config_schema()) {
-    const Json::json_pointer at = testing::pointer_of(field.key);
+    const Json::json_pointer at = io::key_pointer(field.key);
     if (!written.contains(at)) continue;  // another method's section
     try {
       io::check_value(field, written.at(at));

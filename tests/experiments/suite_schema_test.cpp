@@ -54,7 +54,7 @@ Json suite_with(const std::string& key, const Json& value) {
   }
   std::string path = error_path(key);
   if (path.rfind("grids[", 0) == 0) path = "grids." + path.substr(6, 1) + path.substr(8);  // grids[1].x -> grids.1.x
-  suite[io::pointer_of(path)] = value;
+  suite[io::key_pointer(path)] = value;
   return suite;
 }
 

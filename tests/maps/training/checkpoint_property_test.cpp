@@ -161,7 +161,7 @@ TEST(CheckpointRecordSchema, EveryKeyTakesTheValuesOfItsRangeAndRefusesEveryOthe
         training ? training_state_schema() : policy_record_schema(),
         [&](const io::Field& field, const Json& value) {
           Json record = base;
-          record[io::pointer_of(field.key)] = value;
+          record[io::key_pointer(field.key)] = value;
           if (training) {
             read_training_state(record.dump(), "last.ckpt");
           } else {

@@ -30,7 +30,7 @@ Json config_with(const std::string& key, const Json& value) {
   for (const PolicyMethod& method : policy_methods())
     if (method.name == section) config["method"] = section;
   if (key == "baselines.hidden") config["method"] = "mt_bc";
-  config[io::pointer_of(key)] = value;
+  config[io::key_pointer(key)] = value;
   return config;
 }
 
@@ -52,7 +52,7 @@ TEST(RunConfigSchema, EveryKeyTakesTheValuesOfItsRangeAndRefusesEveryOtherByName
       [&parsed](const io::Field& field, const Trial& trial) {
         // Accepted means kept as given: nothing wraps, rounds or is replaced.
         const Json written = to_json(parsed);
-        const Json& kept = written.at(io::pointer_of(field.key));
+        const Json& kept = written.at(io::key_pointer(field.key));
         EXPECT_EQ(kept, trial.value) << field.key << " = " << trial.value.dump() << " became " << kept.dump();
       });
   EXPECT_GT(counts.tried, 1000);
