@@ -33,7 +33,7 @@ using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen:
 constexpr std::int64_t kFormatVersion = 2;
 constexpr const char* kObsKey = "flat";
 constexpr hid_t kInvalidId = -1;
-// A demo file of this project reads in under a second; the paper-scale MT10 file (350 demos) in about 0.1 s.
+// Far above what reading a valid demo file takes: a bound only for a child that loops in libhdf5.
 constexpr double kIsolatedReadSeconds = 300.0;
 
 // robomimic's data attribute env_args (robomimic/utils/file_utils.py reads it with json.loads; its code reads the

@@ -144,7 +144,7 @@ struct PropertyCounts {
 // Writes each of `cases` mutants of `original` (made by `mutate`) to `path` and calls `read(path)`: a refusal must be
 // a std::exception naming `path`'s file (or `must_name`: a folder the file belongs to); an acceptance must pass
 // `accepted_ok` (the checked fields equal the original's, or the invariants hold). A read slower than 60 s is a hang (a
-// damaged header can make libhdf5 allocate gigabytes for seconds before it fails). Prints one line of counts for
+// damaged header can keep libhdf5 busy for seconds before it fails). Prints one line of counts for
 // docs/reliability.md.
 inline PropertyCounts check_mutants(const std::string& format, const std::string& original, const std::string& path,
                                     int cases, const std::function<std::string(std::mt19937_64&, std::string&)>& mutate,
