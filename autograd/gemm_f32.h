@@ -9,7 +9,7 @@
 // (on AVX2: 6 x 16 in 12), broadcasts op(A)'s elements straight from memory (no packing of A, any strides) and
 // reads op(B) in place or packs it into panels of the tile's width; it runs the same products at 200-230 GFLOP/s
 // (AVX2: 108-114, Eigen's 98-108). Measured by `maps_bench --benchmark_filter=Gemm`
-// (experiments/benchmarks/gemm_bench.cpp); docs/performance.md.
+// (experiments/bench/micro/gemm_bench.cpp); docs/performance.md.
 //
 // Each element of C is summed in the same order (inner blocks in order, k ascending within a block) wherever its
 // tile falls, so a product's result does not depend on how gemm_parallel splits it across threads.

@@ -1,7 +1,5 @@
 #include "envs/expert_policy.h"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -10,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/atomic_file.h"
 #include "io/json_input.h"
 
 namespace maps::envs {
@@ -172,25 +171,7 @@ void ExpertPolicy::save(const std::string& path) const {
                          {"layers", layers},
                          {"log_std", vector_to_json(log_std)},
                          {"metadata", metadata}};
-  const std::filesystem::path target(path);
-  const std::filesystem::path temporary = target.string() + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot open '" + temporary.string() + "' to write " + who(*this));
-    out << document.dump(1) << '\n';
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      throw std::runtime_error("error while writing '" + temporary.string() + "'");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(temporary, target, ec);
-  if (ec) {
-    std::filesystem::remove(temporary, ec);
-    throw std::runtime_error("cannot move '" + temporary.string() + "' to '" + path + "': " + ec.message());
-  }
+  io::write_file_atomically(path, document.dump(1) + "\n", who(*this));
 }
 
 ExpertPolicy ExpertPolicy::load(const std::string& path) {

@@ -1,10 +1,6 @@
 #include "nn/serialize.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <atomic>
 #include <bit>
 #include <cerrno>
 #include <cstdint>
@@ -14,6 +10,8 @@
 #include <iterator>
 #include <stdexcept>
 #include <unordered_set>
+
+#include "io/atomic_file.h"
 
 namespace maps::nn {
 
@@ -119,50 +117,8 @@ std::string encode(const NamedTensors& tensors, const std::string& config) {
 
 }  // namespace
 
-void write_file_atomically(const std::string& path, const std::string& bytes, const std::string& what) {
-  auto file_error = [&what](const std::string& name, const std::string& why) {
-    return std::runtime_error(what + " " + name + ": " + why);
-  };
-  char host[64] = {};
-  if (::gethostname(host, sizeof(host) - 1) != 0) host[0] = '\0';
-  static std::atomic<std::uint64_t> counter{0};
-  const std::filesystem::path target(path);
-  std::string tmp_name = ".";
-  tmp_name += target.filename().string();
-  tmp_name += ".tmp-" + std::string(host) + "-" + std::to_string(::getpid()) + "-" + std::to_string(counter++);
-  const std::string tmp = (target.parent_path() / tmp_name).string();
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) throw file_error(path, "cannot create temporary file " + tmp + ": " + std::strerror(errno));
-  auto fail = [&](const std::string& what) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return file_error(path, what + ": " + std::strerror(err));
-  };
-  std::size_t written = 0;
-  while (written < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw fail("write to " + tmp + " failed");
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) throw fail("fsync of " + tmp + " failed");
-  if (::close(fd) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw file_error(path, "close of " + tmp + " failed: " + std::strerror(err));
-  }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw file_error(path, "rename from " + tmp + " failed: " + std::strerror(err));
-  }
-}
-
 void save_tensors(const std::string& path, const NamedTensors& tensors, const std::string& config) {
-  write_file_atomically(path, encode(tensors, config), "checkpoint");
+  io::write_file_atomically(path, encode(tensors, config), "checkpoint");
 }
 
 Checkpoint load_tensors(const std::string& path) {

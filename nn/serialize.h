@@ -21,12 +21,7 @@ struct Checkpoint {
   NamedTensors tensors;
 };
 
-// Writes `bytes` to `path` through a temporary in the same folder (named for this host, process and call; O_EXCL,
-// close-on-exec), fsync-ed and renamed over `path`: a reader never sees half a file, two processes (even on two
-// hosts sharing the folder) never write one temporary. Throws std::runtime_error "<what> <path>: ..." (what:
-// "checkpoint" for checkpoints, "file" otherwise); the temporary is removed on any error.
-void write_file_atomically(const std::string& path, const std::string& bytes, const std::string& what = "file");
-
+// save_tensors writes through io::write_file_atomically; its errors read "checkpoint <path>: ...".
 void save_tensors(const std::string& path, const NamedTensors& tensors, const std::string& config = "");
 Checkpoint load_tensors(const std::string& path);
 

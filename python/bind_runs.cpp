@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
-#include "experiments/run_folder.h"
+#include "experiments/run/run_folder.h"
 #include "maps/policies/maps_policy.h"
 #include "python/bindings.h"
 
@@ -110,7 +110,8 @@ class PythonRun {
 void bind_runs(py::module_& m) {
   py::class_<PythonRun>(m, "_Run")
       .def(py::init<const std::string&, const std::string&, const std::string&>(), py::arg("folder"),
-           py::arg("checkpoint") = "best.ckpt", py::arg("data_file") = "", py::call_guard<py::gil_scoped_release>())
+           py::arg("checkpoint") = core::run_files::kBestCheckpoint, py::arg("data_file") = "",
+           py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("folder", &PythonRun::folder)
       .def_property_readonly("method", &PythonRun::method)
       .def_property_readonly("config_json", &PythonRun::config_json)

@@ -21,14 +21,14 @@ PACKAGES=(
   libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r
   libhdf5-dev
   libboost-dev  # Boost.Math: Student's t quantiles of the evaluation's confidence intervals
-  libssl-dev    # SHA-256 of the demo file a run trained on (experiments/provenance.cpp)
+  libssl-dev    # SHA-256 of the demo file a run trained on (experiments/run/provenance.cpp)
   hdf5-tools  # h5diff: the kill tests compare demo files by content (tests/experiments/kill_test.py)
   libosmesa6-dev  # offscreen rendering (maps render); optional for the build
   libpng-dev
   libgif-dev    # animated GIFs of a trained policy's episode (maps render --run RUN --out x.gif)
   python3             # /usr/bin/python3 runs the result tables and plots (experiments/suites/)
   python3-matplotlib  # plots
-  python3-scipy       # the report's t tests (experiments/suites/suite_stats.py)
+  python3-scipy       # the report's t tests (experiments/report/suite_stats.py)
   python3-h5py        # tests that read demo files as robomimic, D4RL and Minari users do (tests/experiments/)
   python3-dev         # the `maps` Python module (python/, docs/python.md): Python's headers,
   python3-numpy       #   numpy arrays in and out,

@@ -46,8 +46,6 @@ class ButtonPressTopdownEnv : public MT10Env {
   int button_qpos_;
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_button_press_topdown(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<ButtonPressTopdownEnv>(task, index, options);
 }
@@ -62,5 +60,10 @@ Eigen::Vector4d button_press_topdown_expert(const Eigen::VectorXd& obs) {
                                      : button;
   return expert_action(move_toward(hand, target, 25.0), 1.0);
 }
+
+const MT10TaskRegistration button_press_topdown_registration({"button-press-topdown", 6, make_button_press_topdown,
+                                                              button_press_topdown_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

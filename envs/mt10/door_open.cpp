@@ -45,8 +45,6 @@ class DoorOpenEnv : public MT10Env {
   int hinge_qpos_;
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_door_open(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<DoorOpenEnv>(task, index, options);
 }
@@ -66,5 +64,9 @@ Eigen::Vector4d door_open_expert(const Eigen::VectorXd& obs) {
   }
   return expert_action(move_toward(hand, target, 25.0), 1.0);
 }
+
+const MT10TaskRegistration door_open_registration({"door-open", 3, make_door_open, door_open_expert, 0.99});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

@@ -41,8 +41,6 @@ class DrawerCloseEnv : public MT10Env {
   int slide_qpos_;
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_drawer_close(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<DrawerCloseEnv>(task, index, options);
 }
@@ -69,5 +67,9 @@ Eigen::Vector4d drawer_close_expert(const Eigen::VectorXd& obs) {
   }
   return expert_action(move_toward(hand, target, 25.0), 1.0);
 }
+
+const MT10TaskRegistration drawer_close_registration({"drawer-close", 5, make_drawer_close, drawer_close_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

@@ -40,8 +40,6 @@ class DrawerOpenEnv : public MT10Env {
   int slide_qpos_;
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_drawer_open(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<DrawerOpenEnv>(task, index, options);
 }
@@ -61,5 +59,9 @@ Eigen::Vector4d drawer_open_expert(const Eigen::VectorXd& obs) {
   }
   return expert_action(delta, -1.0);
 }
+
+const MT10TaskRegistration drawer_open_registration({"drawer-open", 4, make_drawer_open, drawer_open_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

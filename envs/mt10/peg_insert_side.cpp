@@ -58,8 +58,6 @@ class PegInsertSideEnv : public MT10Env {
   int peg_grasp_;
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_peg_insert_side(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<PegInsertSideEnv>(task, index, options);
 }
@@ -85,5 +83,10 @@ Eigen::Vector4d peg_insert_side_expert(const Eigen::VectorXd& obs) {
   const bool far_from_peg = planar_distance > 0.04 || std::abs(hand.z() - peg.z()) > 0.15;
   return expert_action(move_toward(hand, target, 25.0), far_from_peg ? -1.0 : 0.6);
 }
+
+const MT10TaskRegistration peg_insert_side_registration({"peg-insert-side", 7, make_peg_insert_side,
+                                                         peg_insert_side_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

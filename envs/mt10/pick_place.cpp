@@ -19,8 +19,6 @@ class PickPlaceEnv : public PuckEnv {
   void place_objects(std::mt19937_64& rng) override { set_goal(place_puck_and_draw_goal(rng, 0.05, 0.3)); }
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_pick_place(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<PickPlaceEnv>(task, index, options);
 }
@@ -44,5 +42,9 @@ Eigen::Vector4d pick_place_expert(const Eigen::VectorXd& obs) {
   const double grab = (hand - puck).norm() < 0.07 ? 1.0 : 0.0;
   return expert_action(move_toward(hand, target, 10.0), grab);
 }
+
+const MT10TaskRegistration pick_place_registration({"pick-place", 2, make_pick_place, pick_place_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

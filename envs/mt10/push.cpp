@@ -29,8 +29,6 @@ class PushEnv : public PuckEnv {
   }
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_push(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<PushEnv>(task, index, options);
 }
@@ -52,5 +50,9 @@ Eigen::Vector4d push_expert(const Eigen::VectorXd& obs) {
   const bool near_puck = (hand.head<2>() - puck.head<2>()).norm() <= 0.02 && std::abs(hand.z() - puck.z()) <= 0.1;
   return expert_action(move_toward(hand, target, 10.0), near_puck ? 0.6 : 0.0);
 }
+
+const MT10TaskRegistration push_registration({"push", 1, make_push, push_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

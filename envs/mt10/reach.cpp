@@ -18,8 +18,6 @@ class ReachEnv : public PuckEnv {
   void place_objects(std::mt19937_64& rng) override { set_goal(place_puck_and_draw_goal(rng, 0.05, 0.3)); }
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_reach(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<ReachEnv>(task, index, options);
 }
@@ -27,5 +25,9 @@ std::unique_ptr<MT10Env> make_reach(const std::string& task, std::int64_t index,
 Eigen::Vector4d reach_expert(const Eigen::VectorXd& obs) {
   return expert_action(move_toward(obs_hand(obs), obs_goal(obs), 5.0), 0.0);
 }
+
+const MT10TaskRegistration reach_registration({"reach", 0, make_reach, reach_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

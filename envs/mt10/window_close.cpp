@@ -24,8 +24,6 @@ class WindowCloseEnv : public WindowEnv {
   }
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_window_close(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<WindowCloseEnv>(task, index, options);
 }
@@ -33,5 +31,9 @@ std::unique_ptr<MT10Env> make_window_close(const std::string& task, std::int64_t
 // The mirror image of window-open's: the observed point is 2.4 cm right of the handle bar; approach from its right
 // and push left.
 Eigen::Vector4d window_close_expert(const Eigen::VectorXd& obs) { return push_window_handle(obs, 1.0, 0.25); }
+
+const MT10TaskRegistration window_close_registration({"window-close", 9, make_window_close, window_close_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

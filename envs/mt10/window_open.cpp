@@ -21,13 +21,15 @@ class WindowOpenEnv : public WindowEnv {
   }
 };
 
-}  // namespace
-
 std::unique_ptr<MT10Env> make_window_open(const std::string& task, std::int64_t index, MT10Options options) {
   return std::make_unique<WindowOpenEnv>(task, index, options);
 }
 
 // The observed point is 2.6 cm left of the handle bar: approach from its left and push right.
 Eigen::Vector4d window_open_expert(const Eigen::VectorXd& obs) { return push_window_handle(obs, -1.0, 0.3); }
+
+const MT10TaskRegistration window_open_registration({"window-open", 8, make_window_open, window_open_expert, 1.0});
+
+}  // namespace
 
 }  // namespace maps::envs::mt10

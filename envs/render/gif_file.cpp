@@ -1,12 +1,13 @@
 #include "envs/render/gif_file.h"
 
 #include <gif_lib.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <stdexcept>
+
+#include "io/atomic_file.h"
 
 namespace maps::envs {
 namespace {
@@ -76,26 +77,25 @@ void write_gif(const std::string& path, const std::vector<Image>& frames, int de
       throw std::invalid_argument("write_gif " + path +
                                   ": the frames differ in size, or a size and its pixels "
                                   "disagree");
-  const std::string temporary = path + ".tmp-" + std::to_string(::getpid());
-  try {
-    int error = 0;
-    std::unique_ptr<GifFileType, GifCloser> gif(EGifOpenFileName(temporary.c_str(), false, &error));
-    if (!gif) throw std::runtime_error("cannot open '" + temporary + "' for writing (" + GifErrorString(error) + ")");
-    EGifSetGifVersion(gif.get(), true);
-    write_frames(gif.get(), path, frames, delay_centiseconds);
-    int close_error = 0;
-    if (EGifCloseFile(gif.release(), &close_error) != GIF_OK)
-      throw std::runtime_error("writing the GIF '" + path + "' failed (" + GifErrorString(close_error) + ")");
-    // giflib creates its file readable by its owner only; a picture is for everyone, as write_png's are.
-    namespace fs = std::filesystem;
-    fs::permissions(temporary, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
-                                   fs::perms::others_read);
-    fs::rename(temporary, path);
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw;
-  }
+  io::write_through_temporary(
+      path,
+      [&](const std::string& temporary) {
+        int error = 0;
+        std::unique_ptr<GifFileType, GifCloser> gif(EGifOpenFileName(temporary.c_str(), false, &error));
+        if (!gif)
+          throw std::runtime_error("cannot open '" + temporary + "' to write the GIF '" + path + "' (" +
+                                   GifErrorString(error) + ")");
+        EGifSetGifVersion(gif.get(), true);
+        write_frames(gif.get(), path, frames, delay_centiseconds);
+        int close_error = 0;
+        if (EGifCloseFile(gif.release(), &close_error) != GIF_OK)
+          throw std::runtime_error("writing the GIF '" + path + "' failed (" + GifErrorString(close_error) + ")");
+        // giflib creates its file readable by its owner only; a picture is for everyone, as write_png's are.
+        namespace fs = std::filesystem;
+        fs::permissions(
+            temporary, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+      },
+      "GIF");
 }
 
 }  // namespace maps::envs

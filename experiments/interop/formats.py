@@ -19,9 +19,11 @@ import sys
 import h5py
 import numpy as np
 
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "process"))
+import json_input  # noqa: E402
+
 FORMAT_VERSION = 2
 OBS_KEY = "flat"
-MAX_JSON_DEPTH = 64  # the C++ reader's limit (io/json_input.cpp); no input of this tool nests deeper
 
 
 class FormatError(Exception):
@@ -67,7 +69,7 @@ def write_maps(path, demos):
         string = h5py.string_dtype("utf-8")
         data.attrs.create("format_version", FORMAT_VERSION, dtype="<i8")
         data.attrs["total"] = np.int64(sum(len(e["actions"]) for e in demos["episodes"]))
-        # As envs/demo_file.cpp writes it (nlohmann::json's dump: sorted keys, no spaces), so that the bytes agree.
+        # As envs/demo_file/writer.cpp writes it (nlohmann::json's dump: sorted keys, no spaces), so that the bytes agree.
         data.attrs["env_args"] = json.dumps({"env_name": "maps/" + demos["task_set"], "type": 2, "env_kwargs": {
             "task_set": demos["task_set"], "task_names": demos["task_names"], "env_version": demos["env_version"]}},
             sort_keys=True, separators=(",", ":"), ensure_ascii=False)
@@ -445,23 +447,11 @@ SELF_CONTAINED = ("this tool reads a file from itself alone (no external links, 
 
 
 def read_json(path):
-    """path's JSON; FormatError naming the file when arrays and objects nest inside each other past MAX_JSON_DEPTH
-    levels. json recurses once a level, so a deep enough file would otherwise end in a RecursionError traceback."""
-    too_deep = FormatError(f"{path} nests JSON deeper than {MAX_JSON_DEPTH} levels (arrays and objects inside each "
-                           f"other); no input of this tool nests so deep")
+    """path's JSON (experiments/process/json_input.py); FormatError naming the file when it nests too deep."""
     try:
-        value = json.loads(pathlib.Path(path).read_text())
-    except RecursionError:
-        raise too_deep from None
-    # Iterative: the check must not recurse on the depth it is there to bound.
-    stack = [(value, 1)]
-    while stack:
-        item, depth = stack.pop()
-        if isinstance(item, (dict, list)):
-            if depth > MAX_JSON_DEPTH:
-                raise too_deep
-            stack.extend((child, depth + 1) for child in (item.values() if isinstance(item, dict) else item))
-    return value
+        return json_input.read_json(path)
+    except json_input.JsonTooDeep as e:
+        raise FormatError(str(e)) from None
 
 
 def open_hdf5(path):

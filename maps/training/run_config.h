@@ -13,6 +13,7 @@
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/policy.h"
 #include "maps/policies/policy_registry.h"
+#include "maps/training/run_files.h"
 #include "maps/training/trainer.h"
 
 // One run's configuration as JSON (`maps train --config`), every key optional but "method" and "data.file":
@@ -55,7 +56,7 @@ struct RunConfig {
   // Start from another run's parameters (transfer, docs/transfer.md): the folder and its checkpoint. The run then
   // also standardises observations with that checkpoint's statistics, as its modules were trained to see them.
   std::string init_run;
-  std::string init_checkpoint = "best.ckpt";
+  std::string init_checkpoint = run_files::kBestCheckpoint;
 };
 
 RunConfig parse_run_config(const nlohmann::json& json);

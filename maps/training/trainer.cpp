@@ -18,7 +18,9 @@
 
 #include "autograd/float_environment.h"
 #include "envs/portable_random.h"
+#include "io/atomic_file.h"
 #include "maps/training/checkpoint_record.h"
+#include "maps/training/run_files.h"
 #include "nn/optim/adam.h"
 #include "nn/serialize.h"
 
@@ -107,7 +109,7 @@ void truncate_curve(const std::string& path, std::int64_t step) {
     if (row_step <= step) kept += line + "\n";
   }
   in.close();
-  nn::write_file_atomically(path, kept);
+  io::write_file_atomically(path, kept);
 }
 
 // CPU time of the whole process (every thread), the cost of a window of steps whatever else shares the cores.
@@ -239,7 +241,7 @@ LossTerms optimizer_step(Policy& policy, Batch& batch, const std::vector<ag::Ten
 }
 
 std::int64_t trained_steps(const std::string& run_dir) {
-  const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
+  const std::string last_path = (fs::path(run_dir) / run_files::kLastCheckpoint).string();
   if (!fs::exists(last_path)) return 0;
   return read_training_state(nn::load_tensors(last_path).config, "training checkpoint " + last_path).step;
 }
@@ -252,9 +254,9 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     throw std::invalid_argument("train: keep_every must be >= 0 (0: keep no step checkpoints)");
   fs::create_directories(run_dir);
   const ag::FlushDenormalGuard flush(config.flush_denormal);
-  const std::string last_path = (fs::path(run_dir) / "last.ckpt").string();
-  const std::string best_path = (fs::path(run_dir) / "best.ckpt").string();
-  const std::string curve_path = (fs::path(run_dir) / "curve.csv").string();
+  const std::string last_path = (fs::path(run_dir) / run_files::kLastCheckpoint).string();
+  const std::string best_path = (fs::path(run_dir) / run_files::kBestCheckpoint).string();
+  const std::string curve_path = (fs::path(run_dir) / run_files::kCurve).string();
 
   policy.train();
   policy.set_observation_statistics(data.standardizer().mean, data.standardizer().std);
@@ -373,7 +375,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       window_first_step = progress.step;
     }
     if (config.keep_every > 0 && progress.step % config.keep_every == 0) {
-      const std::string kept = (fs::path(run_dir) / ("step_" + std::to_string(progress.step) + ".ckpt")).string();
+      const std::string kept = (fs::path(run_dir) / run_files::kept_checkpoint(progress.step)).string();
       nn::save(policy, kept, policy_record(data, progress.step, std::nullopt).dump());
     }
     if (progress.step % config.checkpoint_every == 0 || last_step) save_last(last_path, policy, adam, progress, rng);

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "envs/demo_collection.h"
 #include "envs/mt10/tasks.h"
@@ -191,6 +194,49 @@ TEST(MT10Env, DemonstrationsSucceedAndReplayExactly) {
       obs = r.observation;
     }
   }
+}
+
+// Each task file registers its own entry (envs/mt10/tasks.h): all ten are linked in and ordered as Meta-World orders
+// them, which makes their one-hot indices, with the expert success rates docs/mt10.md reports.
+TEST(MT10Tasks, TheTenTasksInMetaWorldsOrder) {
+  const std::vector<std::pair<std::string, double>> expected = {
+      {"reach", 1.0},       {"push", 1.0},         {"pick-place", 1.0},           {"door-open", 0.99},
+      {"drawer-open", 1.0}, {"drawer-close", 1.0}, {"button-press-topdown", 1.0}, {"peg-insert-side", 1.0},
+      {"window-open", 1.0}, {"window-close", 1.0}};
+  const std::vector<MT10Task>& tasks = mt10_tasks();
+  ASSERT_EQ(tasks.size(), expected.size());
+  std::vector<std::string> set_names;
+  for (std::size_t i = 0; i < tasks.size(); ++i) {
+    const auto& [name, success] = expected[i];
+    EXPECT_EQ(tasks[i].name, name) << i;
+    EXPECT_EQ(tasks[i].index, static_cast<std::int64_t>(i)) << name;
+    EXPECT_EQ(tasks[i].documented_success, success) << name;
+    EXPECT_NE(tasks[i].make, nullptr) << name;
+    EXPECT_NE(tasks[i].expert, nullptr) << name;
+    EXPECT_EQ(&mt10_task("mt10/" + name), &tasks[i]);
+    EXPECT_EQ(task_index("mt10/" + name), static_cast<std::int64_t>(i));
+    set_names.push_back("mt10/" + name);
+  }
+  EXPECT_EQ(task_names("mt10"), set_names);
+}
+
+TEST(MT10Tasks, RegistrationsAreOrderedByIndexAndGapsRepeatsAndStrayIndicesRefused) {
+  const auto entry = [](const std::string& name, std::int64_t index) { return MT10Task{.name = name, .index = index}; };
+  const auto refused = [](const std::string& what) {
+    return ::testing::ThrowsMessage<std::logic_error>(HasSubstr(what));
+  };
+  const MT10Task a = entry("a", 0), b = entry("b", 1), c1 = entry("c", 1), c2 = entry("c", 2), c3 = entry("c", 3);
+  std::vector<std::string> names;
+  for (const MT10Task& task : ordered_mt10_tasks({c2, a, b}, 3)) names.push_back(task.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"a", "b", "c"}));
+  EXPECT_THAT([&] { ordered_mt10_tasks({a, c2}, 3); }, refused("no task has index 1"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({a, b}, 3); }, refused("no task has index 2"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({}, 3); }, refused("no task has index 0"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({}, 3); }, refused("registered: none"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({b, a, c1}, 3); }, refused("tasks 'b' and 'c' both have index 1"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({a, b, c3}, 3); }, refused("task 'c' has index 3, outside 0 to 2"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({entry("z", -1), a, b}, 3); }, refused("task 'z' has index -1"));
+  EXPECT_THAT([&] { ordered_mt10_tasks({a, entry("a", 1)}, 2); }, refused("task 'a' is registered twice"));
 }
 
 TEST(MT10Env, UnknownTaskListsTheValidOnes) {

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Tests of the paper's-claims table (experiments/suites/claims.py) on cells built here with chosen scores and module
+"""Tests of the paper's-claims table (experiments/report/claims.py) on cells built here with chosen scores and module
 usage, so that each verdict is known: holds, partly, does not hold, and not measured where the cells are missing.
 Run by ctest (tests/CMakeLists.txt)."""
 import pathlib
@@ -7,7 +7,7 @@ import sys
 import unittest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "experiments" / "suites"))
+sys.path.insert(0, str(ROOT / "experiments" / "report"))
 
 import claims  # noqa: E402
 import tables  # noqa: E402

@@ -1,4 +1,4 @@
-#include "experiments/cpu_model.h"
+#include "experiments/process/cpu_model.h"
 
 #include <gtest/gtest.h>
 

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "envs/demo_file.h"
-#include "experiments/run_folder.h"
+#include "experiments/run/run_folder.h"
 #include "io/config_schema.h"
 #include "maps/training/checkpoint_record.h"
 #include "maps/training/run_config_fields.h"

@@ -5,8 +5,8 @@
 #include <set>
 #include <string>
 
-#include "experiments/suite_config.h"
-#include "experiments/suite_folder.h"
+#include "experiments/suite/config.h"
+#include "experiments/suite/folder.h"
 #include "tests/common/mutations.h"
 #include "tests/common/temp_folder.h"
 

@@ -1,5 +1,3 @@
-#include "experiments/suite_folder.h"
-
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,7 +6,8 @@
 #include <set>
 #include <sstream>
 
-#include "experiments/run_folder.h"
+#include "experiments/run/run_folder.h"
+#include "experiments/suite/folder.h"
 #include "tests/common/temp_folder.h"
 
 namespace maps::experiments {

@@ -476,7 +476,7 @@ class SuiteTest(unittest.TestCase):
 
     @heavy
     def test_import_of_an_old_grid(self):
-        """experiments/suites/import_grid.py: run_grid.sh's folders become cells equal to the suite's own runs."""
+        """experiments/report/import_grid.py: run_grid.sh's folders become cells equal to the suite's own runs."""
         config = json.loads(TINY.read_text())
         config["sets"].pop("mt10")
         config["grids"] = [config["grids"][0]]
@@ -495,7 +495,7 @@ class SuiteTest(unittest.TestCase):
             (folder / "config.json").write_text(json.dumps(run_config))
         out = self.dir / "imported"
         maps("suite", "run", path, "--out", out, "--shard", "99999/100000")  # suite.json only
-        script = ROOT / "experiments/suites/import_grid.py"
+        script = ROOT / "experiments/report/import_grid.py"
         proc = subprocess.run([sys.executable, script, old, out], capture_output=True, text=True)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         self.assertEqual(results(out), {k: v for k, v in results(self.reference).items() if k.startswith("gravity/")})
@@ -583,7 +583,7 @@ class SuiteTest(unittest.TestCase):
 
     def test_each_module_probe(self):
         """maps eval --each-module (Fig. 6): every task scored with the selector and forced onto each module, and
-        experiments/suites/fig6_probe.py's table and strips from it; a damaged probe file is named, not trusted."""
+        experiments/report/fig6_probe.py's table and strips from it; a damaged probe file is named, not trusted."""
         cell = self.dir / "cell"
         shutil.copytree(self.reference / "cells/mt10/maps_d2_s0", cell)
         own = (cell / "eval.json").read_bytes()
@@ -603,7 +603,7 @@ class SuiteTest(unittest.TestCase):
         proc = maps("eval", "--run", self.reference / "cells/mt10/mt_bc_d2_s0", "--each-module", check=False)
         self.assertIn("only MAPS has modules", proc.stderr)
 
-        script = ROOT / "experiments" / "suites" / "fig6_probe.py"
+        script = ROOT / "experiments" / "report" / "fig6_probe.py"
         out = self.dir / "fig6"
         proc = subprocess.run([sys.executable, script, cell, "--out", out, "--tasks", "reach", "--maps", MAPS],
                               cwd=WORK, capture_output=True, text=True)

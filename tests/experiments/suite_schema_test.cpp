@@ -1,6 +1,4 @@
 // Every key of the suite config schema tried with the edge values of its type (issue 41), generated from the schema.
-#include "experiments/suite_schema.h"
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -8,7 +6,8 @@
 #include <sstream>
 #include <string>
 
-#include "experiments/suite_config.h"
+#include "experiments/suite/config.h"
+#include "experiments/suite/schema.h"
 #include "io/config_schema.h"
 #include "tests/common/schema_trials.h"
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Tests of the suite report (experiments/suites/report.py and its modules) on the committed fixture
+"""Tests of the suite report (experiments/report/report.py and its modules) on the committed fixture
 tests/experiments/fixtures/suite-small (written by make_suite_small.py, whose hand-chosen scores give the numbers
 below): results.csv, the score table, paired differences, routing, Fig. 3's shares, ablation and module-count
 tables, every figure and its CSV, and the errors (damaged result, no suite.json, nothing finished, no matplotlib).
@@ -18,10 +18,10 @@ import tempfile
 import unittest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-SUITES = ROOT / "experiments" / "suites"
+REPORT_DIR = ROOT / "experiments" / "report"
 FIXTURE = ROOT / "tests" / "experiments" / "fixtures" / "suite-small"
-REPORT = SUITES / "report.py"
-sys.path.insert(0, str(SUITES))
+REPORT = REPORT_DIR / "report.py"
+sys.path.insert(0, str(REPORT_DIR))
 sys.path.insert(0, str(FIXTURE.parent))
 
 import more_seeds  # noqa: E402
@@ -103,10 +103,23 @@ def run_report(*args, env_prelude=None):
     if env_prelude is None:
         command = [sys.executable, str(REPORT), *map(str, args)]
     else:
-        command = [sys.executable, "-c", f"{env_prelude}\nimport sys\nsys.path.insert(0, {str(SUITES)!r})\n"
+        command = [sys.executable, "-c", f"{env_prelude}\nimport sys\nsys.path.insert(0, {str(REPORT_DIR)!r})\n"
                    f"import report\nsys.exit(report.main({[str(a) for a in args]!r}))"]
     done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     return done.returncode, done.stdout, done.stderr
+
+
+def plan_cell(suite_dir, result):
+    """Lists the cell of a result.json a test made (its identity, its run config as the request) in suite.json, as a
+    suite that planned it would: the tool counts the results of the cells a suite plans, with their run config."""
+    path = suite_dir / "suite.json"
+    suite = json.loads(path.read_text())
+    ident = {k: v for k, v in result["cell"].items()}
+    ident["request"] = result["config"]
+    cells = [c for c in suite["cells"] if c["name"] != ident["name"]]
+    ident["index"] = next((c["index"] for c in suite["cells"] if c["name"] == ident["name"]), len(suite["cells"]))
+    suite["cells"] = sorted(cells + [ident], key=lambda c: c["index"])
+    path.write_text(json.dumps(suite))
 
 
 def row_of(text, first_cells):
@@ -408,12 +421,14 @@ class ZooRouting(unittest.TestCase):
             top_k_dir = suite_dir / "cells" / "mt10" / "top_k_moe_d5_s0"
             top_k_dir.mkdir()
             (top_k_dir / "result.json").write_text(json.dumps(result))
+            plan_cell(suite_dir, result)
             # The same method at another count with another k: a note for each k, not the last one alone.
             result["cell"].update(name="mt10/top_k_moe_d10_s0", demos=10)
             result["config"]["top_k_moe"] = {"experts": 4, "top_k": 3}
             result["config"]["data"]["demos_per_task"] = 10
             (suite_dir / "cells" / "mt10" / "top_k_moe_d10_s0").mkdir()
             (suite_dir / "cells" / "mt10" / "top_k_moe_d10_s0" / "result.json").write_text(json.dumps(result))
+            plan_cell(suite_dir, result)
             out = pathlib.Path(tmp) / "report"
             code, _, stderr = run_report(suite_dir, out)
             self.assertEqual(code, 0, stderr)
@@ -512,6 +527,7 @@ class CheckpointRule(unittest.TestCase):
                                                  {"step": 1000, "mean_score": [0.5, 0.7][seed],
                                                   "file": "step_1000.ckpt"}]
                 path.write_text(json.dumps(result))
+                plan_cell(suite_dir, result)
             for seed, last, best in ((0, 0.6, 0.7), (1, 0.6, 0.6)):  # Single BC, kept likewise
                 path = suite_dir / "cells" / "mt10" / f"single_bc_d5_s{seed}" / "result.json"
                 result = json.loads(path.read_text())
@@ -519,6 +535,7 @@ class CheckpointRule(unittest.TestCase):
                 result["eval"]["best_over_checkpoints"] = {"step": 500, "mean_score": best, "file": "step_500.ckpt"}
                 result["eval"]["checkpoints"] = [{"step": 1000, "mean_score": last, "file": "step_1000.ckpt"}]
                 path.write_text(json.dumps(result))
+                plan_cell(suite_dir, result)
             out = pathlib.Path(tmp) / "report"
             code, _, stderr = run_report(suite_dir, out)
             self.assertEqual(code, 0, stderr)
@@ -681,7 +698,7 @@ class SyncDoc(unittest.TestCase):
             report_path, page_path = pathlib.Path(tmp, "results", "report", "report.md"), pathlib.Path(tmp, "docs", "p.md")
             report_path.write_text(report)
             page_path.write_text(page)
-            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report_path), str(page_path)],
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report_path), str(page_path)],
                                   capture_output=True, text=True)
             self.assertEqual(done.returncode, 0, done.stderr)
             self.assertIn("![](../results/report/fig5.png)", page_path.read_text())
@@ -691,20 +708,20 @@ class SyncDoc(unittest.TestCase):
             report, page = pathlib.Path(tmp, "report.md"), pathlib.Path(tmp, "page.md")
             report.write_text(self.REPORT)
             page.write_text("<!-- report.md: Cells -->\nold\n<!-- /report.md -->\n")
-            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report), str(page)],
                                   capture_output=True, text=True)
             self.assertEqual(done.returncode, 0, done.stderr)
             self.assertIn("| 1 |", page.read_text())
             # A CRLF page keeps its line endings, inside and outside the block.
             page.write_bytes(b"intro\r\n<!-- report.md: Cells -->\r\nold\r\n<!-- /report.md -->\r\nafter\r\n")
-            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report), str(page)],
                                   capture_output=True, text=True)
             self.assertEqual(done.returncode, 0, done.stderr)
             raw = page.read_bytes()
             self.assertTrue(raw.startswith(b"intro\r\n<!-- report.md: Cells -->\r\n| a |\r\n"), raw)
             self.assertNotIn(b"\n", raw.replace(b"\r\n", b""))
             page.write_text("no blocks\n")
-            done = subprocess.run([sys.executable, str(SUITES / "sync_doc.py"), str(report), str(page)],
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report), str(page)],
                                   capture_output=True, text=True)
             self.assertNotEqual(done.returncode, 0)
             self.assertIn("has no '<!-- report.md: TITLE -->' blocks", done.stderr)
@@ -739,11 +756,13 @@ class Errors(unittest.TestCase):
             self.assertIn(str(truncated), stderr)
             md = (suite / "report" / "report.md").read_text()
             self.assertIn("31 finished, 1 missing (not run or not finished), 1 failed, 5 damaged", md)
-            self.assertIn(f"- `{not_a_number}`: ValueError: task gravity/0.5: score nan is not a finite number", md)
-            self.assertIn(f"- `{short_usage}`: ValueError: task mt10/", md)
-            self.assertIn(f"- `{truncated}`: JSONDecodeError", md)
-            self.assertIn(f"- `{no_eval}`: KeyError", md)
-            self.assertIn(f"- `{stale}`: trained with another run config", md)
+            # The reasons are the tool's (`maps suite status --json`), which decides what counts (issue 42).
+            self.assertIn(f"- `{not_a_number}`: unreadable ('{not_a_number}' is not valid JSON", md)
+            self.assertIn(f"- `{short_usage}`: task mt10/push: module_usage is not a distribution over the same"
+                          " modules as mt10/reach's", md)
+            self.assertIn(f"- `{truncated}`: unreadable ('{truncated}' is not valid JSON", md)
+            self.assertIn(f"- `{no_eval}`: names another cell", md)
+            self.assertIn(f"- `{stale}`: was trained with another run config", md)
             self.assertEqual(row_of(stdout, ["mt10", "single_bc", "5"])[4:], ["1", "0.50"])
             with (suite / "report" / "results.csv").open() as f:
                 cells = {row["cell"] for row in csv.DictReader(f)}
@@ -776,14 +795,14 @@ class Errors(unittest.TestCase):
             self.assertEqual(code, 0, stderr)
             self.assertNotIn("Traceback", stderr)
             for path in (very_deep, one_too_deep):
-                self.assertIn(f"report: {path}: damaged result, skipped (JsonTooDeep: {path} {too_deep}", stderr)
+                self.assertIn(f"report: {path}: damaged result, skipped (unreadable ('{path}' {too_deep}", stderr)
             md = (suite / "report" / "report.md").read_text()
             self.assertIn("34 finished, 1 missing (not run or not finished), 1 failed, 2 damaged", md)
-            self.assertIn(f"unreadable error.json ({failed} {too_deep}", md)
+            self.assertIn(f"unreadable error.json ('{failed}' {too_deep}", md)
 
             more_seeds_config = pathlib.Path(tmp) / "deep_config.json"
             more_seeds_config.write_text('{"grids": ' + "[" * 100000 + "]" * 100000 + "}")
-            done = subprocess.run([sys.executable, str(SUITES / "more_seeds.py"), str(suite), str(more_seeds_config)],
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "more_seeds.py"), str(suite), str(more_seeds_config)],
                                   capture_output=True, text=True, timeout=120)
             self.assertEqual(done.returncode, 2, done.stderr)
             self.assertIn(f"{more_seeds_config} {too_deep}", done.stderr)
@@ -791,8 +810,10 @@ class Errors(unittest.TestCase):
 
             done = subprocess.run([sys.executable, str(ROOT / "experiments" / "cluster" / "compare_suites.py"),
                                    str(FIXTURE), str(suite)], capture_output=True, text=True, timeout=120)
-            self.assertEqual(done.returncode, 2, done.stdout + done.stderr)
-            self.assertRegex(done.stderr, f"compare_suites: .*/result.json {re.escape(too_deep)}")
+            # The tool decides that a too deep result does not count; compare_suites says which and why.
+            self.assertEqual(done.returncode, 1, done.stdout + done.stderr)
+            self.assertRegex(done.stdout, "DIFFER: cell .* is finished in .* but not in .*; there its result does not "
+                             f"count: .*/result.json: unreadable \\('.*/result.json' {re.escape(too_deep)}")
             self.assertNotIn("Traceback", done.stderr)
 
             suite_json = suite / "suite.json"
@@ -830,11 +851,58 @@ class Errors(unittest.TestCase):
             self.assertNotIn("Traceback", stderr)
 
 
+class CompareSuites(unittest.TestCase):
+    """compare_suites.py --whole: every value of every result.json and report/results.csv, times aside (issue 42's
+    before/after check of a change that must not alter behaviour)."""
+
+    def compare(self, *args):
+        done = subprocess.run([sys.executable, str(ROOT / "experiments" / "cluster" / "compare_suites.py"),
+                               *map(str, args)], capture_output=True, text=True, timeout=120)
+        return done.returncode, done.stdout + done.stderr
+
+    def test_times_hosts_and_commits_aside_every_value_counts(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            copy = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, copy)
+            path = copy / "cells" / "gravity" / "maps_d10_s1" / "result.json"
+            result = json.loads(path.read_text())
+            result["wall_seconds"] = 1.0
+            result["host"] = "elsewhere"
+            result["eval"]["seconds"] = 2.0
+            path.write_text(json.dumps(result))
+            code, out = self.compare("--whole", FIXTURE, copy)
+            self.assertEqual(code, 0, out)
+            self.assertIn("every value but times, hosts, dates and commits", out)
+            result["train"]["best_step"] = result["train"]["best_step"] + 1
+            path.write_text(json.dumps(result))
+            self.assertEqual(self.compare(FIXTURE, copy)[0], 0)  # the scores alone agree
+            code, out = self.compare("--whole", FIXTURE, copy)
+            self.assertEqual(code, 1, out)
+            self.assertIn("DIFFER: cell gravity/maps_d10_s1: .train.best_step", out)
+
+    def test_results_csv_is_compared_row_by_row_times_aside(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            a, b = pathlib.Path(tmp) / "a", pathlib.Path(tmp) / "b"
+            for root in (a, b):
+                shutil.copytree(FIXTURE, root)
+                (root / "report").mkdir()
+            header = "set,method,seed,score,wall_seconds\n"
+            (a / "report" / "results.csv").write_text(header + "mt10,maps,0,0.5,10\n")
+            (b / "report" / "results.csv").write_text(header + "mt10,maps,0,0.5,99\n")
+            code, out = self.compare("--whole", a, b)
+            self.assertEqual(code, 0, out)
+            self.assertIn("report/results.csv: 1 rows identical", out)
+            (b / "report" / "results.csv").write_text(header + "mt10,maps,0,0.6,10\n")
+            code, out = self.compare("--whole", a, b)
+            self.assertEqual(code, 1, out)
+            self.assertIn("results.csv row 2 (None), score: '0.5' != '0.6'", out)
+
+
 class CurveStats(unittest.TestCase):
-    """experiments/suites/curve_stats.py: the curve statistics docs/results.md quotes."""
+    """experiments/report/curve_stats.py: the curve statistics docs/results.md quotes."""
 
     def run_tool(self, *args):
-        done = subprocess.run([sys.executable, str(SUITES / "curve_stats.py"), *map(str, args)], capture_output=True,
+        done = subprocess.run([sys.executable, str(REPORT_DIR / "curve_stats.py"), *map(str, args)], capture_output=True,
                               text=True, timeout=120)
         return done.returncode, done.stdout, done.stderr
 
@@ -879,7 +947,7 @@ class CurveStats(unittest.TestCase):
             self.assertNotIn("Traceback", stderr)
 
 class MoreSeeds(unittest.TestCase):
-    """experiments/suites/more_seeds.py: docs/zoo.md's "5 seeds where the intervals overlap", on the fixture."""
+    """experiments/report/more_seeds.py: docs/zoo.md's "5 seeds where the intervals overlap", on the fixture."""
     # The fixture's grids in a config's list form (its suite.json keeps an older form); seeds 0-1 ran.
     CONFIG = {"sets": {"gravity": {"demos": [5, 10]}, "mt10": {"demos": [5, 10]}}, "grids": [
         {"name": "comparison", "sets": ["gravity", "mt10"], "methods": ["maps", "single_bc", "mt_bc"],
@@ -891,7 +959,7 @@ class MoreSeeds(unittest.TestCase):
         {"name": "five_seeds", "sets": ["mt10"], "methods": ["mt_bc"], "demos": [5], "seeds": [0, 1, 2]}]}
 
     def run_tool(self, suite, config, *args):
-        done = subprocess.run([sys.executable, str(SUITES / "more_seeds.py"), str(suite), str(config), *args],
+        done = subprocess.run([sys.executable, str(REPORT_DIR / "more_seeds.py"), str(suite), str(config), *args],
                               capture_output=True, text=True, timeout=120)
         return done.returncode, done.stdout, done.stderr
 
@@ -1024,6 +1092,7 @@ class MoreSeeds(unittest.TestCase):
             result = json.loads((suite_dir / "cells" / "gravity" / "maps_d5_s0" / "result.json").read_text())
             result["cell"].update(name="gravity/maps-keep500_d5_s0", variant="keep500")
             (beside / "result.json").write_text(json.dumps(result))
+            plan_cell(suite_dir, result)
             config = pathlib.Path(tmp) / "c.json"
             comparison = self.CONFIG["grids"][0]
             config.write_text(json.dumps(dict(self.CONFIG, grids=[

@@ -1,4 +1,4 @@
-#include "experiments/training_attempts.h"
+#include "experiments/run/training_attempts.h"
 
 #include <gtest/gtest.h>
 

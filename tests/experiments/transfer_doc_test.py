@@ -95,7 +95,7 @@ class TransferDoc(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.out = tempfile.TemporaryDirectory(prefix="maps-transfer-doc-")
-        proc = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+        proc = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "report" / "transfer_table.py"),
                                str(RESULTS), "--out", cls.out.name], capture_output=True, text=True)
         if proc.returncode != 0:
             raise AssertionError(f"transfer_table.py failed: {proc.stderr}")

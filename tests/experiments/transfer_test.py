@@ -172,7 +172,7 @@ class Transfer(unittest.TestCase):
         trained = json.loads((cells / "mt_bc-new-reach_d1_s0" / "result.json").read_text())
         others = {t: s for t, s in trained["train"]["training_demo_seeds"].items() if t != "mt10/reach"}
         self.assertEqual(others, source["train"]["training_demo_seeds"])
-        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "report" / "transfer_table.py"),
                                 work() / "suite"], capture_output=True, text=True)
         self.assertEqual(table.returncode, 0, table.stderr)
         report = (work() / "suite" / "report" / "transfer.md").read_text()
@@ -199,12 +199,13 @@ class Transfer(unittest.TestCase):
         shutil.copytree(work() / "suite", damaged)
         broken = damaged / "cells" / "mt10" / "mt_bc-new-reach_d1_s0" / "result.json"
         broken.write_text(broken.read_text()[:100])
-        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "report" / "transfer_table.py"),
                                 damaged], capture_output=True, text=True)
         self.assertEqual(table.returncode, 0, table.stderr)
         self.assertIn(f"left out {broken}", table.stderr)
-        self.assertIn(f"- `{broken}`: JSONDecodeError", (damaged / "report" / "transfer.md").read_text())
-        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "suites" / "transfer_table.py"),
+        self.assertIn(f"- `{broken}`: unreadable ('{broken}' is not valid JSON",
+                      (damaged / "report" / "transfer.md").read_text())
+        table = subprocess.run(["/usr/bin/python3", str(ROOT / "experiments" / "report" / "transfer_table.py"),
                                 damaged, "--out", broken], capture_output=True, text=True)
         self.assertNotEqual(table.returncode, 0)
         self.assertIn("cannot make the folder", table.stderr)

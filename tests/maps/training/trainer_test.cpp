@@ -542,7 +542,7 @@ TEST(RunConfig, IntegersMustBeIntegersAndModelsMustFitInMemory) {
 }
 
 // A run folder written before "baselines" existed resolves to the same config as today's request for the same run,
-// so it resumes (experiments/train_run.cpp compares resolved configs).
+// so it resumes (experiments/run/train_run.cpp compares resolved configs).
 TEST(RunConfig, SettingsThatWouldDoNothingOrFailLaterAreRefusedByName) {
   const auto with = [](const char* more) {
     nlohmann::json request = nlohmann::json::parse(R"({"method": "maps", "data": {"file": "x.h5"}})");

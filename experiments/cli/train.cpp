@@ -1,0 +1,38 @@
+// `maps train`: one method trained on a demo file as a run config says.
+
+#include <memory>
+#include <string>
+
+#include "experiments/cli/command.h"
+#include "experiments/cli/options.h"
+#include "experiments/run/train_run.h"
+#include "maps/policies/policy_registry.h"
+
+namespace maps::experiments::cli {
+
+void add_train(CLI::App& tool, Commands& commands) {
+  auto options = std::make_shared<TrainRunOptions>();
+  CLI::App* command = tool.add_subcommand("train", "Train one method on a demo file as a JSON config says");
+  std::string method_lines = "Methods (config \"method\"; docs/configs.md, docs/zoo.md):";
+  for (const auto& method : core::policy_methods())
+    method_lines +=
+        "\n  " + method.name + std::string(method.name.size() < 10 ? 10 - method.name.size() : 1, ' ') + method.summary;
+  command->footer(method_lines);
+  command->add_option("--config", options->config_path, "Run config (JSON; every key in docs/configs.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out,
+                      "Run folder (resumes a run of the same config; a finished one is extended when only "
+                      "train.steps grew)");
+  command->add_option("--set", options->overrides,
+                      "Override a config key: --set train.steps=40000 --set maps.modules=5 (repeatable)");
+  command->add_flag("--print-config", options->print_config,
+                    "Print the resolved config (every key, defaults included) and exit without training");
+  add_threads(command, options->threads, "Op threads for the training steps (0: one per core; docs/performance.md)");
+  commands.push_back({command, [options] {
+                        options->threads = threads_or_cores(options->threads);
+                        return run_train(*options);
+                      }});
+}
+
+}  // namespace maps::experiments::cli

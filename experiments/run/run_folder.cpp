@@ -1,0 +1,110 @@
+#include "experiments/run/run_folder.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include "envs/demo_file.h"
+#include "io/atomic_file.h"
+#include "io/json_input.h"
+#include "maps/training/checkpoint_record.h"
+#include "nn/serialize.h"
+
+namespace maps::experiments {
+
+void write_json_file(const std::string& path, const nlohmann::json& json) {
+  io::write_file_atomically(path, json.dump(2) + "\n");
+}
+
+nlohmann::json read_json_file(const std::string& path) { return io::read_json_file(path); }
+
+core::RunConfig parse_run_config_from(const nlohmann::json& json, const std::string& where) {
+  try {
+    return core::parse_run_config(json);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(where + ": " + e.what());
+  }
+}
+
+core::RunConfig read_run_config(const std::string& path) {
+  return parse_run_config_from(read_json_file(path), "'" + path + "'");
+}
+
+std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir) {
+  if (config.init_run.empty()) return "";
+  const std::filesystem::path folder(config.init_run);
+  return (folder.is_absolute() ? folder : std::filesystem::path(run_dir) / folder).lexically_normal().string();
+}
+
+core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::string& run_dir) {
+  core::DemoDataset data(envs::read_demo_file(config.data_file), config.data);
+  if (!config.init_run.empty()) {
+    // A run started from another one standardises as that one did: its reused layers were trained on those inputs.
+    const std::string path =
+        (std::filesystem::path(init_run_folder(config, run_dir)) / config.init_checkpoint).string();
+    if (!std::filesystem::exists(path))
+      throw std::runtime_error("init.run: " + path + " does not exist (the run this one starts from)");
+    const core::Standardizer standardizer =
+        core::read_policy_record(nn::load_tensors(path).config, "init.run: checkpoint " + path, -1).standardizer;
+    try {
+      data.use_standardizer(standardizer);
+    } catch (const std::invalid_argument& e) {
+      throw std::runtime_error("init.run: " + path + " was trained on observations of another size than " +
+                               config.data_file + "'s (" + e.what() + ")");
+    }
+  }
+  return data;
+}
+
+TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint, const std::string& data_file) {
+  namespace fs = std::filesystem;
+  const fs::path dir(run);
+  TrainedRun loaded;
+  loaded.config = read_run_config((dir / run_files::kConfig).string());
+  if (!data_file.empty()) loaded.config.data_file = data_file;
+  const std::string best_path = (dir / checkpoint).string();
+  if (!fs::exists(best_path))
+    throw std::runtime_error(run + " has no " + checkpoint + ": train it first (maps train --out " + run + ")");
+  try {
+    loaded.data = std::make_unique<core::DemoDataset>(load_run_dataset(loaded.config, run));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(run + ": the demonstrations its config.json names: " + e.what());
+  }
+  const core::DemoDataset& data = *loaded.data;
+  loaded.policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
+  const nn::Checkpoint saved = nn::load_tensors(best_path);
+  // The trainer's resume state (last.ckpt) in the place of a policy checkpoint is named for what it is.
+  if (core::record_format(saved.config) == core::kTrainingStateFormat)
+    throw std::runtime_error(best_path +
+                             " is a training state (as last.ckpt is: the policy with its optimiser), not a policy "
+                             "checkpoint: use best.ckpt or a kept step_<N>.ckpt");
+  // Sizes are compared after the tensors: a run evaluated on another set's demo file is named as such.
+  const core::PolicyRecord record = core::read_policy_record(saved.config, "checkpoint " + best_path, -1);
+  try {
+    loaded.policy->load_state_dict(saved.tensors);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(run + " was not trained on demo file " + loaded.config.data_file + " (" + data.task_set() +
+                             ": " + std::to_string(data.num_tasks()) + " tasks, observations " +
+                             std::to_string(data.observation_size()) + ", actions " +
+                             std::to_string(data.action_size()) + "): checkpoint " + best_path + ": " + e.what());
+  }
+  loaded.best = core::to_json(record);
+  // The standardizer the policy was trained with; the demo file must still give the same one.
+  const core::Standardizer& standardizer = data.standardizer();
+  if (record.standardizer.size() != standardizer.size())
+    throw std::runtime_error("checkpoint " + best_path + ": its standardizer is for observations of " +
+                             std::to_string(record.standardizer.size()) + " entries, " + loaded.config.data_file +
+                             "'s have " + std::to_string(standardizer.size()));
+  if (((record.standardizer.mean - standardizer.mean).array().abs() > 1e-9).any() ||
+      ((record.standardizer.std - standardizer.std).array().abs() > 1e-9).any())
+    throw std::runtime_error(loaded.config.data_file + " is not the demo file " + run +
+                             " was trained on (its observation statistics differ from those " + best_path +
+                             " records)");
+  loaded.policy->eval();
+  loaded.policy->prepare_for_evaluation(data);
+  return loaded;
+}
+
+}  // namespace maps::experiments

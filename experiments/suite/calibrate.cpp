@@ -1,0 +1,104 @@
+// `maps suite calibrate`: the cost table measured from short runs of every method on every set.
+
+#include "experiments/suite/calibrate.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "envs/task_sets.h"
+#include "experiments/process/cpu_model.h"
+#include "experiments/process/host.h"
+#include "experiments/run/run_folder.h"
+#include "experiments/suite/cell.h"
+#include "experiments/suite/costs.h"
+#include "experiments/suite/demo_files.h"
+#include "experiments/suite/folder.h"
+#include "maps/policies/policy_registry.h"
+
+namespace maps::experiments {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+int run_suite_calibrate(const SuiteCalibrateOptions& options) {
+  const std::string out = options.out.empty() ? default_costs_path().string() : options.out;
+  // The per-set settings of the paper's scale (batch, selector weights, MAML query) at a short budget.
+  const Suite paper = load_suite((default_costs_path().parent_path() / "paper.json").string());
+  Json calibrated_methods = Json::array();
+  for (const auto& method : core::policy_methods()) calibrated_methods.push_back(method.name);
+  Json sets = Json::object();
+  for (const auto& set_name : options.sets.empty() ? envs::task_set_names() : options.sets) {
+    if (!paper.sets.count(set_name))
+      throw std::invalid_argument("--sets: '" + set_name + "' is not a set of experiments/suites/paper.json");
+    Json config = paper.source;
+    config["grids"] = Json::array({{{"name", "calibrate"},
+                                    {"sets", {set_name}},
+                                    {"methods", calibrated_methods},
+                                    {"demos", {paper.sets.at(set_name).demos.front()}},
+                                    {"seeds", {0}}}});
+    config["defaults"] = merge_json(config.value("defaults", Json::object()),
+                                    {{"train",
+                                      {{"steps", options.steps},
+                                       {"validate_every", std::max(1, options.steps / 2)},
+                                       {"checkpoint_every", options.steps}}},
+                                     {"eval", {{"episodes", options.episodes}, {"threads", 1}}}});
+    const Suite suite = parse_suite(config, "calibration of " + set_name);
+    std::vector<const SuiteCell*> cells;
+    for (const auto& cell : suite.cells) cells.push_back(&cell);
+    const auto collect_start = std::chrono::steady_clock::now();
+    const bool had_file = fs::exists(suite.sets.at(set_name).demo_file);
+    ensure_demo_files(suite, cells, 1);
+    Json entry{{"methods", Json::object()}};
+    if (!had_file)
+      entry["collect_seconds"] =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - collect_start).count();
+    const fs::path work = fs::path(options.work) / set_name;
+    fs::remove_all(work);
+    for (const auto& cell : suite.cells) {
+      const CellOutcome outcome = run_cell(work, cell, 1);
+      if (outcome.status != CellOutcome::Status::kFinished)
+        throw std::runtime_error("calibration cell " + cell.name + " did not finish: " + outcome.error);
+      const Json& result = outcome.result;
+      const double train_seconds = result["train"]["seconds_this_process"].get<double>();
+      const double eval_seconds = result["eval"]["seconds"].get<double>();
+      const double tasks = static_cast<double>(result["eval"]["tasks"].size());
+      const Json method{{"step_seconds", train_seconds / options.steps},
+                        {"states_per_task", cell.request["train"]["states_per_task"]},
+                        {"modules", cell.request["maps"]["modules"]},
+                        {"query_per_task", cell.request["maml"]["query_per_task"]},
+                        {"episode_seconds", eval_seconds / (options.episodes * tasks)},
+                        {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)}};
+      std::printf("calibrate: %s: %.2f ms per step, %.3f s per episode, %.1f s overhead\n", cell.name.c_str(),
+                  1e3 * method["step_seconds"].get<double>(), method["episode_seconds"].get<double>(),
+                  method["overhead_seconds"].get<double>());
+      std::fflush(stdout);
+      entry["methods"][cell.method] = method;
+    }
+    sets[set_name] = entry;
+  }
+  // Sets not re-measured keep their old entries (collect times are kept when the file existed).
+  Json table = Json::object();
+  if (fs::exists(out)) table = read_json_file(out);
+  for (auto& [name, entry] : sets.items()) {
+    if (!entry.contains("collect_seconds") && table.contains("sets") && table["sets"].contains(name))
+      entry["collect_seconds"] = table["sets"][name].value("collect_seconds", 0.0);
+    table["sets"][name] = entry;
+  }
+  table["cpu"] = cpu_model();
+  table["measured"] = utc_now();
+  table["command"] = "maps suite calibrate --steps " + std::to_string(options.steps) + " --episodes " +
+                     std::to_string(options.episodes);
+  table["note"] =
+      "one thread per cell, one cell at a time; step_seconds includes validation at validate_every = steps / 2";
+  write_json_file(out, table);
+  std::printf("calibrate: wrote %s\n", out.c_str());
+  return 0;
+}
+
+}  // namespace maps::experiments

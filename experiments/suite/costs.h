@@ -1,0 +1,44 @@
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "experiments/suite/config.h"
+
+// Measured costs of training and evaluation (experiments/suites/costs.json, written by `maps suite calibrate`),
+// and the estimate of a cell's CPU time they give:
+//   seconds = overhead + steps * step_seconds * (rows / measured rows) [* modules / measured modules, for MAPS]
+//             + episodes * tasks * episode_seconds
+// with rows = states_per_task (MAML: states_per_task + query_per_task).
+// Per-step cost grows about linearly in the batch and (for MAPS) in the module count at these shapes; validation
+// is inside step_seconds at the measured validate_every. An estimate, not a promise: `maps suite run` prints how
+// the real times compare.
+namespace maps::experiments {
+
+struct CostTable {
+  nlohmann::json json;  // {"sets": {set: {"collect_seconds": s, "methods": {method: {...}}}}, "cpu": ..., ...}
+  std::string path;
+
+  // One thread per cell, in parts: a part-trained cell has its training part left, all of the rest.
+  struct CellCost {
+    double overhead = 0.0, training = 0.0, evaluation = 0.0;
+    double total() const { return overhead + training + evaluation; }
+  };
+  // Throws naming the set and method when the table lacks them.
+  CellCost cell_cost(const SuiteCell& cell) const;
+  double cell_seconds(const SuiteCell& cell) const { return cell_cost(cell).total(); }
+  double collect_seconds(const std::string& set) const;
+};
+
+// experiments/suites/costs.json of the source tree (override: MAPS_SUITES_DIR) when `path` is empty.
+std::filesystem::path default_costs_path();
+CostTable load_costs(const std::string& path);
+// Like load_costs, but std::nullopt when the file is missing or damaged (saying why on stderr unless quiet).
+std::optional<CostTable> try_load_costs(const std::string& path, bool quiet = false);
+
+// "1h02m", "3m05s", "12s".
+std::string format_duration(double seconds);
+
+}  // namespace maps::experiments

@@ -1,0 +1,125 @@
+// `maps suite plan`: a suite's cells, their count and their estimated CPU time.
+
+#include "experiments/suite/plan.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "envs/task_sets.h"
+#include "experiments/suite/costs.h"
+#include "experiments/suite/folder.h"
+
+namespace maps::experiments {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+int run_suite_plan(const SuitePlanOptions& options) {
+  const Suite suite = load_suite(options.config_path);
+  const auto [shard, shards] = parse_shard(options.shard);
+  const auto cells = shard_cells(suite, shard, shards);
+  const CostTable costs = load_costs(options.costs);
+  const int jobs = options.jobs > 0 ? options.jobs : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+
+  // Groups of cells that differ only in demos and seed, in the suite's order.
+  struct Group {
+    std::string grid, set, method, variant;
+    std::set<int> demos;
+    std::set<std::uint64_t> seeds;
+    int cells = 0;
+    double seconds = 0.0;
+    long long steps = 0;
+    int episodes = 0;
+  };
+  std::vector<Group> groups;
+  std::map<std::string, std::size_t> group_of;
+  double total = 0.0;
+  Json cell_list = Json::array();
+  for (const auto* cell : cells) {
+    const double seconds = costs.cell_seconds(*cell);
+    total += seconds;
+    const std::string key = cell->grid + "|" + cell->set + "|" + cell->method + "|" + cell->variant;
+    auto [it, inserted] = group_of.emplace(key, groups.size());
+    if (inserted) {
+      groups.emplace_back();
+      groups.back().grid = cell->grid;
+      groups.back().set = cell->set;
+      groups.back().method = cell->method;
+      groups.back().variant = cell->variant;
+    }
+    Group& group = groups[it->second];
+    group.demos.insert(cell->demos);
+    group.seeds.insert(cell->seed);
+    group.cells += 1;
+    group.seconds += seconds;
+    group.steps = cell->request["train"]["steps"].get<long long>();
+    group.episodes = cell->request["eval"]["episodes"].get<int>();
+    Json entry = cell->identity();
+    entry["estimated_seconds"] = seconds;
+    entry["shard_key"] = shard_key(suite, *cell);
+    cell_list.push_back(entry);
+  }
+  std::set<std::string> missing_files;
+  double collect = 0.0;
+  for (const auto* cell : cells) {
+    const std::string& file = suite.sets.at(cell->set).demo_file;
+    if (!fs::exists(file) && missing_files.insert(file).second) collect += costs.collect_seconds(cell->set);
+  }
+
+  if (options.json) {
+    std::cout << Json{{"config", options.config_path},
+                      {"shard", shard},
+                      {"shards", shards},
+                      {"cells", cell_list},
+                      {"count", cells.size()},
+                      {"cpu_seconds", total},
+                      {"collect_seconds", collect},
+                      {"jobs", jobs},
+                      {"wall_seconds", total / jobs + collect},
+                      {"costs", costs.path}}
+                     .dump(1)
+              << "\n";
+    return 0;
+  }
+  auto list = [](const auto& values) {
+    std::string out = "{";
+    for (const auto& v : values) {
+      if (out.size() > 1) out += ",";
+      out += std::to_string(v);
+    }
+    return out += "}";
+  };
+  if (options.list_cells) {
+    std::printf("| index | cell | grid | steps | episodes | estimated CPU |\n|---|---|---|---|---|---|\n");
+    for (const auto& entry : cell_list)
+      std::printf("| %d | %s | %s | %lld | %d | %s |\n", entry["index"].get<int>(),
+                  entry["name"].get<std::string>().c_str(), entry["grid"].get<std::string>().c_str(),
+                  suite.cells[entry["index"].get<std::size_t>()].request["train"]["steps"].get<long long>(),
+                  suite.cells[entry["index"].get<std::size_t>()].request["eval"]["episodes"].get<int>(),
+                  format_duration(entry["estimated_seconds"].get<double>()).c_str());
+    std::printf("\n");
+  }
+  std::printf("| grid | set | method | variant | demos per task | seeds | steps | episodes | cells | CPU |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& g : groups)
+    std::printf("| %s | %s | %s | %s | %s | %s | %lld | %d | %d | %s |\n", g.grid.c_str(), g.set.c_str(),
+                g.method.c_str(), g.variant.c_str(), list(g.demos).c_str(), list(g.seeds).c_str(), g.steps, g.episodes,
+                g.cells, format_duration(g.seconds).c_str());
+  std::printf("\n%s%s: %zu cells, estimated %.1f CPU-hours (%s) at one thread per cell", options.config_path.c_str(),
+              shards > 1 ? (" shard " + options.shard).c_str() : "", cells.size(), total / 3600.0,
+              format_duration(total).c_str());
+  std::printf("; %s of wall time on %d jobs", format_duration(total / jobs + collect).c_str(), jobs);
+  if (collect > 0)
+    std::printf(" (with %s collecting %zu missing demo files)", format_duration(collect).c_str(), missing_files.size());
+  std::printf("\ncosts: %s (measured on %s; `maps suite calibrate` re-measures on this machine)\n", costs.path.c_str(),
+              costs.json.value("cpu", std::string("an unnamed CPU")).c_str());
+  return 0;
+}
+
+}  // namespace maps::experiments
