@@ -12,6 +12,7 @@
 
 #include "envs/mujoco_env.h"
 #include "experiments/process/host.h"
+#include "experiments/run/run_folder.h"
 #include "experiments/suite/folder.h"
 #include "io/json_input.h"
 
