@@ -90,9 +90,10 @@ Suite read_manifest(const fs::path& out) {
       cell.demos = integer("demos", 1, 1000000).get<int>();
       cell.subsample = integer("subsample", 1, 1000000).get<int>();
       cell.seed = integer("seed", 0, io::kMaxUint64).get<std::uint64_t>();
-      cell.request = entry.at("request");
+      // Resolved (every key, defaults filled in), as a suite config's cells are: status, plan and the cost table
+      // read keys of it, and a hand-edited manifest may leave some out.
       try {
-        core::parse_run_config(cell.request);
+        cell.request = core::to_json(core::parse_run_config(entry.at("request")));
       } catch (const std::exception& e) {
         throw std::runtime_error(path.string() + ": cell " + cell.name + " has a damaged run config (" + e.what() +
                                  ")");

@@ -37,6 +37,31 @@ class RetireCell : public TempFolderTest {
   }
 };
 
+class Manifest : public TempFolderTest {
+ protected:
+  Manifest() : TempFolderTest("maps_suite_manifest_") {}
+};
+
+// A manifest written by hand may give a cell's run config in part: it is read resolved, every key there, so that
+// status, plan and the cost table can read any key of it (an absent one was undefined behaviour in Release builds;
+// an assertion build stopped on it).
+TEST_F(Manifest, ACellsRunConfigIsReadResolved) {
+  const Json cell{{"index", 0},       {"name", "gravity/maps_d2_s0"},
+                  {"grid", "g"},      {"set", "gravity"},
+                  {"method", "maps"}, {"variant", "base"},
+                  {"demos", 2},       {"subsample", 10},
+                  {"seed", 0},        {"request", {{"method", "maps"}, {"data", {{"file", "data/gravity.h5"}}}}}};
+  write_json_file((dir_ / "suite.json").string(),
+                  {{"format", kSuiteFormat}, {"config", Json::object()}, {"cells", Json::array({cell})}});
+  const Suite suite = read_manifest(dir_);
+  ASSERT_EQ(suite.cells.size(), 1u);
+  const Json& request = suite.cells[0].request;
+  EXPECT_EQ(request.at("train").at("steps"), 30000);
+  EXPECT_TRUE(request.at("eval").contains("episodes"));
+  EXPECT_EQ(request.at("data").at("file"), "data/gravity.h5");
+  EXPECT_TRUE(same_run_config(request, cell["request"]));
+}
+
 TEST_F(RetireCell, MovesTheResultsToAFolderNamedForWhenTheyFinished) {
   finish("2026-11-27T10:20:30Z", "step,loss\n50,0.1\n");
   const fs::path kept = retire_cell(dir_);
