@@ -38,6 +38,20 @@ install(CODE "execute_process(COMMAND \"${CMAKE_COMMAND}\"
 # (envs/source_folders.cpp; MAPS_INSTALL_DATADIR below).
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/envs/assets ${PROJECT_SOURCE_DIR}/envs/experts
         DESTINATION ${CMAKE_INSTALL_DATADIR}/maps/envs)
+# The tool (bin/maps) and what it reads at run time besides the envs' data, found under share/maps/experiments/ when
+# the source tree is gone: the report scripts, the format converters, the Python tools' JSON reader, the suite
+# configs and the cost table, the example run configs.
+if(TARGET maps)
+  install(TARGETS maps RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  foreach(folder report interop process cluster)
+    install(DIRECTORY ${PROJECT_SOURCE_DIR}/experiments/${folder}/ DESTINATION ${CMAKE_INSTALL_DATADIR}/maps/experiments/${folder}
+            FILES_MATCHING PATTERN "*.py" PATTERN "__pycache__" EXCLUDE)
+  endforeach()
+  foreach(folder suites configs)
+    install(DIRECTORY ${PROJECT_SOURCE_DIR}/experiments/${folder}/
+            DESTINATION ${CMAKE_INSTALL_DATADIR}/maps/experiments/${folder} FILES_MATCHING PATTERN "*.json")
+  endforeach()
+endif()
 install(EXPORT mapsTargets NAMESPACE maps:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/maps)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/mapsConfig.cmake.in
                               ${CMAKE_CURRENT_BINARY_DIR}/mapsConfig.cmake

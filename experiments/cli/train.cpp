@@ -7,6 +7,7 @@
 #include "experiments/cli/options.h"
 #include "experiments/run/train_run.h"
 #include "maps/policies/policy_registry.h"
+#include "maps/selector/selector_loss.h"
 
 namespace maps::experiments::cli {
 
@@ -17,6 +18,8 @@ void add_train(CLI::App& tool, Commands& commands) {
   for (const auto& method : core::policy_methods())
     method_lines +=
         "\n  " + method.name + std::string(method.name.size() < 10 ? 10 - method.name.size() : 1, ' ') + method.summary;
+  method_lines +=
+      "\nSelector losses (config maps.selector_losses; docs/selector-losses.md): " + core::selector_loss_names();
   command->footer(method_lines);
   command->add_option("--config", options->config_path, "Run config (JSON; every key in docs/configs.md)")
       ->required()

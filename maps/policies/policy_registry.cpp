@@ -1,28 +1,46 @@
 #include "maps/policies/policy_registry.h"
 
 #include <cmath>
+#include <deque>
 #include <stdexcept>
+#include <utility>
 
 namespace maps::core {
 
-const std::vector<PolicyMethod>& policy_methods() {
-  // One line per method, in the order help, docs and tables list them.
-  // clang-format off
-  static const std::vector<PolicyMethod> entries = {
-      maps_method(),
-      single_bc_method(),
-      mt_bc_method(),
-      mt_mh_bc_method(),
-      maml_method(),
-      moore_method(),
-      paco_method(),
-      care_method(),
-      top_k_moe_method(),
-      soft_modularization_method(),
-  };
-  // clang-format on
-  return entries;
+namespace {
+
+io::Registry<PolicyMethod>& registry() {
+  static io::Registry<PolicyMethod> methods("method", [] {
+    // One line per built-in method, in the order help, docs and tables list them.
+    // clang-format off
+    return std::deque<PolicyMethod>{
+        maps_method(),
+        single_bc_method(),
+        mt_bc_method(),
+        mt_mh_bc_method(),
+        maml_method(),
+        moore_method(),
+        paco_method(),
+        care_method(),
+        top_k_moe_method(),
+        soft_modularization_method(),
+    };
+    // clang-format on
+  });
+  return methods;
 }
+
+}  // namespace
+
+const std::deque<PolicyMethod>& policy_methods() { return registry().entries(); }
+
+void register_policy_method(PolicyMethod method) {
+  if (!method.make || !method.parameters)
+    throw std::invalid_argument("method '" + method.name + "': its entry needs a factory (make) and a parameter count");
+  registry().add(std::move(method));
+}
+
+std::string policy_method_origin(const std::string& name) { return registry().origin_of(name); }
 
 nlohmann::json PolicyMethod::defaults() const {
   nlohmann::json section = nlohmann::json::object();
@@ -36,11 +54,7 @@ std::vector<std::string> policy_method_names() {
   return names;
 }
 
-std::string policy_method_list() {
-  std::string list;
-  for (const auto& entry : policy_methods()) list += (list.empty() ? "" : ", ") + entry.name;
-  return list;
-}
+std::string policy_method_list() { return registry().names(); }
 
 const PolicyMethod& policy_method(const std::string& name) {
   for (const auto& entry : policy_methods())

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -9,13 +10,15 @@
 
 #include "autograd/autograd.h"
 #include "io/config_schema.h"
+#include "io/registry.h"
 #include "maps/policies/maml.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/policies/policy.h"
 
-// Every method the run config, the suite and `maps train --help` know, by name. A method is one file pair under
-// maps/policies/ whose .cpp ends with its `<name>_method()` entry, plus one line in policy_registry.cpp (as the
-// selector losses do; docs/zoo.md, "Adding a method").
+// Every method the run config, the suite and `maps train --help` know, by name. A built-in method is one file pair
+// under maps/policies/ whose .cpp ends with its `<name>_method()` entry, plus one line in policy_registry.cpp
+// (docs/zoo.md, "Adding a method"); another is registered with MAPS_REGISTER_POLICY_METHOD, from a program's own
+// file or a plugin.
 namespace maps::core {
 
 // What a method's factory gets besides the shapes.
@@ -49,8 +52,12 @@ struct PolicyMethod {
   std::function<std::shared_ptr<Policy>(const PolicyShape&, const MethodOptions&, ag::Generator&)> make;
 };
 
-// Every method, in the order help, docs and tables list them.
-const std::vector<PolicyMethod>& policy_methods();
+// Every method: the built-ins in the order help, docs and tables list them, then the registered ones.
+const std::deque<PolicyMethod>& policy_methods();
+// Adds a method (io::Registry::add: a plain name not taken, else std::invalid_argument naming it and the taker).
+void register_policy_method(PolicyMethod method);
+// Where a method comes from: "" for the built-ins and the program's own, else the plugin's path.
+std::string policy_method_origin(const std::string& name);
 // The entry of a name; an unknown name is an error listing the known ones.
 const PolicyMethod& policy_method(const std::string& name);
 // "maps, single_bc, ...".
@@ -94,3 +101,8 @@ Config with_matched_width(Config config, std::int64_t Config::*width, const Poli
 }
 
 }  // namespace maps::core
+
+// Registers a method while the program or plugin starts, at namespace scope of one .cpp:
+//   MAPS_REGISTER_POLICY_METHOD(my_method());   // a function returning its maps::core::PolicyMethod
+// A refused name (taken, or not plain) is recorded and reported by the plugin loader or the registry's first use.
+#define MAPS_REGISTER_POLICY_METHOD(ENTRY) MAPS_REGISTRATION_(::maps::core::register_policy_method(ENTRY))

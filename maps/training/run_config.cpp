@@ -9,6 +9,7 @@
 
 #include "envs/portable_random.h"
 #include "io/config_schema.h"
+#include "maps/selector/selector_loss.h"
 #include "maps/training/run_config_fields.h"
 
 namespace maps::core {
@@ -93,18 +94,25 @@ const Layout& layout() {
       l.top_keys.insert(key.substr(0, dot));
       if (dot != std::string::npos) l.sections[key.substr(0, dot)].insert(key.substr(dot + 1));
     }
-    for (const auto& method : policy_methods())
-      if (!method.options.empty()) l.top_keys.insert(method.name);
     return l;
   }();
   return cached;
+}
+
+// The top-level keys: the fields' sections and every method's own section (methods may be registered after the
+// first config is read: a plugin's, loaded for the config that names it).
+std::set<std::string> top_keys() {
+  std::set<std::string> keys = layout().top_keys;
+  for (const auto& method : policy_methods())
+    if (!method.options.empty()) keys.insert(method.name);
+  return keys;
 }
 
 }  // namespace
 
 RunConfig parse_run_config(const Json& json) {
   RunConfig c;
-  check_keys(json, "", layout().top_keys);
+  check_keys(json, "", top_keys());
   for (const auto& [section, keys] : layout().sections)
     if (json.contains(section)) check_keys(json.at(section), section, keys);
   if (!json.contains("data")) throw std::invalid_argument("config: \"data\": {\"file\": ...} is required");
@@ -127,6 +135,14 @@ RunConfig parse_run_config(const Json& json) {
     }
   }
   if (!chosen.options.empty() && !json.contains(c.method)) c.method_options = chosen.defaults();
+  // Named losses must exist now, not when MAPS is built (--print-config showed a misspelled one as if it were fine).
+  for (const auto& [name, weight] : c.maps.selector_losses) {
+    bool known = false;
+    for (const auto& loss : selector_losses()) known = known || loss.name == name;
+    if (!known)
+      throw std::invalid_argument("config maps.selector_losses: unknown selector loss '" + name +
+                                  "'; known: " + selector_loss_names());
+  }
   c.data.seed = c.seed;
   c.train.seed = c.seed;
   c.maml.finetune_seed = c.seed;

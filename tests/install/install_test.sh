@@ -8,7 +8,8 @@ source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 prefix="$(mktemp -d "${TMPDIR:-/tmp}/maps-install-test-XXXXXX")"
 trap 'rm -rf "$prefix"' EXIT
 cmake --install "$build" --prefix "$prefix/usr" > "$prefix/install.log"
-for path in lib/libmaps_autograd.a lib/libmaps_core.a include/maps/autograd/tensor.h include/maps/policies/maps_policy.h \
+for path in bin/maps share/maps/experiments/report/report.py share/maps/experiments/suites/costs.json \
+  share/maps/experiments/process/json_input.py lib/libmaps_autograd.a lib/libmaps_core.a include/maps/autograd/tensor.h include/maps/policies/maps_policy.h \
   lib/cmake/maps/mapsConfig.cmake share/maps/envs/assets share/maps/envs/experts/gravity/1.0.json; do
   [[ -e "$prefix/usr/$path" ]] || { echo "install: $path missing under the prefix" >&2; exit 1; }
 done
@@ -23,6 +24,11 @@ fi
 # The compiled-in data folder is the configured prefix's; this prefix is a temporary one, so point at it.
 export MAPS_ASSETS_DIR="$prefix/usr/share/maps/envs/assets" MAPS_EXPERTS_DIR="$prefix/usr/share/maps/envs/experts"
 "$prefix/consumer/consumer"
+# The installed tool runs, names its version, and finds the data it reads under the prefix when pointed there.
+"$prefix/usr/bin/maps" --version | grep -q "^maps 0\." || { echo "install: bin/maps --version failed" >&2; exit 1; }
+MAPS_SUITES_DIR="$prefix/usr/share/maps/experiments/suites" "$prefix/usr/bin/maps" suite plan \
+  "$prefix/usr/share/maps/experiments/suites/tiny.json" > "$prefix/plan.log" ||
+  { cat "$prefix/plan.log" >&2; echo "install: bin/maps suite plan failed" >&2; exit 1; }
 # The Python package, when the build made it (PYTHONPATH: a temporary prefix is not on python3's path).
 if [[ -d "$build/python/maps" ]]; then
   PYTHONPATH="$prefix/usr/lib/python3/dist-packages" /usr/bin/python3 -c '
