@@ -17,6 +17,7 @@
 #include "envs/mujoco_env.h"
 #include "envs/source_folders.h"
 #include "envs/task_sets.h"
+#include "experiments/process/host.h"
 #include "experiments/process/parallel_tasks.h"
 #include "io/output_files.h"
 
@@ -88,8 +89,7 @@ int run_collect(const CollectOptions& options) {
         std::isfinite(documented) ? ", expert's documented " + std::to_string(std::lround(documented)) : "";
     std::printf("[%2d/%zu] %-26s %zu demos, return %.1f (median %.1f%s), %zu discarded, %.0f s\n", ++finished,
                 tasks.size(), tasks[i].c_str(), results[i].demos.size(), mean, results[i].median_return,
-                expert_part.c_str(), results[i].discarded.size(),
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+                expert_part.c_str(), results[i].discarded.size(), seconds_since(start));
     std::fflush(stdout);
   });
 
@@ -142,8 +142,7 @@ int run_collect(const CollectOptions& options) {
   envs::write_demo_file(options.out, file);
   std::printf("wrote %s: %zu demos (%zu train, %zu valid), %lld samples, %d episodes discarded, %.0f s\n",
               options.out.c_str(), file.demos.size(), file.train.size(), file.valid.size(),
-              static_cast<long long>(file.total_samples()), discarded_total,
-              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+              static_cast<long long>(file.total_samples()), discarded_total, seconds_since(start));
   return 0;
 }
 

@@ -13,6 +13,7 @@
 #include "envs/expert_evaluation.h"
 #include "envs/task_expert.h"
 #include "envs/task_sets.h"
+#include "experiments/process/host.h"
 #include "experiments/process/parallel_tasks.h"
 #include "io/output_files.h"
 
@@ -74,7 +75,7 @@ int run_expert_eval(const ExpertEvalOptions& options) {
                      {"mean_first_success_step", first},
                      {"failed_episodes", s.failed_count()}});
   }
-  std::fprintf(text, "took %.1f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  std::fprintf(text, "took %.1f s\n", seconds_since(start));
   if (options.json) std::printf("%s\n", table.dump().c_str());
   if (!options.out.empty()) {
     std::ofstream out(options.out);

@@ -15,6 +15,7 @@
 #include "envs/expert_evaluation.h"
 #include "envs/seed_ranges.h"
 #include "envs/task_sets.h"
+#include "experiments/process/host.h"
 #include "io/output_files.h"
 #include "maps/rl/ppo.h"
 #include "maps/rl/upright.h"
@@ -66,7 +67,7 @@ int run_train_expert(const TrainExpertOptions& options) {
   }
   const auto start = std::chrono::steady_clock::now();
   trainer.train();
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = seconds_since(start);
 
   // The expert is judged as it will be used: the exported float64 policy (envs::ExpertPolicy), not the float32
   // actor. HalfCheetah is chaotic enough that the two drift apart within an episode, and their scores can differ

@@ -12,6 +12,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "experiments/process/host.h"
 #include "experiments/run/run_folder.h"
 #include "io/output_files.h"
 #include "maps/evaluation/evaluator.h"
@@ -27,7 +28,7 @@ core::EvalProgressFn progress_lines(const std::vector<std::string>& tasks) {
   const auto start = std::chrono::steady_clock::now();
   auto finished = std::make_shared<std::size_t>(0);
   return [start, finished, count = tasks.size()](std::size_t, const core::TaskEvaluation& evaluation) {
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = seconds_since(start);
     std::printf("  [%zu/%zu] %s: score %.3f, %d episodes (%.0f s)\n", ++*finished, count, evaluation.task.c_str(),
                 evaluation.score, evaluation.episodes, seconds);
     std::fflush(stdout);

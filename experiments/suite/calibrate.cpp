@@ -55,9 +55,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
     const bool had_file = fs::exists(suite.sets.at(set_name).demo_file);
     ensure_demo_files(suite, cells, 1);
     Json entry{{"methods", Json::object()}};
-    if (!had_file)
-      entry["collect_seconds"] =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - collect_start).count();
+    if (!had_file) entry["collect_seconds"] = seconds_since(collect_start);
     const fs::path work = fs::path(options.work) / set_name;
     fs::remove_all(work);
     for (const auto& cell : suite.cells) {

@@ -54,11 +54,7 @@ Attempt failed_stage(const fs::path& dir, const std::string& stage, int code, co
 // What the cell's earlier runs came to (replaced/*/result.json), for comparison with this one.
 Json replaced_results(const fs::path& dir) {
   Json list = Json::array();
-  if (!fs::is_directory(dir / kReplacedFolder)) return list;
-  std::vector<fs::path> folders;
-  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) folders.push_back(entry.path());
-  std::sort(folders.begin(), folders.end());
-  for (const auto& folder : folders) {
+  for (const auto& folder : replaced_entries(dir)) {
     Json entry{{"folder", (fs::path(kReplacedFolder) / folder.filename()).string()}};
     try {
       const Json old = read_json_file((folder / suite_files::kResult).string());

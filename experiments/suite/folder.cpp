@@ -256,6 +256,14 @@ void clear_cell(const fs::path& dir) {
       fs::remove_all(entry.path());
 }
 
+std::vector<fs::path> replaced_entries(const fs::path& dir) {
+  std::vector<fs::path> entries;
+  if (!fs::is_directory(dir / kReplacedFolder)) return entries;
+  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) entries.push_back(entry.path());
+  std::sort(entries.begin(), entries.end());
+  return entries;
+}
+
 fs::path replaced_folder(const fs::path& dir, std::string finished) {
   std::replace(finished.begin(), finished.end(), ':', '-');
   // It names a folder: anything but a time as utc_now writes it (a hand-edited result) is not trusted.

@@ -89,6 +89,9 @@ void clear_cell(const std::filesystem::path& dir);
 // The folder in dir/replaced/ for an earlier result that finished at `finished` (result.json's time; anything else
 // gives "unknown"), suffixed -2, -3, ... past folders that hold a result.json already.
 std::filesystem::path replaced_folder(const std::filesystem::path& dir, std::string finished);
+// The entries of dir/replaced/ (each an earlier run's result.json and curve.csv), sorted by name, so in the order the
+// runs finished; none without a replaced/ folder.
+std::vector<std::filesystem::path> replaced_entries(const std::filesystem::path& dir);
 // Moves a finished cell's result.json and curve.csv to dir/replaced/<its "finished" time>/ and clears the rest: the
 // cell is to be run again and its earlier result stays on record. Returns that folder. The caller holds the lock.
 std::filesystem::path retire_cell(const std::filesystem::path& dir);

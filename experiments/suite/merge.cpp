@@ -54,10 +54,9 @@ bool same_numbers(const Json& a, const Json& b) {
 // them; result.json's "replaces" lists the same).
 std::set<std::string> replaced_finish_times(const fs::path& dir) {
   std::set<std::string> times;
-  if (!fs::is_directory(dir / kReplacedFolder)) return times;
-  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) {
+  for (const auto& entry : replaced_entries(dir)) {
     try {
-      const Json old = read_json_file((entry.path() / suite_files::kResult).string());
+      const Json old = read_json_file((entry / suite_files::kResult).string());
       if (old.contains("finished") && old["finished"].is_string()) times.insert(old["finished"].get<std::string>());
     } catch (const std::exception&) {
     }
@@ -67,10 +66,9 @@ std::set<std::string> replaced_finish_times(const fs::path& dir) {
 
 // Whether one of the cell's replaced/ folders holds this very result.
 bool replaced_holds(const fs::path& dir, const Json& result) {
-  if (!fs::is_directory(dir / kReplacedFolder)) return false;
-  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder)) {
+  for (const auto& entry : replaced_entries(dir)) {
     try {
-      if (read_json_file((entry.path() / suite_files::kResult).string()) == result) return true;
+      if (read_json_file((entry / suite_files::kResult).string()) == result) return true;
     } catch (const std::exception&) {
     }
   }

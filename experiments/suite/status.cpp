@@ -93,24 +93,25 @@ int rank_of(const std::string& state) {
   return found == ranks.end() ? 0 : found->second;
 }
 
+// read_result's damage, "<folder>/result.json: why", without the path (the status gives the folder apart).
+std::string damage_reason(const fs::path& folder, const std::string& damage) {
+  const std::string prefix = (folder / suite_files::kResult).string() + ": ";
+  return damage.starts_with(prefix) ? damage.substr(prefix.size()) : damage;
+}
+
 // The results of the cell's earlier runs (retire_cell keeps them in replaced/<time>/), each judged as a result of
 // this cell is: "damage" says why one does not count as an earlier run of this cell's run config.
 Json replaced_results_of(const fs::path& dir, const SuiteCell& cell) {
   Json list = Json::array();
-  if (!fs::is_directory(dir / kReplacedFolder)) return list;
-  std::vector<fs::path> folders;
-  for (const auto& entry : fs::directory_iterator(dir / kReplacedFolder))
-    if (entry.is_directory()) folders.push_back(entry.path());
-  std::sort(folders.begin(), folders.end());
-  for (const auto& folder : folders) {
+  for (const auto& folder : replaced_entries(dir)) {
+    if (!fs::is_directory(folder)) continue;
     std::string damage;
     Json entry{{"folder", folder.string()}};
     if (!fs::exists(folder / suite_files::kResult))
       damage = "has no result.json";
     else if (!read_result(folder, cell, &damage) && damage.empty())
       damage = "unreadable";
-    const std::string prefix = (folder / suite_files::kResult).string() + ": ";
-    if (!damage.empty()) entry["damage"] = damage.starts_with(prefix) ? damage.substr(prefix.size()) : damage;
+    if (!damage.empty()) entry["damage"] = damage_reason(folder, damage);
     list.push_back(entry);
   }
   return list;
@@ -160,9 +161,7 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     s.state = "left";
   }
   if (!damage.empty()) s.detail += (s.detail.empty() ? "" : "; ") + damage;
-  // read_result says "<path>: why"; the status gives the folder and the why apart.
-  const std::string prefix = (dir / suite_files::kResult).string() + ": ";
-  s.damage = damage.starts_with(prefix) ? damage.substr(prefix.size()) : damage;
+  s.damage = damage_reason(dir, damage);
   s.replaced = replaced_results_of(dir, cell);
   return s;
 }
@@ -256,9 +255,12 @@ StatusReport status_of(const std::vector<std::string>& dirs) {
   StatusReport report;
   report.suite = read_manifest(dirs.front());
   const Suite& suite = report.suite;
+  const auto manifest_cells = [](const std::string& dir) {
+    return read_json_file((fs::path(dir) / suite_files::kManifest).string()).value("cells", Json());
+  };
+  const Json first_cells = dirs.size() > 1 ? manifest_cells(dirs.front()) : Json();
   for (std::size_t i = 1; i < dirs.size(); ++i)
-    if (read_json_file((fs::path(dirs[i]) / suite_files::kManifest).string()).value("cells", Json()) !=
-        read_json_file((fs::path(dirs.front()) / suite_files::kManifest).string()).value("cells", Json()))
+    if (manifest_cells(dirs[i]) != first_cells)
       throw std::runtime_error(dirs[i] + " is a folder of another suite than " + dirs.front() +
                                " (their suite.json cells differ)");
   // Cells the folder lists but its config (as last run) no longer makes are "dropped" unless they started running,
