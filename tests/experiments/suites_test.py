@@ -823,6 +823,25 @@ class Errors(unittest.TestCase):
             self.assertIn(f"{suite_json} {too_deep}", stderr)
             self.assertNotIn("Traceback", stderr)
 
+    def test_a_status_file_that_is_missing_or_no_status_is_named(self):
+        """report.py --status FILE (what `maps report` passes): a missing file, damaged JSON or another JSON is
+        refused naming the file, and nothing is written."""
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = pathlib.Path(tmp)
+            for name, text, said in (("missing.json", None, "unreadable"), ("damaged.json", "{", "unreadable"),
+                                     ("other.json", '{"format": "maps-suite/1", "cells": []}',
+                                      "not a maps-suite-status/1 status")):
+                status = tmp / name
+                if text is not None:
+                    status.write_text(text)
+                out = tmp / ("report-" + name)
+                code, _, stderr = run_report(FIXTURE, out, "--status", status)
+                self.assertEqual(code, 2, stderr)
+                self.assertIn(f"{status}", stderr)
+                self.assertIn(said, stderr)
+                self.assertNotIn("Traceback", stderr)
+                self.assertFalse(out.exists())
+
     def test_a_folder_without_suite_json_says_so(self):
         with tempfile.TemporaryDirectory() as tmp:
             code, stdout, stderr = run_report(tmp)
