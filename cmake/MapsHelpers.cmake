@@ -84,3 +84,21 @@ function(maps_add_test_suite layer)
     DISCOVERY_TIMEOUT 300            # listing runs the binary; sanitized builds start slowly
     PROPERTIES LABELS ${layer} TIMEOUT 900)
 endfunction()
+
+# maps_export_for_plugins(<executable>)
+#
+# The executable loads C++ plugins (experiments/run/plugins.h): plugins link no layer library (a second copy would
+# be a second set of registries) and take every library symbol they use from the executable. So it exports its
+# symbols (ENABLE_EXPORTS: -rdynamic) and holds every object of the layers, not only those its own code calls (the
+# archives linked whole).
+function(maps_export_for_plugins target)
+  set_target_properties(${target} PROPERTIES ENABLE_EXPORTS ON)
+  set(archives)
+  foreach(layer maps_io maps_autograd maps_nn maps_envs maps_core)
+    get_target_property(type ${layer} TYPE)
+    if(type STREQUAL "STATIC_LIBRARY")
+      list(APPEND archives "$<TARGET_FILE:${layer}>")
+    endif()
+  endforeach()
+  target_link_options(${target} PRIVATE "LINKER:--whole-archive" ${archives} "LINKER:--no-whole-archive")
+endfunction()

@@ -2,6 +2,7 @@
 # package, so that another project can do
 #   find_package(maps CONFIG REQUIRED)
 #   target_link_libraries(app PRIVATE maps::autograd)   # or maps::io, maps::nn, maps::envs, maps::core
+#   maps_add_plugin(mylosses mylosses.cpp)               # a C++ plugin the installed `maps` tool loads
 # (tests/install/ builds such a project against an install in a temporary folder.)
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -19,9 +20,21 @@ foreach(target IN LISTS _maps_installed)
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
   add_library(maps::${name} ALIAS ${target})
 endforeach()
+# What a C++ plugin compiles against (cmake/MapsPlugin.cmake): the headers and the definitions that must agree with
+# the library's (EIGEN_MAX_ALIGN_BYTES above; Eigen never starts threads), and the header-only dependencies. No layer
+# library: the tool that loads the plugin holds them (maps_export_for_plugins).
+add_library(maps_plugin INTERFACE)
+target_include_directories(maps_plugin INTERFACE "$<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>" "$<INSTALL_INTERFACE:include>")
+target_compile_definitions(maps_plugin INTERFACE EIGEN_MAX_ALIGN_BYTES=64 EIGEN_DONT_PARALLELIZE)
+target_compile_features(maps_plugin INTERFACE cxx_std_20)
+target_link_libraries(maps_plugin INTERFACE Eigen3::Eigen nlohmann_json::nlohmann_json)
+set_target_properties(maps_plugin PROPERTIES EXPORT_NAME plugin)
+add_library(maps::plugin ALIAS maps_plugin)
+include(${PROJECT_SOURCE_DIR}/cmake/MapsPlugin.cmake)
+install(FILES ${PROJECT_SOURCE_DIR}/cmake/MapsPlugin.cmake DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/maps)
 # Linked PRIVATE by every layer (warning flags only); a static library's private links travel with its export.
 set_target_properties(maps_warnings PROPERTIES EXPORT_NAME warnings)
-install(TARGETS ${_maps_installed} maps_warnings EXPORT mapsTargets
+install(TARGETS ${_maps_installed} maps_warnings maps_plugin EXPORT mapsTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/maps)
 # Headers under one prefix: include/maps/{autograd,nn,envs}/ and the core layer's folders (policies/, training/, ...)

@@ -17,6 +17,7 @@
 #include "experiments/process/cpu_model.h"
 #include "experiments/process/host.h"
 #include "experiments/process/version.h"
+#include "experiments/run/plugins.h"
 #include "experiments/run/run_folder.h"
 
 namespace maps::experiments {
@@ -58,6 +59,12 @@ nlohmann::json provenance_record(const nlohmann::json& extra) {
                         {"host", std::string(host)},
                         {"cpu", cpu_model()},
                         {"float32_gemm_kernel", ag::float32_gemm_kernel()}};
+  // The code from outside the tree that this process ran: each plugin's file, its digest and what it registered.
+  for (const LoadedPlugin& plugin : loaded_plugins())
+    record["plugins"].push_back({{"path", plugin.path},
+                                 {"sha256", plugin.sha256},
+                                 {"built_against", plugin.version},
+                                 {"registered", plugin.registered}});
   record.update(extra);
   return record;
 }

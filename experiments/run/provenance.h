@@ -12,7 +12,8 @@ namespace maps::experiments {
 std::string sha256_of_file(const std::string& path);
 
 // {"tool_version", "git_commit", "started_utc" (ISO 8601), "command_line", "working_directory", "host", "cpu",
-// "float32_gemm_kernel"} plus `extra`.
+// "float32_gemm_kernel"}, "plugins" (each loaded plugin's path, SHA-256, version and registrations) when any is
+// loaded, plus `extra`.
 nlohmann::json provenance_record(const nlohmann::json& extra = nlohmann::json::object());
 
 // Appends `record` to DIR/provenance.json (written atomically). A damaged file is an error naming it.

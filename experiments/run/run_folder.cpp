@@ -7,6 +7,7 @@
 #include <string>
 
 #include "envs/demo_file.h"
+#include "experiments/run/plugins.h"
 #include "io/atomic_file.h"
 #include "io/json_input.h"
 #include "maps/training/checkpoint_record.h"
@@ -29,7 +30,8 @@ core::RunConfig parse_run_config_from(const nlohmann::json& json, const std::str
 }
 
 core::RunConfig read_run_config(const std::string& path) {
-  return parse_run_config_from(read_json_file(path), "'" + path + "'");
+  const std::string where = "'" + path + "'";
+  return parse_run_config_from(load_config_plugins(read_json_file(path), folder_of(path), where), where);
 }
 
 std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir) {

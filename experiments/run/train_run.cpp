@@ -12,6 +12,7 @@
 #include "experiments/process/command_line.h"
 #include "experiments/process/usage_error.h"
 #include "experiments/run/config_overrides.h"
+#include "experiments/run/plugins.h"
 #include "experiments/run/provenance.h"
 #include "experiments/run/run_folder.h"
 #include "experiments/run/tee_stream.h"
@@ -74,10 +75,14 @@ void check_existing_run(const std::string& out, const nlohmann::json& resolved, 
 }
 
 int run_train(const TrainRunOptions& options) {
-  nlohmann::json json = read_json_file(options.config_path);
+  nlohmann::json json = options.config ? *options.config : read_json_file(options.config_path);
   apply_overrides(json, options.overrides);
-  const core::RunConfig config = parse_run_config_from(
-      json, "--config '" + options.config_path + "'" + (options.overrides.empty() ? "" : " with its --set overrides"));
+  const std::string where = (options.config ? options.config_path : "--config '" + options.config_path + "'") +
+                            (options.overrides.empty() ? "" : " with its --set overrides");
+  // Before the rest is read: the config may name the plugins' losses and methods. Their paths become absolute, as
+  // the run folder's config.json records them.
+  json = load_config_plugins(std::move(json), options.config ? "." : folder_of(options.config_path), where);
+  const core::RunConfig config = parse_run_config_from(json, where);
   const nlohmann::json resolved = core::to_json(config);
   if (options.print_config) {
     std::cout << resolved.dump(2) << std::endl;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -12,6 +13,9 @@ namespace maps::experiments {
 // train.log (what it printed) and provenance.json (who trained it from what: experiments/run/provenance.h).
 struct TrainRunOptions {
   std::string config_path;
+  // A config given as JSON rather than a file (Python's maps.train): config_path then only names it in messages, and
+  // its relative plugin paths are taken from the working directory.
+  std::optional<nlohmann::json> config;
   std::string out;
   std::vector<std::string> overrides;  // --set key=value (experiments/run/config_overrides.h)
   bool print_config = false;           // print the resolved config and stop

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "envs/task_sets.h"
+#include "experiments/run/plugins.h"
 #include "experiments/run/run_folder.h"
 #include "experiments/suite/schema.h"
 #include "io/config_schema.h"
@@ -168,17 +169,34 @@ Json merge_json(Json base, const Json& more) {
 }
 
 Suite parse_suite(const Json& json, const std::string& where) {
-  check_keys(json, where, {"description", "defaults", "sets", "variants", "grids"});
+  check_keys(json, where, {"description", "plugins", "defaults", "sets", "variants", "grids"});
   Suite suite;
   suite.source = json;
   if (json.contains("description")) checked(json["description"], "description", where + ".description");
+  // Loaded first: the grids may name their methods and the cells' configs their selector losses. load_suite has
+  // made the paths absolute (relative to the config's folder); a JSON parsed on its own has them from the working
+  // directory.
+  Json plugins = Json::array();
+  if (json.contains("plugins")) {
+    checked(json["plugins"], "plugins", where + ".plugins");
+    plugins = load_config_plugins({{"plugins", json["plugins"]}}, ".", where).at("plugins");
+  }
   if (json.contains("defaults")) checked(json["defaults"], "defaults", where + ".defaults");
   const Json defaults = json.value("defaults", Json::object());
+  const auto refuse_plugins_in = [&where](const Json& partial, const std::string& at) {
+    if (partial.is_object() && partial.contains("plugins"))
+      throw std::invalid_argument(where + at +
+                                  ".plugins: a suite names its plugins at its top (\"plugins\": [...]), "
+                                  "which every cell gets");
+  };
+  refuse_plugins_in(defaults, ".defaults");
 
   const Json& sets = required(json, where, "sets");
   if (!sets.is_object() || sets.empty()) throw std::invalid_argument(where + ".sets: expected an object of sets");
-  for (const auto& [name, value] : sets.items())
+  for (const auto& [name, value] : sets.items()) {
     suite.sets.emplace(name, parse_set(name, value, where + ".sets." + name));
+    refuse_plugins_in(suite.sets.at(name).config, ".sets." + name + ".config");
+  }
 
   std::map<std::string, Json> variants;
   if (json.contains("variants")) {
@@ -188,6 +206,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
         throw std::invalid_argument(where + ".variants: '" + name +
                                     "' is not a variant name (lower-case letters, digits and _; not \"base\")");
       variants.emplace(name, checked(value, "variants.<variant>", where + ".variants." + name));
+      refuse_plugins_in(value, ".variants." + name);
     }
   }
 
@@ -301,6 +320,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
                     if (method == "single_bc") request["data"]["tasks"] = {task};
                   }
                 }
+                if (!plugins.empty()) request["plugins"] = plugins;
                 try {
                   cell.request = core::to_json(core::parse_run_config(request));
                 } catch (const std::exception& e) {
@@ -339,7 +359,7 @@ Suite parse_suite(const Json& json, const std::string& where) {
 }
 
 Suite load_suite(const std::string& path) {
-  Suite suite = parse_suite(read_json_file(path), path);
+  Suite suite = parse_suite(load_config_plugins(read_json_file(path), folder_of(path), path), path);
   suite.path = path;
   return suite;
 }

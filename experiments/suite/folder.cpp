@@ -21,6 +21,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "experiments/run/plugins.h"
 #include "experiments/run/run_folder.h"
 #include "io/config_schema.h"
 #include "io/json_input.h"
@@ -93,7 +94,8 @@ Suite read_manifest(const fs::path& out) {
       // Resolved (every key, defaults filled in), as a suite config's cells are: status, plan and the cost table
       // read keys of it, and a hand-edited manifest may leave some out.
       try {
-        cell.request = core::to_json(core::parse_run_config(entry.at("request")));
+        cell.request =
+            core::to_json(core::parse_run_config(load_config_plugins(entry.at("request"), ".", path.string())));
       } catch (const std::exception& e) {
         throw std::runtime_error(path.string() + ": cell " + cell.name + " has a damaged run config (" + e.what() +
                                  ")");
@@ -135,7 +137,8 @@ void write_or_check_manifest(const fs::path& out, const Suite& suite) {
 bool same_run_config(const Json& a, const Json& b) {
   if (a == b) return true;
   try {
-    return core::to_json(core::parse_run_config(a)) == core::to_json(core::parse_run_config(b));
+    return core::to_json(core::parse_run_config(load_config_plugins(a, ".", "a run config"))) ==
+           core::to_json(core::parse_run_config(load_config_plugins(b, ".", "a run config")));
   } catch (const std::exception&) {
     return false;
   }

@@ -46,6 +46,12 @@ std::vector<io::Field> make_schema() {
   std::vector<io::Field> s;
   s.push_back(make("description", ValueKind::kString, "string", "what the suite is for (the report's first line)"));
   s.back().default_value = "";
+  s.push_back(make("plugins", ValueKind::kStringList, "string list",
+                   "C++ plugins whose selector losses and methods the suite's cells name (docs/extending.md), loaded "
+                   "before the rest is read; a relative path is relative to the suite config's folder. Every cell's "
+                   "run config gets them as absolute paths (named here only, not in `defaults`, a set or a variant)"));
+  s.back().default_value = nlohmann::json::array();
+  s.back().unique = true;
   s.push_back(make("defaults", ValueKind::kObject, "partial run config",
                    "run-config keys every cell starts from (docs/configs.md; every cell's run config is checked when "
                    "the suite is read)"));
@@ -123,9 +129,15 @@ const std::vector<io::Field>& suite_config_schema() {
   return schema;
 }
 
-const io::Field& suite_field(const std::string& key) {
+io::Field suite_field(const std::string& key) {
   for (const io::Field& f : suite_config_schema())
-    if (f.key == key) return f;
+    if (f.key == key) {
+      if (key != "grids[].methods") return f;
+      io::Field methods = f;  // a plugin's methods are registered after the table was made
+      methods.choices = core::policy_method_names();
+      methods.choices.push_back("transfer");
+      return methods;
+    }
   throw std::logic_error("suite_field: no key '" + key + "' in the suite config schema");
 }
 

@@ -14,6 +14,6 @@ namespace maps::experiments {
 const std::vector<io::Field>& suite_config_schema();
 
 // The field of a key of the table ("grids[].seeds"); a key not in it is a programming error (std::logic_error).
-const io::Field& suite_field(const std::string& key);
+io::Field suite_field(const std::string& key);
 
 }  // namespace maps::experiments

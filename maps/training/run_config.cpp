@@ -123,7 +123,7 @@ RunConfig parse_run_config(const Json& json) {
         throw std::invalid_argument("config " + field.spec.key + ": required (" + io::expectation(field.spec) + ")");
       continue;
     }
-    io::check_value(field.spec, *value);
+    io::check_value(field.current_spec(), *value);
     field.set(c, *value);
   }
   const PolicyMethod& chosen = policy_method(c.method);

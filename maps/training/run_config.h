@@ -19,6 +19,7 @@
 // One run's configuration as JSON (`maps train --config`), every key optional but "method" and "data.file":
 //
 //   {"method": "maps",                       // a name of policy_registry.h (maps, single_bc, mt_bc, ...)
+//    "plugins": ["libmine.so"],               // C++ plugins the tool loads first (docs/extending.md)
 //    "seed": 0,                              // data draw, initialisation and batches all derive from it
 //    "data": {"file": "data/gravity.h5", "demos_per_task": 5, "subsample": 20,
 //             "draws": "sequential"},                   // or "per_task" (DataConfig::draws)
@@ -41,6 +42,9 @@ namespace maps::core {
 
 struct RunConfig {
   std::string method = "maps";
+  // Shared libraries to load before the config is read (their losses and methods; the tool loads them: experiments/
+  // run/plugins.h). The library only carries the list.
+  std::vector<std::string> plugins;
   std::uint64_t seed = 0;
   std::string data_file;
   DataConfig data;

@@ -167,6 +167,10 @@ class Table {
     field.set = [access](RunConfig& c, const Json& value) { access(c) = from_value<T>(value); };
     fields_.push_back(std::move(field));
   }
+  // The last key's choices are read at check time (they grow as plugins register entries).
+  void choices_from(std::function<std::vector<std::string>()> current) {
+    fields_.back().current_choices = std::move(current);
+  }
   std::vector<RunConfigField> take() { return std::move(fields_); }
 
  private:
@@ -183,7 +187,14 @@ std::vector<RunConfigField> make_fields() {
       "a registered method (`maps train --help` lists them with a line each): `maps`, `single_bc` (one MLP per "
       "task), `mt_bc` (one MLP on [state, one-hot task]), `mt_mh_bc` (a shared trunk with a head per task), "
       "`maml`, and the zoo's modular methods ([zoo.md](zoo.md)): `moore`, `paco`, `care`, `top_k_moe`, "
-      "`soft_modularization`");
+      "`soft_modularization`; a plugin's (`plugins`)");
+  table.choices_from(policy_method_names);
+  add(
+      "plugins", [](RunConfig & c) -> auto& { return c.plugins; }, any(),
+      "C++ plugins to load before the rest of the config is read: shared libraries whose selector losses and "
+      "methods this config names ([extending.md](extending.md)); a relative path is relative to the config "
+      "file's folder, and the run folder's `config.json` records the absolute path (its SHA-256 is in "
+      "`provenance.json`)");
   add(
       "seed", [](RunConfig & c) -> auto& { return c.seed; }, any(),
       "draws the demonstrations, the initialisation, the batches and MAML's fine-tuning batches; runs of every "
@@ -368,10 +379,17 @@ const std::vector<RunConfigField>& run_config_fields() {
   return fields;
 }
 
+io::Field RunConfigField::current_spec() const {
+  if (!current_choices) return spec;
+  io::Field now = spec;
+  now.choices = current_choices();
+  return now;
+}
+
 std::vector<io::Field> run_config_schema() {
   std::vector<io::Field> schema;
   for (const RunConfigField& field : run_config_fields()) {
-    schema.push_back(field.spec);
+    schema.push_back(field.current_spec());
     if (field.spec.key != "baselines.hidden") continue;
     for (const PolicyMethod& method : policy_methods())
       for (io::Field option : method.options) {

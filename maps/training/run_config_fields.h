@@ -17,6 +17,12 @@ struct RunConfigField {
   io::Field spec;
   std::function<nlohmann::json(const RunConfig&)> get;
   std::function<void(RunConfig&, const nlohmann::json&)> set;  // a value check_value accepted
+  // Choices that grow as plugins register entries (the method's): read when a config is checked, not when the table
+  // was built. Empty: spec.choices is all there is.
+  std::function<std::vector<std::string>()> current_choices;
+
+  // The spec as a value is checked against now (current_choices filled in).
+  io::Field current_spec() const;
 };
 
 // Every key but the methods' own sections, in the docs' order (top-level keys, then data, train, maps, maml,
