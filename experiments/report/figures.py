@@ -10,7 +10,9 @@
     validation.png         validation BC loss against training step, mean over seeds per method
 
 Each function returns the Figures it wrote ((file name, caption) pairs; the caption says what n is and what the
-score is), or [] when the suite has no data for it. One colour per method everywhere (the paper's)."""
+score is), or [] when the suite has no data for it. One colour per method everywhere (the paper's). Beside a
+quick-scale suite (report.py), fig2_scores and fig4_ablations also draw the committed study's scores of the same
+methods, hollow on dashed lines (their numbers in fig2_scores_study.csv, fig4_ablations_study.csv)."""
 import csv
 import math
 from collections import namedtuple
@@ -25,7 +27,7 @@ import numpy as np  # noqa: E402
 from suite_results import (METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups, groups,  # noqa: E402
                            maps_reference, module_sweep_cells, order, score_name, short_task, success_scored,
                            task_names, task_score)
-from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, usage_distances,  # noqa: E402
+from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, span, usage_distances,  # noqa: E402
                          vs_single_bc)
 
 Figure = namedtuple("Figure", "file caption")
@@ -99,6 +101,45 @@ def line_with_band(ax, xs, runs_per_x, value, dodge=0.0, **style):
     return rows
 
 
+STUDY_STYLE = {"linestyle": "--", "marker": "o", "markerfacecolor": "white", "capsize": 2, "linewidth": 1.0}
+
+
+def dodge_unit(cells):
+    """How far apart (in demos) lone points of different methods are drawn: 0.12 on an axis of one count, a fortieth
+    of the axis's span when the study's counts widen it."""
+    demos = [c.demos for c in cells]
+    return max(0.12, (max(demos) - min(demos)) / 40)
+
+
+def study_line(ax, study, set_name, label, subsample, color):
+    """The study's mean score over tasks (hollow markers on a dashed line, error bars its 95% CI over seeds) of the
+    study cells `study` labelled `label` on the set at that k, at every demo count it ran; returns the (x, n, mean,
+    ci) rows, [] when it has none."""
+    by_key = groups([c for c in study if c.set == set_name and c.label == label and c.subsample == subsample])
+    rows = [(key.demos, len(runs), mean([c.mean_score for c in runs]), ci95([c.mean_score for c in runs]))
+            for key, runs in sorted(by_key.items(), key=lambda item: item[0].demos)]
+    if rows:
+        ax.errorbar([r[0] for r in rows], [r[2] for r in rows], yerr=np.nan_to_num([r[3] for r in rows]),
+                    color=color, **STUDY_STYLE)
+    return rows
+
+
+def steps_and_seeds(cells):
+    """"1000 steps, 2 seeds" (seeds per point; ranges where they differ)."""
+    steps = "/".join(str(s) for s in sorted({c.steps for c in cells}))
+    per_point = sorted(len(runs) for runs in groups(cells).values())
+    return f"{steps} steps, {span(per_point)} seed{'s' if per_point[-1] > 1 else ''}"
+
+
+def study_legend(ax, cells, drawn):
+    """The legend's two entries that tell the suite's points from the study's (added to ax's labelled lines):
+    "filled: this suite (1000 steps, 2 seeds)", "hollow, dashed: study (20000 steps, 5 seeds)"."""
+    ax.errorbar([], [], yerr=[], color="0.35", fmt="o", capsize=4,
+                label=f"filled: this suite ({steps_and_seeds(cells)})")
+    ax.errorbar([], [], yerr=[], color="0.35", label=f"hollow, dashed: study ({steps_and_seeds(drawn)})",
+                **STUDY_STYLE)
+
+
 def score_limits(ax, set_name, cells, means):
     """0 to just above 1 for success rates; for normalised returns (not capped) enough for the largest mean. Bands
     and error bars past it are clipped."""
@@ -120,45 +161,67 @@ def legend_below(fig, axes, columns):
                frameon=False)
 
 
-def fig2_scores(cells, out):
-    """One panel per set: each method's mean score over tasks against demos per task, band: 95% CI over seeds."""
+def fig2_scores(cells, out, study=None):
+    """One panel per set: each method's mean score over tasks against demos per task, band: 95% CI over seeds; with
+    `study` (the study's cells beside a quick-scale suite), the study's scores of the same methods, hollow and
+    dashed."""
     cells = base_cells(cells)
     sets = order(SET_ORDER, {c.set for c in cells})
     if not sets:
         return []
+    study = base_cells(study or [])
     fig, axes = plt.subplots(1, len(sets), figsize=(max(6.5, 5.2 * len(sets)), 5.0), squeeze=False)
-    rows = []
+    rows, study_rows, drawn = [], [], []
     for ax, set_name in zip(axes[0], sets):
         mine = [c for c in cells if c.set == set_name]
         by_key = groups(mine)
         several_k = len({k.subsample for k in by_key}) > 1
         means = []
         lone = len({c.demos for c in mine}) == 1
+        here = [c for c in study if c.set == set_name and c.label in {key.label for key in by_key}
+                and c.subsample in {key.subsample for key in by_key}]
+        apart = dodge_unit(mine + here)
         for i, method in enumerate(methods_of(mine)):
             for k in sorted({key.subsample for key in by_key if key.label == method}):
                 keys = [key for key in by_key if key.label == method and key.subsample == k]
                 label = name(method) + (f", k = {k}" if several_k else "")
-                dodge = 0.12 * (i - (len(methods_of(mine)) - 1) / 2) if lone else 0.0
+                dodge = apart * (i - (len(methods_of(mine)) - 1) / 2) if lone else 0.0
                 points = line_with_band(ax, [key.demos for key in keys], [by_key[key] for key in keys],
                                         lambda c: c.mean_score, dodge=dodge, color=color(method), label=label)
                 rows += [[set_name, method, "base", x, k, n, m, h] for x, n, m, h in points]
                 means += [m for _, _, m, _ in points]
+                theirs = study_line(ax, study, set_name, method, k, color(method))
+                study_rows += [[set_name, method, "base", x, k, n, m, h] for x, n, m, h in theirs]
+                means += [m for _, _, m, _ in theirs]
+        drawn += here
         ax.set_title(f"{set_name} ({len(task_names(mine))} tasks)\n{describe_n(mine)}", fontsize=9)
         ax.set_xlabel("demonstrations per task")
         ax.set_ylabel(f"{score_name(set_name, mine, short=True)}\n(mean over tasks)")
-        ax.set_xticks(sorted({c.demos for c in mine}))
+        ax.set_xticks(sorted({c.demos for c in mine + here}))
         score_limits(ax, set_name, mine, means)
         ax.grid(alpha=0.3)
-    legend_below(fig, axes[0], 6)
-    fig.suptitle("Fig. 2: mean score over tasks against demos per task\n(mean over seeds, band: 95% CI)")
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    if drawn:
+        study_legend(axes[0][0], cells, drawn)
+    legend_below(fig, axes[0], 6 if not drawn else 4)
+    fig.suptitle("Fig. 2: mean score over tasks against demos per task\n(mean over seeds, band: 95% CI)" if not drawn
+                 else "Fig. 2: mean score over tasks against demos per task (mean over seeds, 95% CI)\nfilled: this"
+                 f" suite at {'/'.join(str(s) for s in sorted({c.steps for c in cells}))} steps; hollow, dashed: the"
+                 f" study at {'/'.join(str(s) for s in sorted({c.steps for c in drawn}))} steps, whose ranking this"
+                 " is not")
+    fig.tight_layout(rect=(0, 0.07 if not drawn else 0.12, 1, 1))
     save(fig, out, "fig2_scores.png")
-    write_csv(out / "fig2_scores.csv", ["set", "method", "variant", "demos", "subsample", "seeds", "mean", "ci95"],
-              rows)
-    return [Figure("fig2_scores.png", "Fig. 2: each set's mean score over its tasks against the number of"
-                   f" demonstrations per task, for each method (base variants); points are means over seeds, the band"
-                   f" the 95% CI over seeds (none where one seed ran). {describe_n(cells)}. Cheetah sets:"
-                   f" {score_name('gravity')}; MT10: {score_name('mt10')}.")]
+    header = ["set", "method", "variant", "demos", "subsample", "seeds", "mean", "ci95"]
+    write_csv(out / "fig2_scores.csv", header, rows)
+    caption = ("Fig. 2: each set's mean score over its tasks against the number of"
+               f" demonstrations per task, for each method (base variants); points are means over seeds, the band"
+               f" the 95% CI over seeds (none where one seed ran). {describe_n(cells)}. Cheetah sets:"
+               f" {score_name('gravity')}; MT10: {score_name('mt10')}.")
+    if drawn:
+        write_csv(out / "fig2_scores_study.csv", header, study_rows)
+        caption += (" Hollow markers on dashed lines: the study's scores of the same methods at every count it ran"
+                    f" (error bars: 95% CI over its seeds; {describe_n(drawn)}; fig2_scores_study.csv): this suite's"
+                    " ranking is not the study's.")
+    return [Figure("fig2_scores.png", caption)]
 
 
 def fig2_tasks(cells, out):
@@ -255,13 +318,14 @@ def variant_styles(labels):
             for i, lab in enumerate(labels)}
 
 
-def fig4_ablations(cells, out):
+def fig4_ablations(cells, out, study=None):
     sets = [s for s in order(SET_ORDER, {c.set for c in cells}) if ablation_cells([c for c in cells if c.set == s])]
     if not sets:
         return []
+    study = study or []
     fig, axes = plt.subplots(len(sets), 3, figsize=(16, 4.6 * len(sets)), squeeze=False,
                              gridspec_kw={"width_ratios": [1.4, 0.9, 1.1]})
-    rows, notes = [], []
+    rows, notes, study_rows, drawn = [], [], [], []
     for (ax_use, ax_tv, ax_score), set_name in zip(axes, sets):
         mine = [c for c in cells if c.set == set_name]
         ref = maps_reference(mine)
@@ -290,11 +354,17 @@ def fig4_ablations(cells, out):
                 rows.append([set_name, lab, top, "usage_tv", "", len(tv), m, ci95(tv)])
             keys = [key for key in by_key if key.label == lab]
             lone = len({key.demos for key in by_key}) == 1
+            apart = dodge_unit(base + ablations + [c for c in study if c.set == set_name and c.label in labels])
             points = line_with_band(ax_score, [k.demos for k in keys], [by_key[k] for k in keys],
-                                    lambda c: c.mean_score, dodge=0.12 * (j - (len(labels) - 1) / 2) if lone else 0.0,
+                                    lambda c: c.mean_score, dodge=apart * (j - (len(labels) - 1) / 2) if lone else 0.0,
                                     color=colors[lab], label=legend)
             rows += [[set_name, lab, x, "score", "", n, m, h] for x, n, m, h in points]
             means += [m for _, _, m, _ in points]
+            for k in sorted({key.subsample for key in keys}):
+                theirs = study_line(ax_score, study, set_name, lab, k, colors[lab])
+                study_rows += [[set_name, lab, x, "score", "", n, m, h] for x, n, m, h in theirs]
+                means += [m for _, _, m, _ in theirs]
+                drawn += [c for c in study if c.set == set_name and c.label == lab and c.subsample == k]
         ax_use.set_title(f"{set_name}, {top} demos: each task's module usage sorted,\nmean over tasks and seeds")
         ax_use.set_xlabel("module rank within the task (1 = most used)")
         ax_use.set_ylabel("share of the selector's score")
@@ -305,11 +375,13 @@ def fig4_ablations(cells, out):
                          rotation=30, ha="right")
         ax_tv.set_ylabel("total-variation distance, mean over tasks")
         ax_tv.set_ylim(0, max(0.05, ax_tv.get_ylim()[1] * 1.1))  # room for the value labels
+        theirs = [c for c in drawn if c.set == set_name]
         ax_score.set_title(f"{set_name}: score per variant (M = {ref[0]}), band: 95% CI\n"
-                           f"{describe_n(base + ablations)}", fontsize=9)
+                           f"{describe_n(base + ablations)}"
+                           + (f"\nhollow, dashed: study ({steps_and_seeds(theirs)})" if theirs else ""), fontsize=9)
         ax_score.set_xlabel("demonstrations per task")
         ax_score.set_ylabel(f"{score_name(set_name, mine, short=True)} (mean over tasks)")
-        ax_score.set_xticks(sorted({c.demos for c in base + ablations}))
+        ax_score.set_xticks(sorted({c.demos for c in base + ablations + theirs}))
         score_limits(ax_score, set_name, mine, means)
         for ax in (ax_use, ax_tv, ax_score):
             ax.grid(alpha=0.3, axis="y")
@@ -317,13 +389,18 @@ def fig4_ablations(cells, out):
     fig.suptitle("Fig. 4: MAPS with one selector-loss term zeroed (from each cell's config) against MAPS")
     fig.tight_layout()
     save(fig, out, "fig4_ablations.png")
-    write_csv(out / "fig4_ablations.csv", ["set", "variant", "demos", "quantity", "index", "seeds", "mean", "ci95"],
-              rows)
-    return [Figure("fig4_ablations.png", "Fig. 4: MAPS's ablations against MAPS at the largest demo count: left, each"
-                   " task's module usage sorted from the most used module, averaged over tasks and seeds (a single"
-                   " tall bar: one module per task); middle, how far each task's usage is from the tasks' mean usage"
-                   " (0: all tasks route alike; computed per seed); right, the mean score over tasks against demos per"
-                   f" task (band: 95% CI over seeds). {'; '.join(notes)}.")]
+    header = ["set", "variant", "demos", "quantity", "index", "seeds", "mean", "ci95"]
+    write_csv(out / "fig4_ablations.csv", header, rows)
+    caption = ("Fig. 4: MAPS's ablations against MAPS at the largest demo count: left, each"
+               " task's module usage sorted from the most used module, averaged over tasks and seeds (a single"
+               " tall bar: one module per task); middle, how far each task's usage is from the tasks' mean usage"
+               " (0: all tasks route alike; computed per seed); right, the mean score over tasks against demos per"
+               f" task (band: 95% CI over seeds). {'; '.join(notes)}.")
+    if drawn:
+        write_csv(out / "fig4_ablations_study.csv", header, study_rows)
+        caption += (" Right, hollow markers on dashed lines: the study's scores of the same variants at every count it"
+                    f" ran (error bars: 95% CI over its seeds; {describe_n(drawn)}; fig4_ablations_study.csv).")
+    return [Figure("fig4_ablations.png", caption)]
 
 
 def fig5_modules_heatmap(cells, out):

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The report of a suite folder written by `maps suite` (what `maps report DIR [--out OUT]` runs):
 
-    /usr/bin/python3 experiments/report/report.py DIR [OUT]        (OUT defaults to DIR/report)
+    /usr/bin/python3 experiments/report/report.py DIR [OUT] [--study DIR2 | --no-study]   (OUT defaults to DIR/report)
 
 writes to OUT
 - results.csv: one row per finished cell and task;
@@ -12,6 +12,10 @@ writes to OUT
   best-validation one, where those cells exist, and the figures;
 - the figures (fig2_scores.png, fig2_tasks_<set>.png, fig3_vs_single_bc.png, fig4_ablations.png,
   fig5_modules_heatmap.png, fig6_module_usage.png, validation.png), each with its numbers in a CSV beside it.
+A quick-scale suite (trained at most a quarter of the committed study's steps: scripts/run.sh's quick.json, medium.json)
+ranks the methods otherwise than the study does, so its report says so in its first line and puts beside each number
+of its main table, and in Fig. 2 and Fig. 4's scores, the study's for the same set, method and demos (results/study of
+this checkout, or --study DIR2; where there is none, one line says why and the report goes on without it).
 Prints the main results table and, last, "report: OUT/report.md". Exit code 2: no suite.json, no finished cells,
 or no matplotlib / numpy; 1: a figure could not be drawn (the rest is written; stderr and report.md say which).
 A damaged result.json is named in the report and skipped.
@@ -23,13 +27,15 @@ import pathlib
 import re
 import sys
 import traceback
+from collections import Counter
+from dataclasses import dataclass, field
 
 import claims
 import suite_results
 import tables
-from suite_results import SuiteError, load_suite, score_name, success_scored
+from suite_results import SET_ORDER, SuiteError, groups, load_suite, read_json, score_name, success_scored
 from routing_summary import routing_summary
-from suite_stats import vs_single_bc
+from suite_stats import describe_n, fmt, vs_single_bc
 
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
              "zoo_routing.png", "zoo_routing.csv"]
@@ -61,20 +67,151 @@ def embed(figures):
 
 class Drawer:
     """Draws the figures of `cells` into `out`; a figure that fails is reported (stderr, with its traceback, and
-    report.md) rather than ending the report."""
+    report.md) rather than ending the report. Keyword arguments go to the figure's function."""
 
     def __init__(self, figures, cells, out):
         self.figures, self.cells, self.out, self.failed = figures, cells, out, []
 
-    def __call__(self, name):
+    def __call__(self, name, **extra):
         try:
-            return getattr(self.figures, name)(self.cells, self.out)
+            return getattr(self.figures, name)(self.cells, self.out, **extra)
         except Exception as error:  # noqa: BLE001 (one figure's failure must not lose the tables)
             traceback.print_exc()
             message = f"{name} could not be drawn ({type(error).__name__}: {error})"
             print(f"report: {message}", file=sys.stderr)
             self.failed.append(message)
             return []
+
+
+# The committed study (docs/results.md) whose numbers stand beside a quick-scale suite's: results/study of the checkout
+# this script is in. Installed (share/maps/experiments/report) there is none: the comparison is then skipped with one
+# line saying why.
+DEFAULT_STUDY = pathlib.Path(__file__).resolve().parents[2] / "results" / "study"
+STUDY_STEPS = 20000  # the study's training steps (docs/results.md), when its suite.json cannot say
+# The rule (issue 43): a suite is quick-scale when its longest-trained finished cell trained at most a quarter of the
+# study's steps (the most common in the study's suite.json). At such budgets every method is still improving and they
+# rank otherwise than at the study's (at 1000 steps MAPS leads every baseline on the cheetah sets by far; at 20000 it
+# is level with MT-BC). A quarter takes in tiny.json (60 steps), quick.json (1000) and medium.json (5000), and leaves
+# out the paper-scale suites (20000-30000), the study itself among them. Decided from the cells' own run configs, so a
+# suite needs no key saying so.
+QUICK_SHARE = 0.25
+
+
+@dataclass
+class Beside:
+    """The study beside a suite: whether the suite is quick-scale (quick; longest: its longest training, steps: the
+    study's), the study's cells comparable with the suite's (cells, grouped in groups; none when skipped) and, when
+    a quick-scale suite has no study beside it, why (note)."""
+    quick: bool = False
+    longest: int = 0
+    steps: int = STUDY_STEPS
+    root: pathlib.Path = None
+    cells: list = field(default_factory=list)
+    groups: dict = field(default_factory=dict)
+    note: str = ""
+
+
+def planned_steps(root):
+    """The training steps of the study at root: the most common among its suite.json's cells' run configs; None when
+    it cannot say (no suite.json, an unreadable one)."""
+    try:
+        planned = read_json(root / "suite.json").get("cells", [])
+        steps = Counter(int(c["request"]["train"]["steps"]) for c in planned if isinstance(c, dict) and "request" in c)
+    except (OSError, ValueError, AttributeError, TypeError, KeyError):
+        return None
+    return steps.most_common(1)[0][0] if steps else None
+
+
+def comparable(suite, study):
+    """The study's cells whose label means the same as in the suite: the base methods, and variants both configs
+    define alike (a variant named alike but defined otherwise is not the same cell)."""
+    here, there = suite.config.get("variants") or {}, study.config.get("variants") or {}
+    return [c for c in study.cells if c.label == c.method or here.get(c.variant) == there.get(c.variant)]
+
+
+def beside_study(suite, study_dir=None, wanted=True):
+    """The Beside of a suite: the study at study_dir (default DEFAULT_STUDY) when the suite is quick-scale (QUICK_SHARE)
+    and wanted. A study that is not there or cannot be read leaves a note, never an error."""
+    root = pathlib.Path(study_dir) if study_dir else DEFAULT_STUDY
+    steps = planned_steps(root) or STUDY_STEPS
+    longest = max(c.steps for c in suite.cells)
+    beside = Beside(longest <= QUICK_SHARE * steps, longest, steps, root)
+    if not beside.quick:
+        return beside
+    if not wanted:
+        beside.note = "the report was made with --no-study"
+    elif not (root / "suite.json").is_file():
+        beside.note = f"no study at {root} (no suite.json there" + (
+            "; outside a checkout the report scripts have no results/, and --study DIR names one)"
+            if root == DEFAULT_STUDY else ")")
+    elif root.resolve() == suite.root.resolve():
+        beside.note = f"{root} is the suite reported"
+    else:
+        order = list(SET_ORDER)  # load_suite fills it in from the study's status: keep the suite's
+        try:
+            study = load_suite(root)
+        except SuiteError as error:
+            beside.note = f"the study at {root} could not be read ({error})"
+        else:
+            beside.cells = comparable(suite, study)
+            beside.groups = groups(beside.cells)
+        SET_ORDER[:] = order
+    beside.note = " ".join(beside.note.split())  # one line
+    return beside
+
+
+def study_number(key, study_groups):
+    """(the study's runs, their demos) for a (set, label, demos, k) key: at the same demos, else at the nearest count
+    the study ran (ties: the larger); None where the study has no such method on the set at that k."""
+    same = [k for k in study_groups if (k.set, k.label, k.subsample) == (key.set, key.label, key.subsample)]
+    if not same:
+        return None
+    nearest = min(same, key=lambda k: (abs(k.demos - key.demos), -k.demos))
+    return study_groups[nearest], nearest.demos
+
+
+def study_text(key, study_groups):
+    """"0.83 +- 0.09 (n=5)", "0.62 +- 0.05 (n=5, at 14 demos)", or "-"."""
+    found = study_number(key, study_groups)
+    if not found:
+        return "-"
+    runs, demos = found
+    return f"{fmt([c.mean_score for c in runs])} (n={len(runs)}{'' if demos == key.demos else f', at {demos} demos'})"
+
+
+def matched(cells, beside):
+    """The study's cells that stand beside some number of `cells`' main table."""
+    found = [study_number(key, beside.groups) for key in groups(cells)]
+    return list({c.folder: c for runs, _ in filter(None, found) for c in runs}.values())
+
+
+def main_results_beside(cells, beside):
+    """tables.main_results with the study's number beside each."""
+    theirs = matched(cells, beside)
+    protocol = (f"{'/'.join(str(s) for s in sorted({c.steps for c in theirs}))} steps,"
+                f" {'/'.join(str(e) for e in sorted({c.episodes for c in theirs}))} episodes") if theirs else "none"
+    rows = [[key.set, key.label, key.demos, key.subsample, len(runs), fmt([c.mean_score for c in runs]),
+             study_text(key, beside.groups)] for key, runs in groups(cells).items()]
+    return tables.table(["set", "method", "demos", "k", "seeds", "mean score over tasks", f"study ({protocol})"], rows)
+
+
+def warning_line(beside):
+    """The report's first line for a quick-scale suite."""
+    return (f"**The quick scale checks the pipeline, not the ranking**: this suite trained {beside.longest} steps, the"
+            f" study {beside.steps}, and at so few steps the methods rank otherwise than there; see results/study"
+            " (docs/results.md) for the ranking.")
+
+
+def study_protocol(cells, beside):
+    """The header's line on the study beside the numbers: per set, its n, episodes, steps and demo counts."""
+    theirs = matched(cells, beside)
+    sets = suite_results.order(SET_ORDER, {c.set for c in theirs})
+    per_set = "; ".join(f"{s}: {describe_n([c for c in theirs if c.set == s])}, demos per task"
+                        f" {', '.join(str(d) for d in sorted({c.demos for c in beside.cells if c.set == s}))}"
+                        for s in sets)
+    shown = "`results/study`, docs/results.md" if beside.root == DEFAULT_STUDY else f"`{beside.root}`"
+    return [f"- **The study beside these numbers** ({shown}; the same set, method and demos,"
+            f" else its nearest count, named): {per_set or 'no cell of this suite is in it'}."]
 
 
 def section(title, body, empty):
@@ -118,12 +255,27 @@ def adaptive_seeds_caveat(suite, set_name):
             " once, at the nominal level.", ""]
 
 
-def report_lines(suite, draw):
+def report_lines(suite, draw, beside=None):
     cells = suite.cells
-    lines = [f"# Suite report: {suite.root.name}", "", "## Protocol", ""] + tables.protocol(suite)
+    beside = beside or Beside()
+    lines = [f"# Suite report: {suite.root.name}", ""]
+    if beside.quick:
+        lines += [warning_line(beside), ""]
+        if beside.note:
+            lines += [f"(The study's numbers are not beside this suite's: {beside.note}.)", ""]
+    lines += ["## Protocol", ""] + tables.protocol(suite)
+    if beside.cells:
+        lines += [""] + study_protocol(cells, beside)
     lines += ["", "## Cells", ""] + tables.cell_counts(suite)
-    lines += section("Main results", ["Mean score over tasks, mean +- 95% CI over seeds:", ""]
-                     + tables.main_results(cells) + embed(draw("fig2_scores")), "")
+    if beside.cells:
+        main = (["Mean score over tasks, mean +- 95% CI over seeds; beside it the study's for the same set, method and"
+                 " demos (mean +- 95% CI over its n seeds; where the study did not run this count, at its nearest"
+                 " count, named; ties: the larger):", ""] + main_results_beside(cells, beside)
+                + embed(draw("fig2_scores", study=beside.cells)))
+    else:
+        main = ["Mean score over tasks, mean +- 95% CI over seeds:", ""] + tables.main_results(cells) + embed(
+            draw("fig2_scores"))
+    lines += section("Main results", main, "")
 
     fig3 = vs_single_bc(cells)
     body = []
@@ -170,8 +322,9 @@ def report_lines(suite, draw):
             usage or ["", "No cells with module usage."])
 
     ablations = per_set(suite, tables.ablation_table, [])
+    fig4 = (draw("fig4_ablations", study=beside.cells) if beside.cells else draw("fig4_ablations")) if ablations else []
     lines += section("Fig. 4: ablations of the selector terms",
-                     ablations + embed(draw("fig4_ablations")) if ablations else [],
+                     ablations + embed(fig4) if ablations else [],
                      "No ablation cells in this suite (MAPS with a selector-loss weight of 0).")
     sweep = per_set(suite, tables.sweep_table, ["MAPS's mean score over tasks (mean +- 95% CI over seeds, n seeds) by"
                                                 " the number of modules M (from the config):", ""])
@@ -206,6 +359,11 @@ def main(argv=None):
     parser.add_argument("out", nargs="?", help="where to write the report (default: DIR/report)")
     parser.add_argument("--status", help="`maps suite status --json DIR`'s output, which says what each cell is "
                                          "(`maps report` passes it; default: ask the tool)")
+    study = parser.add_mutually_exclusive_group()
+    study.add_argument("--study", metavar="DIR2", help="the study whose numbers stand beside a quick-scale suite's "
+                                                       f"(default: {DEFAULT_STUDY.relative_to(DEFAULT_STUDY.parents[1])}"
+                                                       " of this checkout)")
+    study.add_argument("--no-study", action="store_true", help="no study beside a quick-scale suite's numbers")
     args = parser.parse_args(argv)
     try:
         suite = load_suite(args.dir, args.status)
@@ -226,12 +384,18 @@ def main(argv=None):
     for path, reason in suite.damaged:
         print(f"report: {path}: damaged result, skipped ({reason})", file=sys.stderr)
 
+    beside = beside_study(suite, args.study, wanted=not args.no_study)
+    if beside.quick and beside.note and not args.no_study:
+        print(f"report: the study's numbers are not beside this quick-scale suite's: {beside.note}")
+
     write_results_csv(suite, out / "results.csv")
     draw = Drawer(figures, suite.cells, out)
-    (out / "report.md").write_text("\n".join(report_lines(suite, draw)) + "\n")
+    (out / "report.md").write_text("\n".join(report_lines(suite, draw, beside)) + "\n")
     print(f"{len(suite.cells)} finished, {len(suite.missing)} missing, {len(suite.failed)} failed,"
           f" {len(suite.damaged)} damaged of {len(suite.planned)} cells\n")
-    print("\n".join(tables.main_results(suite.cells)))
+    if beside.quick:
+        print(warning_line(beside).replace("**", "") + "\n")
+    print("\n".join(main_results_beside(suite.cells, beside) if beside.cells else tables.main_results(suite.cells)))
     print(f"report: {out / 'report.md'}")
     return 1 if draw.failed else 0
 

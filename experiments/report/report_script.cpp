@@ -2,8 +2,11 @@
 
 #include "experiments/report/report_script.h"
 
+#include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "envs/source_folders.h"
 #include "experiments/process/child_process.h"
@@ -30,7 +33,14 @@ int run_report(const ReportOptions& options) {
   // beside itself as the state of the folder it was made from.
   const std::string status = (fs::path(out) / "status.json").string();
   write_json_file(status, suite_status({options.dir}));
-  const int code = run_program(python, {script.string(), options.dir, out, "--status", status}, nullptr);
+  std::vector<std::string> arguments{script.string(), options.dir, out, "--status", status};
+  if (options.no_study) arguments.push_back("--no-study");
+  if (!options.study.empty()) arguments.insert(arguments.end(), {"--study", options.study});
+  // The study's cells are read through a tool too (its status): this one, whichever folder it was built in.
+  std::error_code error;
+  if (std::getenv("MAPS_TOOL") == nullptr)
+    if (const fs::path self = fs::canonical("/proc/self/exe", error); !error) setenv("MAPS_TOOL", self.c_str(), 0);
+  const int code = run_program(python, arguments, nullptr);
   if (code == 127) throw std::runtime_error("cannot run " + python);
   return code;
 }

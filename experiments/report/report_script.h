@@ -9,6 +9,9 @@ namespace maps::experiments {
 struct ReportOptions {
   std::string dir;
   std::string out;  // "" : DIR/report
+  // The study a quick-scale suite is shown beside (report.py --study; "": the checkout's results/study), or none.
+  std::string study;
+  bool no_study = false;
 };
 int run_report(const ReportOptions& options);
 

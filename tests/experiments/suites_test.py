@@ -2,7 +2,8 @@
 """Tests of the suite report (experiments/report/report.py and its modules) on the committed fixture
 tests/experiments/fixtures/suite-small (written by make_suite_small.py, whose hand-chosen scores give the numbers
 below): results.csv, the score table, paired differences, routing, Fig. 3's shares, ablation and module-count
-tables, every figure and its CSV, and the errors (damaged result, no suite.json, nothing finished, no matplotlib).
+tables, every figure and its CSV, the study's numbers beside a quick-scale suite's, and the errors (damaged result, no
+suite.json, nothing finished, no matplotlib).
 Also curve_stats.py and more_seeds.py, the tools beside the report. Run by ctest (tests/CMakeLists.txt)."""
 import csv
 import filecmp
@@ -98,8 +99,11 @@ def expected_results():
     return rows
 
 
-def run_report(*args, env_prelude=None):
-    """(exit code, stdout, stderr) of report.py run as `maps report` runs it."""
+def run_report(*args, env_prelude=None, study=None):
+    """(exit code, stdout, stderr) of report.py run as `maps report` runs it. The fixture is a quick-scale suite (1000
+    steps), whose report puts the committed study's numbers beside its own: the tests of its numbers leave that out
+    (--no-study) unless they name a study (study=DIR)."""
+    args = list(args) + (["--no-study"] if study is None else ["--study", study])
     if env_prelude is None:
         command = [sys.executable, str(REPORT), *map(str, args)]
     else:
@@ -725,6 +729,148 @@ class SyncDoc(unittest.TestCase):
                                   capture_output=True, text=True)
             self.assertNotEqual(done.returncode, 0)
             self.assertIn("has no '<!-- report.md: TITLE -->' blocks", done.stderr)
+
+
+class BesideTheStudy(unittest.TestCase):
+    """Issue 43: a quick-scale suite's report (the fixture: 1000 steps) says in its first line that it checks the
+    pipeline, not the ranking, and puts the study's number beside each of its own, in the main table and the figures.
+    The study here is made from the fixture: every cell trained 20000 steps, gravity's MAPS at 10 demos scored 0.4 and
+    0.2 (mean over tasks) in its two seeds, and MT10's Single BC ran 5 demos only. A missing study is one line, not an
+    error."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.study = pathlib.Path(cls.tmp.name) / "study"
+        shutil.copytree(FIXTURE, cls.study)
+        for path in sorted(cls.study.glob("cells/*/*/result.json")):
+            result = json.loads(path.read_text())
+            result["config"]["train"]["steps"] = result["train"]["steps"] = 20000
+            if result["cell"]["name"] in ("gravity/maps_d10_s0", "gravity/maps_d10_s1"):
+                for task, score in zip(result["eval"]["tasks"], [[0.5, 0.3], [0.3, 0.1]][result["cell"]["seed"]]):
+                    task["score"] = score
+            path.write_text(json.dumps(result))
+            plan_cell(cls.study, result)
+            if result["cell"]["name"].startswith("mt10/single_bc_d10_"):
+                shutil.rmtree(path.parent)
+        cls.out = pathlib.Path(cls.tmp.name) / "report"
+        cls.code, cls.stdout, cls.stderr = run_report(FIXTURE, cls.out, study=cls.study)
+        cls.md = (cls.out / "report.md").read_text() if cls.code == 0 else ""
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    WARNING = "The quick scale checks the pipeline, not the ranking"
+
+    def test_the_first_line_says_the_quick_scale_checks_the_pipeline(self):
+        self.assertEqual(self.code, 0, self.stderr)
+        first = self.md.splitlines()[2]
+        self.assertIn(f"**{self.WARNING}**: this suite trained 1000 steps, the study 20000", first)
+        self.assertIn("see results/study (docs/results.md) for the ranking", first)
+        self.assertIn(self.WARNING, self.stdout)
+        self.assertNotIn("not beside", self.stdout + self.md)
+
+    def test_the_studys_number_stands_beside_each_of_the_suites(self):
+        main = between(self.md, "## Main results", "![](fig2_scores.png)")
+        self.assertIn("| study (20000 steps, 10 episodes) |", main)
+        # The same set, method and demos: (0.4 + 0.2) / 2, CI 12.706 * 0.1414 / sqrt(2).
+        self.assertEqual(row_of(main, ["gravity", "maps", "10"])[5:], ["0.85 +- 0.64", "0.30 +- 1.27 (n=2)"])
+        self.assertEqual(row_of(self.stdout, ["gravity", "maps", "10"])[5:], ["0.85 +- 0.64", "0.30 +- 1.27 (n=2)"])
+        # A count the study did not run: its nearest, named.
+        self.assertEqual(row_of(main, ["mt10", "single_bc", "10"])[5:], ["0.85 +- 0.64", "0.55 +- 0.64 (n=2, at 5"
+                                                                         " demos)"])
+        self.assertEqual(row_of(main, ["mt10", "maps (no_explore)", "5"])[6], "0.30 +- 0.00 (n=2)")
+        self.assertIn("- **The study beside these numbers** (`" + str(self.study) + "`; the same set, method and demos,"
+                      " else its nearest count, named): gravity: n = 1-2 seeds per point, 10 episodes per task, 20000"
+                      " training steps, demos per task 5, 10; mt10:", self.md)
+
+    def test_the_figures_draw_the_study_beside_the_suite(self):
+        with (self.out / "fig2_scores_study.csv").open() as f:
+            rows = {(r["set"], r["method"], r["demos"]): r for r in csv.DictReader(f)}
+        self.assertAlmostEqual(float(rows[("gravity", "maps", "10")]["mean"]), 0.3)
+        self.assertEqual(rows[("gravity", "maps", "10")]["seeds"], "2")
+        self.assertNotIn(("mt10", "single_bc", "10"), rows)
+        self.assertIn(("mt10", "single_bc", "5"), rows)
+        with (self.out / "fig2_scores.csv").open() as f:  # the suite's own numbers stay apart
+            self.assertAlmostEqual(float(next(r for r in csv.DictReader(f) if (r["set"], r["method"], r["demos"])
+                                              == ("gravity", "maps", "10"))["mean"]), 0.85)
+        with (self.out / "fig4_ablations_study.csv").open() as f:
+            self.assertIn("maps (no_explore)", {r["variant"] for r in csv.DictReader(f)})
+        self.assertIn("Hollow markers on dashed lines: the study's scores", between(self.md, "![](fig2_scores.png)",
+                                                                                   "##"))
+        self.assertIn("Right, hollow markers on dashed lines", between(self.md, "![](fig4_ablations.png)", "##"))
+
+    def test_a_missing_study_is_one_line_not_an_error(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            missing = pathlib.Path(tmp) / "no-study"
+            code, stdout, stderr = run_report(FIXTURE, pathlib.Path(tmp) / "report", study=missing)
+            self.assertEqual(code, 0, stderr)
+            self.assertNotIn("Traceback", stderr)
+            notes = [line for line in stdout.splitlines() if "not beside" in line]
+            self.assertEqual(notes, [f"report: the study's numbers are not beside this quick-scale suite's: no study at"
+                                     f" {missing} (no suite.json there)"])
+            md = (pathlib.Path(tmp) / "report" / "report.md").read_text()
+            self.assertIn(self.WARNING, md.splitlines()[2])
+            self.assertIn(f"(The study's numbers are not beside this suite's: no study at {missing}", md)
+            self.assertEqual(row_of(md, ["gravity", "maps", "10"])[5:], ["0.85 +- 0.64"])
+            self.assertFalse((pathlib.Path(tmp) / "report" / "fig2_scores_study.csv").exists())
+
+    def test_the_installed_scripts_have_no_study_and_say_so(self):
+        """Installed under share/maps/experiments/ there is no results/study: the default study is skipped with a note
+        (the line test_a_missing_study_is_one_line_not_an_error sees printed)."""
+        with tempfile.TemporaryDirectory() as tmp:
+            share = pathlib.Path(tmp) / "share" / "maps"
+            for folder in ("report", "process"):
+                shutil.copytree(ROOT / "experiments" / folder, share / "experiments" / folder,
+                                ignore=shutil.ignore_patterns("*.cpp", "*.h", "__pycache__"))
+            script = (f"import sys\nsys.path.insert(0, {str(share / 'experiments' / 'report')!r})\n"
+                      f"import report, suite_results\nprint(report.__file__)\n"
+                      f"beside = report.beside_study(suite_results.load_suite({str(FIXTURE)!r}))\n"
+                      "print(beside.quick, len(beside.cells))\nprint(beside.note)")
+            done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            where, counts, note = done.stdout.splitlines()
+            self.assertTrue(where.startswith(str(share)), where)
+            self.assertEqual(counts, "True 0")
+            self.assertEqual(note, f"no study at {share / 'results' / 'study'} (no suite.json there; outside a checkout"
+                                   " the report scripts have no results/, and --study DIR names one)")
+
+    def test_a_suite_at_the_studys_scale_is_not_compared(self):
+        import report
+        beside = report.beside_study(suite_results.load_suite(self.study), FIXTURE)
+        self.assertEqual((beside.quick, beside.longest, beside.steps, beside.cells, beside.note),
+                         (False, 20000, 1000, [], ""))
+        no_figures = type("NoFigures", (), {"failed": [], "__call__": lambda self, name, **extra: []})()
+        lines = report.report_lines(suite_results.load_suite(self.study), no_figures, beside)
+        self.assertNotIn(self.WARNING, "\n".join(lines))
+        self.assertEqual(row_of("\n".join(lines), ["gravity", "maps", "10"])[5:], ["0.30 +- 1.27"])
+
+    def test_the_committed_study_is_the_default(self):
+        """Without --study the numbers are results/study's, read as its own report reads them (its main table)."""
+        import report
+        committed = report.DEFAULT_STUDY / "report" / "report.md"
+        if not committed.is_file():
+            self.skipTest(f"no {committed}")
+        suite = suite_results.load_suite(FIXTURE)
+        beside = report.beside_study(suite)
+        self.assertEqual(beside.note, "")
+        table = "\n".join(report.main_results_beside(suite.cells, beside))
+        theirs = between(committed.read_text(), "## Main results", "\n## ")
+        for set_name, method, demos, at in (("gravity", "maps", "10", "10"), ("mt10", "mt_bc", "10", "14")):
+            row = row_of(theirs, [set_name, method, at])
+            where = "" if demos == at else f", at {at} demos"
+            self.assertEqual(row_of(table, [set_name, method, demos])[6], f"{row[5]} (n={row[4]}{where})")
+
+    def test_the_nearest_count_and_the_scale_rule(self):
+        import report
+        key = suite_results.GroupKey("gravity", "maps", 10, 10)
+        study = {key._replace(demos=d): [d] for d in (5, 15, 25)}
+        self.assertEqual(report.study_number(key, study), ([15], 15))  # a tie goes to the larger count
+        self.assertEqual(report.study_number(key._replace(demos=24), study), ([25], 25))
+        self.assertIsNone(report.study_number(key._replace(subsample=1), study))
+        self.assertIsNone(report.study_number(key._replace(label="maps (m5)"), study))
+        self.assertEqual(report.QUICK_SHARE * report.STUDY_STEPS, 5000)  # medium.json's 5000 steps are quick-scale
 
 
 class Errors(unittest.TestCase):
