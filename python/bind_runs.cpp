@@ -3,6 +3,8 @@
 #include <pybind11/stl.h>
 
 #include <Eigen/Core>
+#include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -10,6 +12,7 @@
 #include "autograd/autograd.h"
 #include "experiments/run/run_folder.h"
 #include "maps/policies/maps_policy.h"
+#include "nn/module.h"
 #include "python/bindings.h"
 
 namespace py = pybind11;
@@ -73,6 +76,32 @@ class PythonRun {
   }
   std::int64_t forced_module() { return maps_policy("forced_module").forced_module(); }
 
+  // The policy as a maps.nn.Module: its parameters are the ones act() and forward() use (sharing storage).
+  std::shared_ptr<nn::Module> policy() const { return run_.policy; }
+
+  // The policy's mean actions [n, A] as a tensor on the graph (grad mode as the caller has it), for observations
+  // [n, S] standardised as act() does: a maps.Tensor stays on the graph (its gradient flows back through the
+  // standardisation), a numpy array is read as act() reads it.
+  ag::Tensor forward(const py::object& observations, const std::vector<std::int64_t>& tasks) {
+    if (!py::isinstance<ag::Tensor>(observations))
+      return run_.policy->act(checked_input(observations.cast<RowMatrixD>(), tasks, "forward"), tasks);
+    const ag::Tensor& raw = observations.cast<const ag::Tensor&>();
+    const core::DemoDataset& data = *run_.data;
+    if (!raw.defined() || raw.dim() != 2 || raw.size(1) != data.observation_size())
+      throw std::invalid_argument("forward: observations must be [n, " + std::to_string(data.observation_size()) +
+                                  "] for " + folder_ + " (" + data.task_set() + "), got " +
+                                  (raw.defined() ? ag::to_string(raw.shape()) : std::string("an undefined tensor")));
+    check_tasks(tasks, raw.size(0), "forward");
+    for (double v : raw.to_vector())
+      if (!std::isfinite(v)) throw std::invalid_argument("forward: observations hold NaN or inf");
+    // (x - mean) / std in float64, as Standardizer::apply computes it, then the policy's dtype.
+    const core::Standardizer& standardizer = data.standardizer();
+    const ag::Tensor mean = ag::from_eigen(Eigen::MatrixXd(standardizer.mean.transpose()));
+    const ag::Tensor scale = ag::from_eigen(Eigen::MatrixXd(standardizer.std.transpose()));
+    const ag::Tensor input = ((raw.to(ag::Dtype::Float64) - mean) / scale).to(policy_dtype());
+    return run_.policy->act(input, tasks);
+  }
+
  private:
   core::MAPSPolicy& maps_policy(const char* what) {
     auto* policy = dynamic_cast<core::MAPSPolicy*>(run_.policy.get());
@@ -82,7 +111,7 @@ class PythonRun {
     return *policy;
   }
 
-  // The observations standardised as in training, as the float32 tensor the policy was trained on.
+  // The observations standardised as in training, as a tensor of the policy's dtype (float32, as trained).
   ag::Tensor checked_input(const RowMatrixD& observations, const std::vector<std::int64_t>& tasks,
                            const char* what) const {
     const core::DemoDataset& data = *run_.data;
@@ -90,15 +119,26 @@ class PythonRun {
       throw std::invalid_argument(std::string(what) + ": observations have " + std::to_string(observations.cols()) +
                                   " columns; " + folder_ + " expects " + std::to_string(data.observation_size()) +
                                   " (" + data.task_set() + ")");
-    if (static_cast<Eigen::Index>(tasks.size()) != observations.rows())
+    check_tasks(tasks, observations.rows(), what);
+    if (!observations.allFinite()) throw std::invalid_argument(std::string(what) + ": observations hold NaN or inf");
+    return data.standardizer().apply(Eigen::MatrixXd(observations), policy_dtype());
+  }
+
+  void check_tasks(const std::vector<std::int64_t>& tasks, std::int64_t rows, const char* what) const {
+    const core::DemoDataset& data = *run_.data;
+    if (static_cast<std::int64_t>(tasks.size()) != rows)
       throw std::invalid_argument(std::string(what) + ": " + std::to_string(tasks.size()) + " task indices for " +
-                                  std::to_string(observations.rows()) + " observations");
+                                  std::to_string(rows) + " observations");
     for (std::int64_t task : tasks)
       if (task < 0 || task >= data.num_tasks())
         throw std::out_of_range(std::string(what) + ": task index " + std::to_string(task) + " is not in [0, " +
                                 std::to_string(data.num_tasks()) + ") (" + data.task_set() + ")");
-    if (!observations.allFinite()) throw std::invalid_argument(std::string(what) + ": observations hold NaN or inf");
-    return data.standardizer().apply(Eigen::MatrixXd(observations), ag::Dtype::Float32);
+  }
+
+  // The dtype the policy computes in: float32 as trained, float64 after run.policy.to("float64").
+  ag::Dtype policy_dtype() const {
+    const std::vector<ag::Tensor> parameters = run_.policy->parameters();
+    return parameters.empty() ? ag::Dtype::Float32 : parameters.front().dtype();
   }
 
   std::string folder_;
@@ -128,7 +168,9 @@ void bind_runs(py::module_& m) {
            py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("num_modules", &PythonRun::num_modules)
       .def("force_module", &PythonRun::force_module, py::arg("module"))
-      .def_property_readonly("forced_module", &PythonRun::forced_module);
+      .def_property_readonly("forced_module", &PythonRun::forced_module)
+      .def_property_readonly("policy", &PythonRun::policy)
+      .def("forward", &PythonRun::forward, py::arg("observations"), py::arg("tasks"));
 }
 
 }  // namespace maps::python

@@ -15,7 +15,9 @@
 #include "autograd/autograd.h"
 #include "experiments/process/cpu_model.h"
 #include "experiments/process/host.h"
+#include "experiments/run/plugins.h"
 #include "experiments/run/provenance.h"
+#include "experiments/run/run_folder.h"
 #include "maps/policies/maps_flops.h"
 #include "maps/policies/maps_policy.h"
 #include "maps/training/run_config.h"
@@ -162,8 +164,15 @@ int run_bench_step(const BenchStepOptions& options) {
 
   // The method at its defaults (MAPS: the paper's model, M = 10, modules 3x128, selector 2x128, four losses; the
   // baselines 3x128; the zoo's methods at MAPS's parameter count), as `maps train` would build it.
-  const core::RunConfig run_config =
-      core::parse_run_config({{"method", options.method}, {"data", {{"file", "unused by bench step"}}}});
+  nlohmann::json request{{"method", options.method}, {"data", {{"file", "unused by bench step"}}}};
+  if (!options.config_path.empty()) {
+    const std::string where = "--config '" + options.config_path + "'";
+    nlohmann::json given =
+        load_config_plugins(read_json_file(options.config_path), folder_of(options.config_path), where);
+    given.merge_patch(request);  // --method and the unused data file over the config's
+    request = std::move(given);
+  }
+  const core::RunConfig run_config = parse_run_config_from(request, "bench step");
   const core::MAPSConfig& config = run_config.maps;
   if (options.vs_pytorch && options.method != "maps")
     throw std::invalid_argument(
@@ -257,6 +266,8 @@ int run_bench_step(const BenchStepOptions& options) {
                         {"ratio_to_own_gemm", gflops / own_gemm},
                         {"float32_gemm_kernel", ag::float32_gemm_kernel()},
                         {"cpu", cpu_model()}};
+  if (options.method == "maps") result["selector_losses"] = core::to_json(run_config)["maps"]["selector_losses"];
+  if (!run_config.plugins.empty()) result["plugins"] = run_config.plugins;
   if (options.vs_pytorch) {
     const nlohmann::json peer = run_peer(s.name, options.threads, options.seconds);
     if (!peer.is_null()) {
@@ -277,6 +288,8 @@ int run_bench_step(const BenchStepOptions& options) {
       static_cast<long long>(s.shape.observation_size), static_cast<long long>(s.shape.action_size),
       static_cast<long long>(policy.parameter_count()), options.threads, options.threads == 1 ? "" : "s");
   std::cout << "  CPU: " << cpu_model() << "\n";
+  if (result.contains("selector_losses"))
+    std::cout << "  selector losses: " << result["selector_losses"].dump() << "\n";
   std::snprintf(line, sizeof line, "  %.3f ms/step (median of %zu), %.3f GFLOP/step, %.1f GFLOP/s", step_seconds * 1e3,
                 times.size(), flops * 1e-9, gflops);
   std::cout << line << "\n";

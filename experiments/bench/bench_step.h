@@ -15,6 +15,9 @@ struct BenchStepOptions {
   bool json = false;
   bool vs_pytorch = false;
   double seconds = 2.0;  // time spent in timed steps (after warm-up)
+  // A partial run config merged over the method's defaults (--config): its plugins loaded, e.g. a selector loss of
+  // a plugin added to MAPS's four ({"plugins": [...], "maps": {"selector_losses": {"task_overlap": 0.5}}}).
+  std::string config_path;
 };
 
 int run_bench_step(const BenchStepOptions& options);

@@ -18,6 +18,11 @@ void add_bench_step(CLI::App* bench, Commands& commands) {
   command
       ->add_option("--method", options->method, "The method whose step is timed, at its defaults (maps train --help)")
       ->capture_default_str();
+  command
+      ->add_option("--config", options->config_path,
+                   "A partial run config over the method's defaults, its plugins loaded (a plugin's selector loss "
+                   "added to MAPS's: {\"plugins\": [...], \"maps\": {\"selector_losses\": {...}}})")
+      ->check(CLI::ExistingFile);
   add_threads(command, options->threads, "Threads (0: one per core)");
   add_positive(command, "--seconds", options->seconds, "Time spent in timed steps");
   command->add_flag("--json", options->json, "Print one JSON object");

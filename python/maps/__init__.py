@@ -13,6 +13,9 @@
     x = maps.tensor([1.0, 2.0], requires_grad=True)
     (g,) = maps.grad(maps.sum(maps.tanh(x)), [x])
 
+    net = maps.nn.MLP([3, 16, 1], "tanh")             # maps.nn: modules, Parameter, save/load (torch.nn's names)
+    optimizer = maps.optim.Adam(net.parameters(), lr=1e-2)
+
 docs/python.md has the whole tour.
 """
 
@@ -24,47 +27,75 @@ import numpy as np
 from ._maps import (  # noqa: F401  (re-exported)
     DemoFile,
     Demonstration,
+    Generator,
     Tensor,
     abs,
+    add,
+    amax,
+    arange,
     clamp,
     concat,
+    div,
+    eq,
+    erf,
     exp,
+    expand,
+    full,
     grad,
     gradcheck,
     gradgradcheck,
+    gt,
+    index_select,
     is_grad_enabled,
+    linear,
     log,
     log_softmax,
+    manual_seed,
     matmul,
     maximum,
     mean,
     minimum,
     mse_loss,
+    mul,
+    narrow,
+    neg,
     num_threads,
+    one_hot,
+    ones,
+    pow,
+    rand,
+    randn,
     read_demo_file,
     relu,
+    reshape,
     set_flush_denormal,
     set_grad_enabled,
     set_num_threads,
     sigmoid,
     softmax,
+    softplus,
     sqrt,
     square,
     stack,
+    sub,
     sum,
     tanh,
     task_index,
     task_names,
     task_set_names,
     task_set_of,
+    transpose,
+    where,
     write_demo_file,
+    zeros,
 )
 from . import _maps
+from . import nn, optim  # noqa: F401  (maps.nn, maps.optim)
 
 __all__ = [
-    "Box", "DemoFile", "Demonstration", "Env", "Expert", "Run", "Tensor", "demo_arrays", "grad", "gradcheck",
-    "gradgradcheck", "load_expert", "load_run", "make_env", "no_grad", "read_demo_file", "task_names",
-    "task_set_names", "tensor", "write_demo_file",
+    "Box", "DemoFile", "Demonstration", "Env", "Expert", "Generator", "Run", "Tensor", "demo_arrays", "grad",
+    "gradcheck", "gradgradcheck", "load_expert", "load_run", "make_env", "manual_seed", "nn", "no_grad", "optim",
+    "read_demo_file", "task_names", "task_set_names", "tensor", "write_demo_file",
 ]
 
 
@@ -242,6 +273,40 @@ class Run:
         """Puts every selector score on one module (-1: the selector's own scores again), the paper's Fig. 6 probe."""
         self._run.force_module(module)
 
+    @property
+    def policy(self):
+        """The policy as a maps.nn.Module (named_parameters, state_dict, to, ...): the one act() and forward() run."""
+        return self._run.policy
+
+    def named_parameters(self):
+        """The policy's [(name, Tensor)]: its own tensors (sharing storage), leaves that require grad."""
+        return self._run.policy.named_parameters()
+
+    def parameters(self):
+        return self._run.policy.parameters()
+
+    def forward(self, observations, tasks):
+        """The policy's mean actions as a maps.Tensor on the graph: [n, A] for raw observations [n, S] (or [A] for
+        one [S]), standardised as act() does them, in grad mode as it is (on unless maps.no_grad()). Gradients reach
+        the policy's parameters (named_parameters()), and the observations when they are a maps.Tensor that
+        requires grad. The policy computes in its dtype: float32 as trained, float64 after run.policy.to("float64")
+        (for gradcheck)."""
+        if isinstance(observations, Tensor):
+            if observations.ndim not in (1, 2):
+                raise ValueError(f"observations must be [S] or [n, S], not shape {observations.shape}")
+            single = observations.ndim == 1
+            batch = observations.reshape(1, -1) if single else observations
+            rows = batch.shape[0]
+        else:
+            observations = np.asarray(observations, dtype=np.float64)
+            if observations.ndim not in (1, 2):
+                raise ValueError(f"observations must be [S] or [n, S], not shape {observations.shape}")
+            single = observations.ndim == 1
+            batch = observations.reshape(1, -1) if single else observations
+            rows = batch.shape[0]
+        actions = self._run.forward(batch, self.task_indices(tasks, rows))
+        return actions[0] if single else actions
+
     def __repr__(self):
         return f"<maps.Run {self.folder}: {self.method} on {self.task_set}, step {self.checkpoint.get('step')}>"
 
@@ -286,3 +351,129 @@ def demo_arrays(path_or_file, split=None):
     if not has_next:
         del parts["next_observations"]
     return {key: np.concatenate(value) if value else np.zeros(0) for key, value in parts.items()}
+
+
+# ----- your own selector losses and methods, trained by the C++ trainer (docs/extending.md) --------------------------
+
+from ._maps import Batch, PolicyShape, SelectorOutputs  # noqa: E402,F401  (re-exported)
+
+
+class SelectorLoss(_maps.SelectorLoss):
+    """Base of a selector loss written in Python: define forward(self, outputs) returning a scalar Tensor in the
+    scores' dtype, differentiable in them (outputs: SelectorOutputs, with scores [b, M], all_task_scores [K, b, M],
+    previous_scores [b, M], tasks, num_tasks, num_modules), and register the class with register_selector_loss. MAPS
+    calls it on every training step, weighted as the run config's maps.selector_losses says."""
+
+    def __init__(self):
+        super().__init__(type(self).__name__)
+
+    def forward(self, outputs):
+        raise NotImplementedError(f"{type(self).__name__} defines no forward(self, outputs)")
+
+
+class Policy(_maps.Policy):
+    """Base of a multi-task policy written in Python. __init__(self, shape, generator) calls
+    super().__init__(shape), then assigns its maps.nn modules and Parameters (initialised from `generator`, so a
+    run's seed decides them); act(self, observations, tasks) returns the mean actions [n, A] for standardised
+    observations [n, S]; loss(self, batch) returns a scalar Tensor (e.g. self.bc_loss(self.act(batch.observations,
+    batch.tasks), batch)) or a dict of named scalar terms whose sum is minimised. Register the class with
+    register_method."""
+
+    def __init__(self, shape):
+        super().__init__(shape, type(self).__name__)
+
+    def act(self, observations, tasks):
+        raise NotImplementedError(f"{type(self).__name__} defines no act(self, observations, tasks)")
+
+    def loss(self, batch):
+        return self.bc_loss(self.act(batch.observations, batch.tasks), batch)
+
+
+def register_selector_loss(name, cls):
+    """Makes the SelectorLoss subclass `cls` known as `name` to run configs (maps.selector_losses), maps.train and,
+    from a Python plugin file, the `maps` tool. Registering the same class again does nothing; a name a built-in or
+    another class has is a ValueError naming both. Returns `cls` (usable as a decorator's result)."""
+    _maps._register_selector_loss(name, cls)
+    return cls
+
+
+def register_method(name, cls, summary=""):
+    """Makes the Policy subclass `cls` known as method `name` (a run config's "method") to maps.train and, from a
+    Python plugin file, the `maps` tool. Returns `cls`."""
+    _maps._register_method(name, cls, summary)
+    return cls
+
+
+def selector_loss_names():
+    """Every selector loss known: the paper's four, then the registered ones."""
+    return _maps.selector_loss_names()
+
+
+def method_names():
+    """Every method known: the built-ins, then the registered ones."""
+    return _maps.method_names()
+
+
+def _load_plugin_file(path):
+    """Runs a config's Python plugin (called by the plugin loader, here or in the tool's embedded interpreter): the
+    file is imported as the module named after it, with its folder on sys.path so it can import its neighbours; a
+    module of that name already imported from the same file is not run again (its classes are registered)."""
+    import importlib.util
+    import os
+    import sys
+
+    path = os.path.realpath(path)
+    name = os.path.splitext(os.path.basename(path))[0]
+    loaded = sys.modules.get(name)
+    if loaded is not None and os.path.realpath(getattr(loaded, "__file__", "") or "") == path:
+        return loaded
+    folder = os.path.dirname(path)
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
+
+
+def train(config, out, *, selector_losses=None, policy=None, overrides=(), threads=1, print_config=False):
+    """Trains one run as `maps train --config CONFIG --out OUT` does, with the same C++ trainer: progress on stdout,
+    the run folder (config.json, checkpoints, curve.csv, train.log, provenance.json), resume when OUT holds a run of
+    the same config, extension when only train.steps grew.
+
+    config: a dict (a run config, docs/configs.md) or the path of a JSON file. Its "plugins" may name Python files
+    (and C++ plugins) as for the tool; a run whose Python pieces come from a plugin file can later be evaluated by
+    `maps eval` and run by `maps suite`.
+    selector_losses: {name: SelectorLoss subclass} registered before the config is read.
+    policy: a Policy subclass, registered as the config's "method" (set to the class's name in lowercase when the
+    config names none).
+    overrides: "key=value" strings, as --set. threads: op threads (0: one per core).
+    Returns OUT."""
+    import os
+
+    for name, cls in (selector_losses or {}).items():
+        register_selector_loss(name, cls)
+    config_path = ""
+    if isinstance(config, (str, os.PathLike)):
+        config_path = os.fspath(config)
+        if policy is not None:
+            raise ValueError("maps.train: give the config as a dict to train a `policy` class (its method name "
+                             "goes in the config)")
+        config_json = ""
+    else:
+        config = dict(config)
+        if policy is not None:
+            method = config.setdefault("method", policy.__name__.lower())
+            register_method(method, policy)
+        config_json = json.dumps(config)
+    if threads == 0:
+        threads = os.cpu_count() or 1
+    code = _maps._train(config_json, config_path, os.fspath(out), list(overrides), int(threads), bool(print_config))
+    if code != 0:
+        raise RuntimeError(f"maps.train: training into {out} stopped with code {code}")
+    return out

@@ -2,19 +2,11 @@
 # examples/plugin/ as a user runs it (issue 43): the library installed into a temporary prefix, the example copied
 # out of the tree and built against the prefix, its method and its selector loss trained, evaluated, run in a tiny
 # suite beside MAPS and MT-BC and reported by the installed tool; then what the runs record of the plugin, and the
-# tool's refusals of a missing plugin and of a plugin whose name is a built-in's.
+# tool's refusal of a missing plugin (the loader's other refusals: tests/experiments/plugins_test.cpp).
 #   plugin_example_test.sh BUILD_DIR
 set -euo pipefail
-build="$(cd "$1" && pwd)"
-source_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-work="$(mktemp -d "${TMPDIR:-/tmp}/maps-plugin-example-XXXXXX")"
-trap 'rm -rf "$work"' EXIT
-fail() { echo "plugin example: $*" >&2; exit 1; }
-cmake --install "$build" --prefix "$work/usr" > "$work/install.log"
-export MAPS_ASSETS_DIR="$work/usr/share/maps/envs/assets" MAPS_EXPERTS_DIR="$work/usr/share/maps/envs/experts"
-export MAPS_SUITES_DIR="$work/usr/share/maps/experiments/suites"
-cp -r "$source_dir/examples/plugin" "$work/example"
-rm -rf "$work/example/build" "$work/example/data" "$work/example/runs"
+source "$(dirname "${BASH_SOURCE[0]}")/installed_example.sh"
+installed_example plugin "$1"
 bash "$work/example/run_example.sh" "$work/usr" > "$work/example.log" 2>&1 || { tail -40 "$work/example.log" >&2; fail "run_example.sh failed"; }
 cd "$work/example"
 plugin="$(pwd)/build/libmaps_example_plugin.so"
