@@ -7,6 +7,7 @@
 
 #include "envs/mt10/tasks.h"
 #include "envs/source_folders.h"
+#include "envs/task_sets.h"
 #include "io/json_input.h"
 
 namespace maps::envs {
@@ -35,6 +36,21 @@ TaskExpert task_expert_from_policy(ExpertPolicy policy, std::string source) {
 }
 
 TaskExpert load_task_expert(const std::string& task, const std::filesystem::path& experts_dir) {
+  std::function<TaskExpert()> from_its_set;
+  try {
+    from_its_set = registered_expert(task);
+  } catch (const std::invalid_argument&) {
+    // Not a task of any set: the expert file is looked for, and its absence named, below.
+  }
+  if (from_its_set) {
+    TaskExpert expert = from_its_set();
+    if (expert.task != task || !expert.mean_action || !expert.sample_action)
+      throw std::runtime_error("the expert task set " + task_set_of(task) + " gives for " + task +
+                               " is not one (its task is '" + expert.task +
+                               "'; it needs mean_action and "
+                               "sample_action)");
+    return expert;
+  }
   if (task.rfind("mt10/", 0) == 0) {
     const mt10::ScriptedExpert policy = mt10::mt10_task(task).expert;
     TaskExpert expert;

@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "experiments/run/plugins.h"
-#include "experiments/run/provenance.h"
+#include "experiments/process/file_digest.h"
+#include "experiments/process/plugins.h"
 #include "experiments/run/train_run.h"
 #include "io/registry.h"
 #include "maps/policies/policy_registry.h"

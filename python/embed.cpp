@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 #include "python/bindings.h"
 
 namespace py = pybind11;

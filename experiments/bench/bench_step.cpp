@@ -15,7 +15,7 @@
 #include "autograd/autograd.h"
 #include "experiments/process/cpu_model.h"
 #include "experiments/process/host.h"
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 #include "experiments/run/provenance.h"
 #include "experiments/run/run_folder.h"
 #include "maps/policies/maps_flops.h"

@@ -14,7 +14,10 @@ void add_collect(CLI::App& tool, Commands& commands) {
   auto options = std::make_shared<CollectOptions>();
   CLI::App* command = tool.add_subcommand(
       "collect", "Roll a task set's committed experts out into demonstrations (HDF5, 70/30 train/valid per task)");
-  add_task_set(command, options->task_set)->required();
+  // Before --set: CLI11 stores options in the order they are declared, so --set's check sees the plugins given.
+  command->add_option("--plugin", options->plugins,
+                      "A C++ or Python plugin whose task set --set names (repeatable; docs/extending.md)");
+  add_task_set(command, options->task_set, &options->plugins)->required();
   add_positive(command, "--demos", options->demos, "Kept demonstrations per task");
   command->add_option("--out", options->out, "HDF5 file to write")->required();
   command->add_flag("--force", options->force, "Replace --out if it exists");

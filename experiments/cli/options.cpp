@@ -86,11 +86,17 @@ CLI::Option* add_seed(CLI::App* command, std::uint64_t& seed, const std::string&
   return command->add_option("--seed", seed, description)->check(seed_value())->capture_default_str();
 }
 
-CLI::Option* add_task_set(CLI::App* command, std::string& set) {
+CLI::Option* add_task_set(CLI::App* command, std::string& set, const std::vector<std::string>* plugins) {
   std::string names;
   const auto all = envs::task_set_names();
   for (std::size_t i = 0; i < all.size(); ++i) names += (i == 0 ? "" : i + 1 == all.size() ? " or " : ", ") + all[i];
-  return command->add_option("--set", set, "Task set: " + names)->check(task_set_name());
+  CLI::Option* option = command->add_option("--set", set, "Task set: " + names + (plugins ? ", or a plugin's" : ""));
+  if (plugins == nullptr) return option->check(task_set_name());
+  // A plugin's set is known once the plugin is loaded, which the command does first: checked there.
+  const CLI::Validator built_in = task_set_name();
+  return option->check(CLI::Validator(
+      [plugins, built_in](std::string& input) { return plugins->empty() ? built_in(input) : std::string(); },
+      built_in.get_description()));
 }
 
 int threads_or_cores(int threads) {

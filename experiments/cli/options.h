@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 // The option checks and the options every command declares alike, written once.
 namespace maps::experiments::cli {
@@ -30,7 +31,9 @@ CLI::Option* add_threads(CLI::App* command, int& threads, const std::string& des
 CLI::Option* add_jobs(CLI::App* command, int& jobs, const std::string& description);
 CLI::Option* add_seed(CLI::App* command, std::uint64_t& seed, const std::string& description);
 // --set NAME for a task set ("Task set: gravity, modified or mt10").
-CLI::Option* add_task_set(CLI::App* command, std::string& set);
+// `plugins` (collect's --plugin values): when any is given, a set name is checked by the command once they are
+// loaded, not by the command line.
+CLI::Option* add_task_set(CLI::App* command, std::string& set, const std::vector<std::string>* plugins = nullptr);
 // An option whose value must be > 0 (or >= 0), shown with its default.
 template <typename T>
 CLI::Option* add_positive(CLI::App* command, const std::string& name, T& value, const std::string& description) {

@@ -19,6 +19,7 @@
 #include "envs/task_sets.h"
 #include "experiments/process/host.h"
 #include "experiments/process/parallel_tasks.h"
+#include "experiments/process/plugins.h"
 #include "io/output_files.h"
 
 namespace maps::experiments {
@@ -46,6 +47,7 @@ std::vector<envs::TaskExpert> load_experts(const std::vector<std::string>& tasks
 }  // namespace
 
 int run_collect(const CollectOptions& options) {
+  for (const std::string& plugin : options.plugins) load_plugin(plugin, "--plugin");
   const std::vector<std::string> tasks = envs::task_names(options.task_set);
   if (options.demos < 2) throw std::invalid_argument("--demos: a train/valid split needs at least 2 per task");
   if (!(options.train_fraction > 0.0 && options.train_fraction < 1.0))
@@ -60,9 +62,9 @@ int run_collect(const CollectOptions& options) {
   config.actions = envs::parse_demo_actions(options.actions);
   config.first_seed = options.first_seed;
   config.min_return_fraction = options.min_return_fraction;
-  if (options.task_set == "mt10") {
+  if (envs::scored_by_success(options.task_set)) {
     // MT10's reward counts the steps at which the success test holds: demonstrations must succeed, and how long
-    // after success an episode runs says nothing of its quality.
+    // after success an episode runs says nothing of its quality (so for any set scored by success).
     config.require_success = true;
     config.min_return_fraction = 0.0;
   }

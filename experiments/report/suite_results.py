@@ -56,6 +56,7 @@ class TaskResult:
     top_score: float = None
     # HalfCheetah: the return with Gym's control cost on the unclipped action (nan where eval.json predates it)
     return_unclipped_cost: float = float("nan")
+    scored_by: str = None  # "success" or "return", as maps eval scored it (None where eval.json predates the key)
 
 
 @dataclass
@@ -272,7 +273,8 @@ def read_cell(path):
                                 float(t.get("final_success_rate", float("nan"))),
                                 float(t.get("return_mean", float("nan"))), usage,
                                 optional_float(t.get("selector_entropy")), optional_float(t.get("selector_top_score")),
-                                return_unclipped_cost=float(t.get("return_mean_unclipped_cost", float("nan")))))
+                                return_unclipped_cost=float(t.get("return_mean_unclipped_cost", float("nan"))),
+                                scored_by=t.get("scored_by")))
     if not tasks:
         raise ValueError("no tasks in eval")
     for t in tasks:
@@ -512,8 +514,10 @@ def module_sweep_cells(cells):
 
 
 def success_scored(set_name, cells=()):
-    """MT10 is scored by success rate, the cheetah sets by normalised return."""
-    return set_name == "mt10" or any(t.task.startswith("mt10/") for c in cells for t in c.tasks)
+    """MT10 is scored by success rate, the cheetah sets by normalised return; a plugin's set as maps eval says."""
+    return set_name == "mt10" or any(t.task.startswith("mt10/") or (t.scored_by == "success" and
+                                                                    t.task.startswith(set_name + "/"))
+                                     for c in cells for t in c.tasks)
 
 
 def score_name(set_name, cells=(), short=False):

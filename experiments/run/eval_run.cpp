@@ -12,6 +12,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "envs/task_sets.h"
 #include "experiments/process/host.h"
 #include "experiments/run/run_folder.h"
 #include "io/output_files.h"
@@ -123,7 +124,7 @@ int run_eval(const EvalRunOptions& options) {
   // The tasks scored: every task of the run, or eval.tasks of them (with their ids in the run's policy).
   std::vector<std::string> names;
   std::vector<double> expert_returns;
-  const bool by_return = data.task_set() != "mt10";
+  const bool by_return = !envs::scored_by_success(data.task_set());
   for (int k = 0; k < data.num_tasks(); ++k) {
     const std::string& name = data.task_names()[k];
     if (!config.eval_tasks.empty() &&
@@ -172,6 +173,7 @@ int run_eval(const EvalRunOptions& options) {
                          {"return_mean_unclipped_cost", t.return_mean_unclipped_cost},
                          {"success_rate", t.success_rate},
                          {"final_success_rate", t.final_success_rate},
+                         {"scored_by", by_return ? "return" : "success"},
                          {"returns", t.returns}};
     if (t.module_usage.size() > 0) {
       entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());

@@ -3,13 +3,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "experiments/process/file_digest.h"  // sha256_of_file, which provenance records
+
 // Where a run folder's results came from: each `maps train` invocation on it appends a record to
 // DIR/provenance.json (a JSON array), so a folder trained, resumed and extended shows every process that wrote it.
 namespace maps::experiments {
-
-// The SHA-256 of a file's bytes as 64 lowercase hex digits (the value `sha256sum FILE` prints). Throws naming the
-// file when it cannot be read.
-std::string sha256_of_file(const std::string& path);
 
 // {"tool_version", "git_commit", "started_utc" (ISO 8601), "command_line", "working_directory", "host", "cpu",
 // "float32_gemm_kernel"}, "plugins" (each loaded plugin's path, SHA-256, version and registrations) when any is

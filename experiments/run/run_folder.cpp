@@ -7,7 +7,7 @@
 #include <string>
 
 #include "envs/demo_file.h"
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 #include "io/atomic_file.h"
 #include "io/json_input.h"
 #include "maps/training/checkpoint_record.h"

@@ -10,9 +10,9 @@
 #include <stdexcept>
 
 #include "experiments/process/command_line.h"
+#include "experiments/process/plugins.h"
 #include "experiments/process/usage_error.h"
 #include "experiments/run/config_overrides.h"
-#include "experiments/run/plugins.h"
 #include "experiments/run/provenance.h"
 #include "experiments/run/run_folder.h"
 #include "experiments/run/tee_stream.h"

@@ -7,7 +7,7 @@
 #include <stdexcept>
 
 #include "envs/task_sets.h"
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 #include "experiments/run/run_folder.h"
 #include "experiments/suite/schema.h"
 #include "io/config_schema.h"

@@ -36,9 +36,18 @@ void ensure_demo_files(const Suite& suite, const std::vector<const SuiteCell*>& 
                 set.collect_demos, log.string().c_str());
     std::fflush(stdout);
     const auto start = std::chrono::steady_clock::now();
-    const int code = run_self({"collect", "--set", name, "--demos", std::to_string(set.collect_demos), "--out",
-                               partial.string(), "--threads", std::to_string(threads)},
-                              log);
+    std::vector<std::string> arguments{"collect",
+                                       "--set",
+                                       name,
+                                       "--demos",
+                                       std::to_string(set.collect_demos),
+                                       "--out",
+                                       partial.string(),
+                                       "--threads",
+                                       std::to_string(threads)};
+    for (const auto& plugin : suite.source.value("plugins", nlohmann::json::array()))  // a plugin's set
+      arguments.insert(arguments.end(), {"--plugin", plugin.get<std::string>()});
+    const int code = run_self(arguments, log);
     if (code != 0) {
       fs::remove(partial);
       throw std::runtime_error("collecting " + file.string() + " failed (exit " + std::to_string(code) +

@@ -21,7 +21,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 #include "experiments/run/run_folder.h"
 #include "io/config_schema.h"
 #include "io/json_input.h"

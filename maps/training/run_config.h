@@ -42,8 +42,8 @@ namespace maps::core {
 
 struct RunConfig {
   std::string method = "maps";
-  // Shared libraries to load before the config is read (their losses and methods; the tool loads them: experiments/
-  // run/plugins.h). The library only carries the list.
+  // Shared libraries to load before the config is read (their losses and methods; the tool loads them:
+  // experiments/process/plugins.h). The library only carries the list.
   std::vector<std::string> plugins;
   std::uint64_t seed = 0;
   std::string data_file;

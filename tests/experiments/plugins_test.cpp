@@ -1,8 +1,8 @@
-// The plugin loader (experiments/run/plugins.h) on the test plugins of tests/plugins/: each refusal the docs promise
+// The plugin loader (experiments/process/plugins.h) on the test plugins of tests/plugins/: each refusal the docs promise
 // (a missing file, no mark, another version, a dynamic-loader failure, a taken name) and a plugin's losses and
 // methods reaching the run config, the suite config and provenance.
 
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -11,6 +11,9 @@
 #include <fstream>
 #include <string>
 
+#include "envs/half_cheetah.h"
+#include "envs/task_expert.h"
+#include "envs/task_sets.h"
 #include "experiments/run/provenance.h"
 #include "experiments/suite/config.h"
 #include "io/version.h"
@@ -44,7 +47,8 @@ TEST_F(PluginsTest, APluginRegistersItsLossAndMethodWithItsPathAsOrigin) {
   EXPECT_EQ(loaded.path, fs::canonical(plugin("maps_test_plugin")).string());
   EXPECT_EQ(loaded.version, MAPS_VERSION);
   EXPECT_EQ(loaded.sha256, sha256_of_file(plugin("maps_test_plugin")));
-  EXPECT_THAT(loaded.registered, ::testing::ElementsAre("selector loss plugin_squared_scores", "method plugin_linear"));
+  EXPECT_THAT(loaded.registered, ::testing::ElementsAre("selector loss plugin_squared_scores", "method plugin_linear",
+                                                        "task set plugin_cheetah"));
   EXPECT_EQ(core::selector_loss_origin("plugin_squared_scores"), loaded.path);
   EXPECT_EQ(core::policy_method_origin("plugin_linear"), loaded.path);
   EXPECT_EQ(core::selector_loss_origin("share"), "");
@@ -52,6 +56,40 @@ TEST_F(PluginsTest, APluginRegistersItsLossAndMethodWithItsPathAsOrigin) {
   // The built-ins are still there, first.
   EXPECT_EQ(core::selector_losses().front().name, "share");
   EXPECT_EQ(core::policy_methods().front().name, "maps");
+}
+
+TEST_F(PluginsTest, APluginsTaskSetHasEnvsAndExpertsLikeABuiltIns) {
+  EXPECT_THROW(envs::task_names("plugin_cheetah"), std::invalid_argument);
+  const LoadedPlugin& loaded = load_plugin(plugin("maps_test_plugin"), "test");
+  const auto sets = envs::task_set_names();
+  EXPECT_THAT(sets, ::testing::ElementsAre("gravity", "modified", "mt10", "plugin_cheetah"));
+  EXPECT_THAT(envs::task_names("plugin_cheetah"), ::testing::ElementsAre("plugin_cheetah/g0_9", "plugin_cheetah/g1_1"));
+  EXPECT_EQ(envs::task_set_origin("plugin_cheetah"), loaded.path);
+  EXPECT_EQ(envs::task_set_origin("gravity"), "");
+  EXPECT_FALSE(envs::scored_by_success("plugin_cheetah"));
+  EXPECT_TRUE(envs::scored_by_success("mt10"));
+  EXPECT_EQ(envs::task_index("plugin_cheetah/g1_1"), 1);
+  const auto env = envs::make_env("plugin_cheetah/g1_1");
+  EXPECT_EQ(env->spec().task, "plugin_cheetah/g1_1");
+  const envs::TaskExpert expert = envs::load_task_expert("plugin_cheetah/g1_1");
+  EXPECT_EQ(expert.task, "plugin_cheetah/g1_1");
+  EXPECT_EQ(expert.mean_action(env->reset(1)).size(), env->spec().action_size);
+}
+
+TEST_F(PluginsTest, ATaskSetIsRefusedWithoutTasksOrWithTasksOfAnotherName) {
+  envs::TaskSetDefinition empty;
+  empty.name = "empty_set";
+  EXPECT_THAT(error_of([&] { envs::register_task_set(empty); }), HasSubstr("task set 'empty_set': it has no tasks"));
+  const envs::EnvFactory cheetah = [](const std::string& name, std::int64_t index) -> std::unique_ptr<envs::Env> {
+    return std::make_unique<envs::HalfCheetahEnv>(name, index);
+  };
+  envs::TaskSetDefinition misnamed{"good_set", {{"other/t", cheetah}}};
+  EXPECT_THAT(error_of([&] { envs::register_task_set(misnamed); }),
+              HasSubstr("task 'other/t' is not named 'good_set/<task>'"));
+  envs::TaskSetDefinition taken = misnamed;
+  taken.name = "gravity";
+  taken.tasks[0].name = "gravity/x";
+  EXPECT_THAT(error_of([&] { envs::register_task_set(taken); }), HasSubstr("the name is taken"));
 }
 
 TEST_F(PluginsTest, ASecondLoadOfTheSamePluginIsTheFirst) {

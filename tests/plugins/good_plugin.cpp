@@ -1,10 +1,15 @@
-// A plugin as a user writes one: a selector loss and a small method, registered by name. The loader's tests load it
-// into the test program; tests/experiments/plugin_cli_test.py trains and evaluates with it through the tool.
+// A plugin as a user writes one: a selector loss, a small method and a task set, registered by name. The loader's
+// tests load it into the test program; tests/experiments/plugin_task_set_test.py collects, trains and evaluates with
+// it through the tool.
 
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <utility>
 #include <vector>
 
+#include "envs/half_cheetah.h"
+#include "envs/task_sets.h"
 #include "maps/plugin.h"
 #include "maps/policies/baseline_util.h"
 #include "maps/policies/policy_registry.h"
@@ -73,7 +78,27 @@ maps::core::PolicyMethod linear_method() {
   return method;
 }
 
+// Two HalfCheetahs under gravities between Gravity's, demonstrated by Gravity's g = 1.0 expert.
+maps::envs::TaskSetDefinition cheetah_set() {
+  maps::envs::TaskSetDefinition set;
+  set.name = "plugin_cheetah";
+  for (const auto& [task, scale] :
+       {std::pair<std::string, double>{"plugin_cheetah/g0_9", 0.9}, {"plugin_cheetah/g1_1", 1.1}})
+    set.tasks.push_back(
+        {task,
+         [scale](const std::string& name, std::int64_t index) -> std::unique_ptr<maps::envs::Env> {
+           return std::make_unique<maps::envs::HalfCheetahEnv>(name, index, maps::envs::HalfCheetahVariant{scale, {}});
+         },
+         [task] {
+           maps::envs::TaskExpert expert = maps::envs::load_task_expert("gravity/1.0");
+           expert.task = task;
+           return expert;
+         }});
+  return set;
+}
+
 }  // namespace
 
+MAPS_REGISTER_TASK_SET(cheetah_set());
 MAPS_REGISTER_SELECTOR_LOSS("plugin_squared_scores", [] { return std::make_shared<SquaredScoresLoss>(); });
 MAPS_REGISTER_POLICY_METHOD(linear_method());

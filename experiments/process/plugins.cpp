@@ -1,4 +1,4 @@
-#include "experiments/run/plugins.h"
+#include "experiments/process/plugins.h"
 
 #include <dlfcn.h>
 
@@ -11,7 +11,8 @@
 #include <mutex>
 #include <stdexcept>
 
-#include "experiments/run/provenance.h"
+#include "envs/task_sets.h"
+#include "experiments/process/file_digest.h"
 #include "io/registry.h"
 #include "io/version.h"
 #include "maps/plugin.h"
@@ -71,6 +72,7 @@ std::vector<std::string> registered_names() {
   std::vector<std::string> names;
   for (const auto& loss : core::selector_losses()) names.push_back("selector loss " + loss.name);
   for (const auto& method : core::policy_methods()) names.push_back("method " + method.name);
+  for (const auto& set : envs::task_set_names()) names.push_back("task set " + set);
   return names;
 }
 
@@ -143,7 +145,8 @@ const LoadedPlugin& load_plugin(const std::string& given_path, const std::string
     const char* message = dlerror();
     throw std::invalid_argument(where + " could not be loaded: " + (message ? message : "unknown error") +
                                 " (a plugin links maps::plugin, not the maps libraries, and is built for this "
-                                "machine's architecture; docs/extending.md)");
+                                "machine's architecture; C++ plugins are loaded by the maps tool, and from Python "
+                                "a config names Python files instead; docs/extending.md)");
   }
   // The handle is never closed: the registries hold the plugin's factories.
   const auto* mark = static_cast<const char*>(dlsym(handle, "maps_plugin_mark"));
