@@ -1,5 +1,7 @@
 // The float32 products of a MAPS training step, and the 1024^3 reference, in maps's own kernel (ag::gemm, which
-// runs autograd/gemm_f32.h) and in Eigen's GEMM on the same operands, one thread. Counters: GFLOP/s.
+// runs autograd/gemm_f32.h), in its bfloat16 kernel (autograd/gemm_bf16.h: operands rounded to bfloat16, sums in
+// float32; skipped on a CPU without AVX512-BF16) and in Eigen's GEMM on the same operands, one thread. Counters:
+// GFLOP/s.
 // Run: build/bin/maps_bench --benchmark_filter=Gemm
 #include <benchmark/benchmark.h>
 
@@ -8,6 +10,7 @@
 #include <string>
 
 #include "autograd/autograd.h"
+#include "autograd/gemm_bf16.h"
 
 namespace {
 
@@ -58,6 +61,27 @@ void BM_GemmOwn(benchmark::State& state) {
   set_counters(state, s, ag::float32_gemm_kernel());
 }
 
+// The bfloat16 kernel on the same products (operands rounded as it packs them, as a training step in bf16 would).
+void BM_GemmBf16(benchmark::State& state) {
+  if (!ag::detail::cpu_has_avx512_bf16()) {
+    state.SkipWithError(("this CPU lacks " + ag::detail::avx512_bf16_missing()).c_str());
+    return;
+  }
+  const Shape s = shape_of(state.range(0));
+  const RowMatrixF a = s.ta ? RowMatrixF::Random(s.k, s.m) : RowMatrixF::Random(s.m, s.k);
+  const RowMatrixF b = s.tb ? RowMatrixF::Random(s.n, s.k) : RowMatrixF::Random(s.k, s.n);
+  RowMatrixF c(s.m, s.n);
+  const ag::detail::StridedF32 sa =
+      s.ta ? ag::detail::StridedF32{a.data(), 1, s.m} : ag::detail::StridedF32{a.data(), s.k, 1};
+  const ag::detail::StridedF32 sb =
+      s.tb ? ag::detail::StridedF32{b.data(), 1, s.k} : ag::detail::StridedF32{b.data(), s.n, 1};
+  for (auto _ : state) {
+    ag::detail::gemm_bf16(sa, sb, c.data(), s.n, s.m, s.n, s.k, false);
+    benchmark::DoNotOptimize(c.data());
+  }
+  set_counters(state, s, "maps AVX512-BF16");
+}
+
 void BM_GemmEigen(benchmark::State& state) {
   const Shape s = shape_of(state.range(0));
   const RowMatrixF a = s.ta ? RowMatrixF::Random(s.k, s.m) : RowMatrixF::Random(s.m, s.k);
@@ -79,6 +103,7 @@ void BM_GemmEigen(benchmark::State& state) {
 }
 
 BENCHMARK(BM_GemmOwn)->DenseRange(0, 7)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_GemmBf16)->DenseRange(0, 7)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_GemmEigen)->DenseRange(0, 7)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
