@@ -82,8 +82,9 @@ maps::core::PolicyMethod linear_method() {
 maps::envs::TaskSetDefinition cheetah_set() {
   maps::envs::TaskSetDefinition set;
   set.name = "plugin_cheetah";
-  for (const auto& [task, scale] :
-       {std::pair<std::string, double>{"plugin_cheetah/g0_9", 0.9}, {"plugin_cheetah/g1_1", 1.1}})
+  for (const auto& entry : {std::pair<std::string, double>{"plugin_cheetah/g0_9", 0.9}, {"plugin_cheetah/g1_1", 1.1}}) {
+    const std::string task = entry.first;  // copies: a lambda cannot capture a structured binding before clang 16
+    const double scale = entry.second;
     set.tasks.push_back(
         {task,
          [scale](const std::string& name, std::int64_t index) -> std::unique_ptr<maps::envs::Env> {
@@ -94,6 +95,7 @@ maps::envs::TaskSetDefinition cheetah_set() {
            expert.task = task;
            return expert;
          }});
+  }
   return set;
 }
 
