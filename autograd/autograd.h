@@ -7,6 +7,7 @@
 #include "autograd/generator.h"
 #include "autograd/grad_mode.h"
 #include "autograd/gradcheck.h"
+#include "autograd/matmul_precision.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
 #include "autograd/parallel.h"

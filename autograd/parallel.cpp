@@ -10,6 +10,7 @@
 #include <string>
 
 #include "autograd/float_environment.h"
+#include "autograd/matmul_precision.h"
 
 namespace maps::ag {
 namespace {
@@ -43,11 +44,13 @@ void parallel_for_ranges(std::int64_t count, std::int64_t ranges,
   }
   std::exception_ptr error;
   std::mutex error_mutex;
-  // The threads compute as the caller does (flushing denormals or not: the mode is per thread).
+  // The threads compute as the caller does (flushing denormals or not, the products' precision: both per thread).
   const unsigned denormal_bits = detail::denormal_bits();
+  const MatmulPrecision precision = matmul_precision();
 #pragma omp parallel num_threads(static_cast <int>(ranges))
   {
     detail::set_denormal_bits(denormal_bits);
+    set_matmul_precision(precision);
     // OpenMP may start fewer threads than asked for: then a thread takes several ranges.
     const std::int64_t used = omp_get_num_threads();
     for (std::int64_t r = omp_get_thread_num(); r < ranges; r += used) {

@@ -16,6 +16,7 @@ PACKAGES=(
   clang-format
   clang               # fuzz/run.sh: libFuzzer targets (clang 14 with libclang-rt-14-dev)
   libclang-rt-14-dev
+  lld                 # .ci/run links the sanitizer builds' 70 MB executables with lld (5x faster than GNU ld)
   libomp-14-dev       # .ci/run: ThreadSanitizer with clang needs libomp and its Archer tool (libarcher.so)
   libmujoco-dev
   libqhull-dev  # mujoco's CMake config names /usr/include/libqhull_r

@@ -172,7 +172,15 @@ int run_bench_step(const BenchStepOptions& options) {
     given.merge_patch(request);  // --method and the unused data file over the config's
     request = std::move(given);
   }
+  if (!options.precision.empty()) request["train"]["precision"] = options.precision;
   const core::RunConfig run_config = parse_run_config_from(request, "bench step");
+  const std::string& precision_name = run_config.train.precision;
+  const ag::MatmulPrecision precision = ag::parse_matmul_precision(precision_name);
+  if (const std::string missing = ag::matmul_precision_missing(precision); !missing.empty())
+    throw std::invalid_argument("bench step: precision " + precision_name +
+                                " needs a CPU with AVX512-BF16, and this one (" + cpu_model() + ") lacks " + missing);
+  // The steps and the own GEMM reference alike; Eigen's reference stays float32.
+  const ag::MatmulPrecisionGuard precision_guard(precision);
   const core::MAPSConfig& config = run_config.maps;
   if (options.vs_pytorch && options.method != "maps")
     throw std::invalid_argument(
@@ -265,6 +273,7 @@ int run_bench_step(const BenchStepOptions& options) {
                         {"own_gemm_gflops", own_gemm},
                         {"ratio_to_own_gemm", gflops / own_gemm},
                         {"float32_gemm_kernel", ag::float32_gemm_kernel()},
+                        {"matmul_precision", precision_name},
                         {"cpu", cpu_model()}};
   if (options.method == "maps") result["selector_losses"] = core::to_json(run_config)["maps"]["selector_losses"];
   if (!run_config.plugins.empty()) result["plugins"] = run_config.plugins;
@@ -288,6 +297,7 @@ int run_bench_step(const BenchStepOptions& options) {
       static_cast<long long>(s.shape.observation_size), static_cast<long long>(s.shape.action_size),
       static_cast<long long>(policy.parameter_count()), options.threads, options.threads == 1 ? "" : "s");
   std::cout << "  CPU: " << cpu_model() << "\n";
+  std::cout << "  matrix products: " << precision_name << "\n";
   if (result.contains("selector_losses"))
     std::cout << "  selector losses: " << result["selector_losses"].dump() << "\n";
   std::snprintf(line, sizeof line, "  %.3f ms/step (median of %zu), %.3f GFLOP/step, %.1f GFLOP/s", step_seconds * 1e3,
@@ -302,9 +312,11 @@ int run_bench_step(const BenchStepOptions& options) {
                 gemm_times.size(), gemm, gflops / gemm);
   std::cout << line << "\n";
   std::snprintf(line, sizeof line,
-                "  maps's own float32 GEMM 1024^3 (ag::matmul, kernel: %s; what the step runs on): %.1f GFLOP/s; the "
+                "  maps's own %s GEMM 1024^3 (ag::matmul, kernel: %s; what the step runs on): %.1f GFLOP/s; the "
                 "step reaches %.2f of it",
-                ag::float32_gemm_kernel(), own_gemm, gflops / own_gemm);
+                precision_name.c_str(),
+                precision == ag::MatmulPrecision::bf16 ? "maps AVX512-BF16" : ag::float32_gemm_kernel(), own_gemm,
+                gflops / own_gemm);
   std::cout << line << "\n";
   if (result.contains("pytorch_ms_per_step")) {
     std::snprintf(line, sizeof line, "  PyTorch: %.3f ms/step; maps is %.2fx PyTorch",

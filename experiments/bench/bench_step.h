@@ -15,6 +15,9 @@ struct BenchStepOptions {
   bool json = false;
   bool vs_pytorch = false;
   double seconds = 2.0;  // time spent in timed steps (after warm-up)
+  // The step's matrix products (train.precision): "float32" or "bf16"; empty: the config's (float32 by default).
+  // maps's own GEMM reference is timed in the same precision.
+  std::string precision;
   // A partial run config merged over the method's defaults (--config): its plugins loaded, e.g. a selector loss of
   // a plugin added to MAPS's four ({"plugins": [...], "maps": {"selector_losses": {"task_overlap": 0.5}}}).
   std::string config_path;

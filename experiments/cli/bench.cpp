@@ -2,6 +2,7 @@
 
 #include <memory>
 
+#include "autograd/matmul_precision.h"
 #include "experiments/bench/bench_eval.h"
 #include "experiments/bench/bench_step.h"
 #include "experiments/cli/command.h"
@@ -23,6 +24,11 @@ void add_bench_step(CLI::App* bench, Commands& commands) {
                    "A partial run config over the method's defaults, its plugins loaded (a plugin's selector loss "
                    "added to MAPS's: {\"plugins\": [...], \"maps\": {\"selector_losses\": {...}}})")
       ->check(CLI::ExistingFile);
+  command
+      ->add_option("--precision", options->precision,
+                   "The step's matrix products, as train.precision: float32 or bf16 (AVX512-BF16 CPUs); default: "
+                   "the config's, float32")
+      ->check(CLI::IsMember(ag::matmul_precision_names()));
   add_threads(command, options->threads, "Threads (0: one per core)");
   add_positive(command, "--seconds", options->seconds, "Time spent in timed steps");
   command->add_flag("--json", options->json, "Print one JSON object");

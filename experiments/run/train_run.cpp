@@ -9,7 +9,9 @@
 #include <iostream>
 #include <stdexcept>
 
+#include "autograd/matmul_precision.h"
 #include "experiments/process/command_line.h"
+#include "experiments/process/cpu_model.h"
 #include "experiments/process/plugins.h"
 #include "experiments/process/usage_error.h"
 #include "experiments/run/config_overrides.h"
@@ -89,6 +91,12 @@ int run_train(const TrainRunOptions& options) {
     return 0;
   }
   if (options.out.empty()) throw UsageError("maps train: --out DIR is required (unless --print-config)");
+  // Before the run folder is touched: a precision this CPU lacks is refused by name, not met as a crash.
+  if (const std::string missing = ag::matmul_precision_missing(ag::parse_matmul_precision(config.train.precision));
+      !missing.empty())
+    throw std::invalid_argument(where + ": train.precision \"" + config.train.precision +
+                                "\" needs a CPU with AVX512-BF16, and this one (" + cpu_model() + ") lacks " + missing +
+                                "; use \"float32\"");
   std::vector<std::string> writes = kTrainWrites;
   if (std::filesystem::is_directory(options.out))
     for (const auto& entry : std::filesystem::directory_iterator(options.out))
@@ -110,6 +118,7 @@ int run_train(const TrainRunOptions& options) {
                                                       {"start_step", core::trained_steps(options.out)},
                                                       {"steps", config.train.steps},
                                                       {"threads", options.threads},
+                                                      {"matmul_precision", config.train.precision},
                                                       {"demo_file", config.data_file},
                                                       {"demo_file_sha256", sha256_of_file(config.data_file)}}));
     const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};

@@ -30,8 +30,8 @@ nlohmann::json training_attempts(const std::filesystem::path& dir) {
         start->get<long long>() >= steps->get<long long>())
       continue;
     nlohmann::json attempt = nlohmann::json::object();
-    for (const char* key :
-         {"started_utc", "git_commit", "cpu", "float32_gemm_kernel", "threads", "start_step", "steps"})
+    for (const char* key : {"started_utc", "git_commit", "cpu", "float32_gemm_kernel", "matmul_precision", "threads",
+                            "start_step", "steps"})
       if (record.contains(key)) attempt[key] = record[key];
     attempts.push_back(attempt);
   }

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "autograd/float_environment.h"
+#include "autograd/matmul_precision.h"
 #include "envs/portable_random.h"
 #include "io/atomic_file.h"
 #include "maps/training/checkpoint_record.h"
@@ -252,6 +253,11 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     throw std::invalid_argument("train: steps, states_per_task, validate_every and checkpoint_every must be >= 1");
   if (config.keep_every < 0)
     throw std::invalid_argument("train: keep_every must be >= 0 (0: keep no step checkpoints)");
+  const ag::MatmulPrecision precision = ag::parse_matmul_precision(config.precision);
+  if (const std::string missing = ag::matmul_precision_missing(precision); !missing.empty())
+    throw std::invalid_argument("train.precision \"" + config.precision +
+                                "\" needs a CPU with AVX512-BF16, and this one lacks " + missing +
+                                " (use \"float32\")");
   fs::create_directories(run_dir);
   const ag::FlushDenormalGuard flush(config.flush_denormal);
   const std::string last_path = (fs::path(run_dir) / run_files::kLastCheckpoint).string();
@@ -312,7 +318,11 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   while (progress.step < config.steps) {
     Batch batch = data.sample(per_task, rng, ag::Dtype::Float32);
     batch.noise_seed = envs::splitmix64(noise_stream ^ static_cast<std::uint64_t>(progress.step));
-    const LossTerms terms = optimizer_step(policy, batch, trained.tensors, trained.selector, adam, config.optimizer);
+    const LossTerms terms = [&] {
+      // The step only: validation judges checkpoints with the float32 products evaluation runs.
+      const ag::MatmulPrecisionGuard step_precision(precision);
+      return optimizer_step(policy, batch, trained.tensors, trained.selector, adam, config.optimizer);
+    }();
     const double total = terms.total.item();
     if (!std::isfinite(total)) {
       std::string culprit = "total";

@@ -41,6 +41,9 @@ struct TrainConfig {
   // Training (steps and validation) flushes denormal floats to zero (autograd/float_environment.h): 3-6x faster
   // once MAPS's selector sharpens. false: IEEE denormals, as runs made before the option existed.
   bool flush_denormal = true;
+  // The training steps' matrix products (autograd/matmul_precision.h): "float32", or "bf16" (bfloat16 operands,
+  // float32 sums; CPUs with AVX512-BF16 only). Parameters, Adam's state, losses and validation stay float32.
+  std::string precision = "float32";
   // "joint": one Adam step on every parameter per batch. "alternating": the paper's code's (train.py): on each batch
   // the selector's parameters take their step first, then the loss is computed again with the stepped selector
   // (a fresh sampled-BC noise draw) and every other parameter takes its step; one Adam state serves both. A policy

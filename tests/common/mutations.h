@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdlib>
@@ -23,9 +24,13 @@
 
 namespace maps::testing {
 
+// MAPS_PROPERTY_CASES, else `fallback`; a third of it (at least 20) under MAPS_TEST_QUICK=1, CI's sanitizer pass,
+// where a case that writes and reads a file costs some 0.2 s (the fuzz targets mutate the same readers there).
 inline int property_cases(int fallback) {
   const char* text = std::getenv("MAPS_PROPERTY_CASES");
-  return text && std::atoi(text) > 0 ? std::atoi(text) : fallback;
+  if (text && std::atoi(text) > 0) return std::atoi(text);
+  const char* quick = std::getenv("MAPS_TEST_QUICK");
+  return quick && std::string(quick) == "1" ? std::max(20, fallback / 3) : fallback;
 }
 
 inline std::uint64_t property_seed() {

@@ -6,6 +6,7 @@ Run by ctest with the maps binary as the argument (tests/CMakeLists.txt)."""
 import json
 import math
 import pathlib
+import re
 import subprocess
 import sys
 import unittest
@@ -53,6 +54,21 @@ class BenchStep(unittest.TestCase):
         # A speed figure names its CPU: /proc/cpuinfo's first model name.
         self.assertEqual(result["cpu"], cpu_model())
         self.assertIn(result["float32_gemm_kernel"], ("maps AVX-512", "maps AVX2", "Eigen"))
+
+    def test_precision_bf16_runs_where_the_cpu_has_it_and_is_refused_by_name_where_not(self):
+        done = run("bench", "step", "--set", "mt10", "--seconds", "0.1", "--precision", "bf16", "--json")
+        flags = pathlib.Path("/proc/cpuinfo").read_text()
+        if all(re.search(rf"\b{flag}\b", flags) for flag in ("avx512f", "avx512bw", "avx512_bf16")):
+            self.assertEqual(done.returncode, 0, done.stderr)
+            result = json.loads(done.stdout.strip().splitlines()[-1])
+            self.assertEqual(result["matmul_precision"], "bf16")
+            self.assertTrue(math.isfinite(result["ms_per_step"]) and result["ms_per_step"] > 0)
+        else:
+            self.assertNotEqual(done.returncode, 0)
+            self.assertIn("precision bf16 needs a CPU with AVX512-BF16", done.stderr)
+        default = json.loads(run("bench", "step", "--set", "mt10", "--seconds", "0.05", "--json").stdout.strip()
+                             .splitlines()[-1])
+        self.assertEqual(default["matmul_precision"], "float32")
 
     def test_text_output_names_the_set_and_the_ceiling(self):
         done = run("bench", "step", "--set", "gravity", "--seconds", "0.1")

@@ -121,6 +121,7 @@ class Tool(unittest.TestCase):
             # The machine's CPU and float32 kernel: CPU-time figures of runs on different machines differ.
             self.assertTrue(record["cpu"])
             self.assertIn(record["float32_gemm_kernel"], ("maps AVX-512", "maps AVX2", "Eigen"))
+            self.assertEqual(record["matmul_precision"], "float32")
         self.assertGreaterEqual(records[0]["threads"], 1)  # --threads 0: one per core
         self.assertEqual(records[1]["overrides"], ["train.steps=150"])
         log = (out / "train.log").read_text()
@@ -130,6 +131,29 @@ class Tool(unittest.TestCase):
         failed = run("train", "--config", self.config, "--out", out, "--set", "seed=9", check=False)
         self.assertEqual(failed.returncode, 1)
         self.assertEqual((out / "train.log").read_text().splitlines()[-1], failed.stderr.strip())
+
+    def test_bf16_trains_where_the_cpu_has_it_and_is_refused_by_name_where_not(self):
+        """train.precision bf16 (issue 44): on a CPU with AVX512-BF16 a run trains and its provenance records the
+        precision; on one without, the run is refused naming the key and what the CPU lacks, before its folder is
+        made."""
+        out = work() / "bf16"
+        cpu_flags = pathlib.Path("/proc/cpuinfo").read_text()
+        has_bf16 = all(re.search(rf"\b{flag}\b", cpu_flags) for flag in ("avx512f", "avx512bw", "avx512_bf16"))
+        done = run("train", "--config", self.config, "--out", out, "--set", "train.precision=bf16", check=False)
+        if has_bf16:
+            self.assertEqual(done.returncode, 0, done.stderr)
+            record = json.loads((out / "provenance.json").read_text())[-1]
+            self.assertEqual(record["matmul_precision"], "bf16")
+            self.assertEqual(json.loads((out / "config.json").read_text())["train"]["precision"], "bf16")
+            self.assertTrue((out / "best.ckpt").exists())
+        else:
+            self.assertEqual(done.returncode, 1)
+            self.assertIn("train.precision \"bf16\"", done.stderr)
+            self.assertIn("avx512", done.stderr)
+            self.assertFalse(out.exists())
+        wrong = run("train", "--config", self.config, "--out", out, "--set", "train.precision=fp16", check=False)
+        self.assertNotEqual(wrong.returncode, 0)
+        self.assertIn("train.precision", wrong.stderr)
 
     def test_eval_shows_progress(self):
         out = work() / "evaluated"

@@ -1,0 +1,42 @@
+#include "autograd/matmul_precision.h"
+
+#include <stdexcept>
+
+#include "autograd/gemm_bf16.h"
+
+namespace maps::ag {
+namespace {
+thread_local MatmulPrecision current = MatmulPrecision::float32;
+}  // namespace
+
+std::string to_string(MatmulPrecision precision) { return precision == MatmulPrecision::bf16 ? "bf16" : "float32"; }
+
+const std::vector<std::string>& matmul_precision_names() {
+  static const std::vector<std::string> names{"float32", "bf16"};
+  return names;
+}
+
+MatmulPrecision parse_matmul_precision(const std::string& name) {
+  if (name == "float32") return MatmulPrecision::float32;
+  if (name == "bf16") return MatmulPrecision::bf16;
+  throw std::invalid_argument("matmul precision '" + name + "': expected one of float32, bf16");
+}
+
+std::string matmul_precision_missing(MatmulPrecision precision) {
+  if (precision == MatmulPrecision::float32 || detail::cpu_has_avx512_bf16()) return "";
+  return detail::avx512_bf16_missing();
+}
+
+MatmulPrecision set_matmul_precision(MatmulPrecision precision) {
+  if (const std::string missing = matmul_precision_missing(precision); !missing.empty()) {
+    throw std::runtime_error("bf16 matrix products need a CPU with AVX512-BF16; this one lacks " + missing +
+                             " (use float32)");
+  }
+  const MatmulPrecision previous = current;
+  current = precision;
+  return previous;
+}
+
+MatmulPrecision matmul_precision() { return current; }
+
+}  // namespace maps::ag
