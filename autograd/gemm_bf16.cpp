@@ -82,6 +82,13 @@ MAPS_BF16_TARGET __mmask16 first(i64 n) {
   return n >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << std::max<i64>(n, 0)) - 1u);
 }
 
+// The words of 16 columns (under `mask`) of two rows of floats, `even` and `even + stride` (zero when !has_odd).
+MAPS_BF16_TARGET __m512i pair_words(const float* even, i64 stride, __mmask16 mask, bool has_odd) {
+  const __m512 e = _mm512_maskz_loadu_ps(mask, even);
+  const __m512 o = has_odd ? _mm512_maskz_loadu_ps(mask, even + stride) : _mm512_setzero_ps();
+  return interleaved_pairs(e, o);
+}
+
 // kc floats along k, adjacent in memory, as the words of their (kc + 1) / 2 pairs (the last padded with a zero),
 // word p at dst[p * stride]: 32 floats converted at once, their 16 words spread.
 MAPS_BF16_TARGET void pack_run(const float* run, i64 kc, std::uint32_t* dst, i64 stride) {
@@ -90,43 +97,55 @@ MAPS_BF16_TARGET void pack_run(const float* run, i64 kc, std::uint32_t* dst, i64
   for (i64 p = 0; p < pairs; p += 16) {
     const __m512 low = _mm512_maskz_loadu_ps(first(kc - 2 * p), run + 2 * p);
     const __m512 high = _mm512_maskz_loadu_ps(first(kc - 2 * p - 16), run + 2 * p + 16);
-    _mm512_store_si512(words, (__m512i)_mm512_cvtne2ps_pbh(high, low));
+    const __m512i converted = (__m512i)_mm512_cvtne2ps_pbh(high, low);
     const i64 count = std::min<i64>(16, pairs - p);
+    if (stride == 1) {
+      _mm512_mask_storeu_epi32(dst + p, first(count), converted);
+      continue;
+    }
+    _mm512_store_si512(words, converted);
     for (i64 t = 0; t < count; ++t) dst[(p + t) * stride] = words[t];
   }
 }
 
-// Where A's row r of pair p goes in the packed strip: strips of kTileRows rows, each pair-major, so a tile reads
-// its rows' words of one pair from consecutive addresses and walks its strip in order.
-inline i64 a_word(i64 r, i64 p, i64 pairs) {
-  return (r / kTileRows) * pairs * kTileRows + p * kTileRows + r % kTileRows;
-}
+// A packed block of A is in one of two layouts, whichever A's storage makes cheap to write: row-major words (A
+// stored row-major: a row's pairs are adjacent floats, converted 32 at a time and stored in order), or strips of
+// kTileRows rows, each pair-major (A stored transposed: a pair's two k are two stored rows, whose words for 16 rows
+// come out of one interleave). A tile reads word (r, p) at r * row_stride + p * pair_stride from its first row's.
+struct PackedA {
+  bool rows_of_words;
+  i64 pairs;
+  i64 word(i64 r, i64 p) const {
+    return rows_of_words ? r * pairs + p : (r / kTileRows) * pairs * kTileRows + p * kTileRows + r % kTileRows;
+  }
+  i64 row_stride() const { return rows_of_words ? pairs : 1; }
+  i64 pair_stride() const { return rows_of_words ? 1 : kTileRows; }
+};
 
-// A's rows [i0, i0 + rows) and inner block [k0, k0 + kc) as bfloat16 pairs (at a_word): the word of row r and pair
-// p holds A(i0 + r, k0 + 2p) in its low half and A(i0 + r, k0 + 2p + 1) in its high half (zero past the block).
-MAPS_BF16_TARGET void pack_a(StridedF32 a, i64 i0, i64 rows, i64 k0, i64 kc, std::uint32_t* out) {
-  const i64 pairs = (kc + 1) / 2;
+inline PackedA packed_a_layout(StridedF32 a, i64 kc) { return {a.row_stride != 1 && a.col_stride == 1, (kc + 1) / 2}; }
+
+// A's rows [i0, i0 + rows) and inner block [k0, k0 + kc) as bfloat16 pairs (at layout.word): the word of row r and
+// pair p holds A(i0 + r, k0 + 2p) in its low half and A(i0 + r, k0 + 2p + 1) in its high half (zero past the block).
+MAPS_BF16_TARGET void pack_a(StridedF32 a, i64 i0, i64 rows, i64 k0, i64 kc, const PackedA& layout,
+                             std::uint32_t* out) {
+  const i64 pairs = layout.pairs;
+  if (layout.rows_of_words) {
+    for (i64 r = 0; r < rows; ++r) pack_run(a.data + (i0 + r) * a.row_stride + k0, kc, out + r * pairs, 1);
+    return;
+  }
   if (a.row_stride == 1) {  // A stored transposed (X^T G): a pair's two k are two rows of the stored matrix
     for (i64 p = 0; p < pairs; ++p) {
       const float* even = a.data + (k0 + 2 * p) * a.col_stride + i0;
       const bool has_odd = 2 * p + 1 < kc;
       for (i64 r = 0; r < rows; r += 16) {
         const __mmask16 mask = first(rows - r);
-        const __m512 e = _mm512_maskz_loadu_ps(mask, even + r);
-        const __m512 o = has_odd ? _mm512_maskz_loadu_ps(mask, even + a.col_stride + r) : _mm512_setzero_ps();
-        const __m512i words = interleaved_pairs(e, o);  // rows r..r+15: two strips' words of pair p
-        _mm512_mask_storeu_epi32(out + a_word(r, p, pairs), static_cast<__mmask16>(mask & 0xFF), words);
+        const __m512i words = pair_words(even + r, a.col_stride, mask, has_odd);  // rows r..r+15: two strips' words
+        _mm512_mask_storeu_epi32(out + layout.word(r, p), static_cast<__mmask16>(mask & 0xFF), words);
         if (rows - r > 8)  // lanes 8..15 moved down to 0..7 for the next strip
-          _mm512_mask_storeu_epi32(out + a_word(r + 8, p, pairs), static_cast<__mmask16>(mask >> 8),
+          _mm512_mask_storeu_epi32(out + layout.word(r + 8, p), static_cast<__mmask16>(mask >> 8),
                                    _mm512_maskz_alignr_epi32(0xFF, words, words, 8));
       }
     }
-    return;
-  }
-  if (a.col_stride == 1) {  // A row-major: a pair's two k are adjacent; 32 floats make 16 words, spread to 16 pairs
-    // Within a strip, a row's words of consecutive pairs are kTileRows apart.
-    for (i64 r = 0; r < rows; ++r)
-      pack_run(a.data + (i0 + r) * a.row_stride + k0, kc, out + a_word(r, 0, pairs), kTileRows);
     return;
   }
   for (i64 p = 0; p < pairs; ++p)
@@ -134,7 +153,7 @@ MAPS_BF16_TARGET void pack_a(StridedF32 a, i64 i0, i64 rows, i64 k0, i64 kc, std
       const float* x = a.data + (i0 + r) * a.row_stride + (k0 + 2 * p) * a.col_stride;
       const std::uint32_t low = to_bf16_bits(x[0]);
       const std::uint32_t high = 2 * p + 1 < kc ? to_bf16_bits(x[a.col_stride]) : 0u;
-      out[a_word(r, p, pairs)] = low | (high << 16);
+      out[layout.word(r, p)] = low | (high << 16);
     }
 }
 
@@ -149,9 +168,7 @@ MAPS_BF16_TARGET void pack_b(StridedF32 b, i64 k0, i64 kc, i64 j0, i64 cols, std
       const bool has_odd = 2 * p + 1 < kc;
       for (int v = 0; v < kWidth; v += 16) {
         const __mmask16 mask = first(cols - v);
-        const __m512 e = _mm512_maskz_loadu_ps(mask, even + v);
-        const __m512 o = has_odd ? _mm512_maskz_loadu_ps(mask, even + b.row_stride + v) : _mm512_setzero_ps();
-        _mm512_storeu_si512(panel + p * kWidth + v, interleaved_pairs(e, o));
+        _mm512_storeu_si512(panel + p * kWidth + v, pair_words(even + v, b.row_stride, mask, has_odd));
       }
     }
     return;
@@ -170,10 +187,11 @@ MAPS_BF16_TARGET void pack_b(StridedF32 b, i64 k0, i64 kc, i64 j0, i64 cols, std
     }
 }
 
-// C tile [MR, cols] (=|+=) a packed strip of A (pair-major, pairs `a_ld` words apart) times the packed panel.
+// C tile [MR, cols] (=|+=) MR packed rows of A (word (r, p) at a[r * row_stride + p * pair_stride]) times the
+// packed panel.
 template <int MR>
-MAPS_BF16_TARGET void tile(const std::uint32_t* a, i64 a_ld, const std::uint32_t* panel, i64 pairs, float* c, i64 ldc,
-                           bool add, int cols) {
+MAPS_BF16_TARGET void tile(const std::uint32_t* a, i64 row_stride, i64 pair_stride, const std::uint32_t* panel,
+                           i64 pairs, float* c, i64 ldc, bool add, int cols) {
   __m512 acc[MR][kTileVectors];
   for (int r = 0; r < MR; ++r)
     for (int v = 0; v < kTileVectors; ++v) acc[r][v] = _mm512_setzero_ps();
@@ -181,7 +199,7 @@ MAPS_BF16_TARGET void tile(const std::uint32_t* a, i64 a_ld, const std::uint32_t
     __m512bh b[kTileVectors];
     for (int v = 0; v < kTileVectors; ++v) b[v] = (__m512bh)(_mm512_loadu_si512(panel + p * kWidth + v * kLanes));
     for (int r = 0; r < MR; ++r) {
-      const __m512bh x = (__m512bh)(_mm512_set1_epi32(static_cast<int>(a[p * a_ld + r])));
+      const __m512bh x = (__m512bh)(_mm512_set1_epi32(static_cast<int>(a[p * pair_stride + r * row_stride])));
       for (int v = 0; v < kTileVectors; ++v) acc[r][v] = _mm512_dpbf16_ps(acc[r][v], x, b[v]);
     }
   }
@@ -199,13 +217,13 @@ MAPS_BF16_TARGET void tile(const std::uint32_t* a, i64 a_ld, const std::uint32_t
 }
 
 template <int MR>
-MAPS_BF16_TARGET void tail_tile(int rows, const std::uint32_t* a, i64 a_ld, const std::uint32_t* panel, i64 pairs,
-                                float* c, i64 ldc, bool add, int cols) {
+MAPS_BF16_TARGET void tail_tile(int rows, const std::uint32_t* a, i64 row_stride, i64 pair_stride,
+                                const std::uint32_t* panel, i64 pairs, float* c, i64 ldc, bool add, int cols) {
   if constexpr (MR > 0) {
     if (rows == MR) {
-      tile<MR>(a, a_ld, panel, pairs, c, ldc, add, cols);
+      tile<MR>(a, row_stride, pair_stride, panel, pairs, c, ldc, add, cols);
     } else {
-      tail_tile<MR - 1>(rows, a, a_ld, panel, pairs, c, ldc, add, cols);
+      tail_tile<MR - 1>(rows, a, row_stride, pair_stride, panel, pairs, c, ldc, add, cols);
     }
   }
 }
@@ -227,19 +245,20 @@ MAPS_BF16_TARGET void blocked_product(StridedF32 a, StridedF32 b, float* c, i64 
       pack_b(b, k0, kc, p * kWidth, std::min<i64>(kWidth, n - p * kWidth), packed_b.data() + p * pairs * kWidth);
     for (i64 i0 = 0; i0 < m; i0 += kRowChunk) {
       const i64 mc = std::min(kRowChunk, m - i0);
+      const PackedA layout = packed_a_layout(a, kc);
       packed_a.resize(static_cast<std::size_t>((mc + kTileRows - 1) / kTileRows * kTileRows * pairs));
-      pack_a(a, i0, mc, k0, kc, packed_a.data());
+      pack_a(a, i0, mc, k0, kc, layout, packed_a.data());
       for (i64 p = 0; p < panels; ++p) {
         const int cols = static_cast<int>(std::min<i64>(kWidth, n - p * kWidth));
         const std::uint32_t* panel = packed_b.data() + p * pairs * kWidth;
         float* c_panel = c + p * kWidth;
         i64 r = 0;
         for (; r + kTileRows <= mc; r += kTileRows)
-          tile<kTileRows>(packed_a.data() + a_word(r, 0, pairs), kTileRows, panel, pairs, c_panel + (i0 + r) * ldc, ldc,
-                          add, cols);
+          tile<kTileRows>(packed_a.data() + layout.word(r, 0), layout.row_stride(), layout.pair_stride(), panel, pairs,
+                          c_panel + (i0 + r) * ldc, ldc, add, cols);
         if (r < mc)
-          tail_tile<kTileRows - 1>(static_cast<int>(mc - r), packed_a.data() + a_word(r, 0, pairs), kTileRows, panel,
-                                   pairs, c_panel + (i0 + r) * ldc, ldc, add, cols);
+          tail_tile<kTileRows - 1>(static_cast<int>(mc - r), packed_a.data() + layout.word(r, 0), layout.row_stride(),
+                                   layout.pair_stride(), panel, pairs, c_panel + (i0 + r) * ldc, ldc, add, cols);
       }
     }
   }
