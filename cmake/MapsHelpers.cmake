@@ -10,6 +10,20 @@ function(maps_precompile_headers target)
   if(NOT MAPS_PRECOMPILE_HEADERS)
     return()
   endif()
+  # A precompiled header pays when three or more translation units load it: with unity batches of 8, a target of 16
+  # sources or fewer compiles as one or two, and generating the header cost as much as it saved (a target of one
+  # batch parsed the headers twice: once to precompile them, once more in the .gch's first and only user).
+  get_target_property(sources ${target} SOURCES)
+  list(FILTER sources INCLUDE REGEX "\\.(cpp|cc|cxx)$")
+  list(LENGTH sources source_count)
+  if(CMAKE_UNITY_BUILD)
+    math(EXPR translation_units "(${source_count} + 7) / 8")
+  else()
+    set(translation_units ${source_count})
+  endif()
+  if(translation_units LESS 3)
+    return()
+  endif()
   # Eigen/Core only where Eigen is on the include path: every layer but maps_io, which reads files and knows no
   # matrices, brings it (directly or through another layer).
   get_target_property(links ${target} LINK_LIBRARIES)

@@ -196,7 +196,18 @@ void register_python_method(const std::string& name, const py::object& cls, cons
 }
 
 // A config's Python plugin run in this interpreter (maps.train): the file's code registers its pieces.
-void run_python_plugin_here(const std::string& path) {
+// Module.register_parameter on a class defined in Python: the registered Tensor, the module's own handle.
+template <typename Python, typename Base>
+ag::Tensor register_python_parameter(Base& object, const std::string& name, ag::Tensor tensor, bool requires_grad) {
+  Python& self = defined_in_python<Python>(object, "register_parameter");
+  const std::size_t slot =
+      self.register_parameter(name, std::move(tensor), requires_grad);  // first: a[b] reads a first
+  return self.named_parameters(false)[slot].tensor;
+}
+
+}  // namespace training_bindings
+
+void run_python_plugin_file(const std::string& path) {
   py::gil_scoped_acquire gil;
   try {
     py::module_::import("maps").attr("_load_plugin_file")(path);
@@ -205,11 +216,9 @@ void run_python_plugin_here(const std::string& path) {
   }
 }
 
-}  // namespace training_bindings
-
 void bind_training(py::module_& m) {
   using namespace training_bindings;
-  experiments::set_python_plugin_runner(&run_python_plugin_here);
+  experiments::set_python_plugin_runner(&run_python_plugin_file);
   py::class_<core::PolicyShape>(m, "PolicyShape", "The sizes a policy is built for")
       .def(py::init([](std::int64_t observation_size, std::int64_t action_size, std::int64_t num_tasks) {
              return core::PolicyShape{observation_size, action_size, num_tasks};
@@ -272,15 +281,8 @@ void bind_training(py::module_& m) {
       .def("name", &core::SelectorLoss::name)
       .def("forward", &core::SelectorLoss::forward, py::arg("outputs"))
       .def("__call__", &core::SelectorLoss::forward, py::arg("outputs"))
-      .def(
-          "register_parameter",
-          [](core::SelectorLoss& loss, const std::string& name, ag::Tensor tensor, bool requires_grad) {
-            PythonSelectorLoss& self = defined_in_python<PythonSelectorLoss>(loss, "register_parameter");
-            const std::size_t slot =
-                self.register_parameter(name, std::move(tensor), requires_grad);  // first: a[b] reads a first
-            return self.named_parameters(false)[slot].tensor;
-          },
-          py::arg("name"), py::arg("tensor"), py::arg("requires_grad") = true);
+      .def("register_parameter", &register_python_parameter<PythonSelectorLoss, core::SelectorLoss>, py::arg("name"),
+           py::arg("tensor"), py::arg("requires_grad") = true);
 
   py::class_<core::Policy, nn::Module, PythonPolicy, std::shared_ptr<core::Policy>>(
       m, "Policy",
@@ -300,15 +302,8 @@ void bind_training(py::module_& m) {
           },
           py::arg("mean_actions"), py::arg("batch"),
           "The BC loss of predicted mean actions [n, A] against the batch's (train.bc_loss: mean, or sampled)")
-      .def(
-          "register_parameter",
-          [](core::Policy& policy, const std::string& name, ag::Tensor tensor, bool requires_grad) {
-            PythonPolicy& self = defined_in_python<PythonPolicy>(policy, "register_parameter");
-            const std::size_t slot =
-                self.register_parameter(name, std::move(tensor), requires_grad);  // first: a[b] reads a first
-            return self.named_parameters(false)[slot].tensor;
-          },
-          py::arg("name"), py::arg("tensor"), py::arg("requires_grad") = true)
+      .def("register_parameter", &register_python_parameter<PythonPolicy, core::Policy>, py::arg("name"),
+           py::arg("tensor"), py::arg("requires_grad") = true)
       .def(
           "register_buffer",
           [](core::Policy& policy, const std::string& name, const ag::Tensor& tensor) {

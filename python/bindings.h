@@ -21,6 +21,11 @@ void bind_training(pybind11::module_& m);  // SelectorLoss, Policy, their regist
 // Every part, in order (the extension module, and the tool's embedded interpreter: python/embed.cpp).
 void bind_all(pybind11::module_& m);
 
+// A config's Python plugin run in the running interpreter (maps._load_plugin_file: its registrations, recorded for
+// provenance), Python's error as a std::runtime_error; defined in bind_training.cpp. The tool starts its
+// interpreter first (python/embed.cpp).
+void run_python_plugin_file(const std::string& path);
+
 // ----- shared by the parts (defined in bind_autograd.cpp) -----
 
 // "float32" | "float64"; anything else is a ValueError naming it.

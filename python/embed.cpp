@@ -62,12 +62,7 @@ void start_interpreter() {
 
 void run_python_plugin(const std::string& path) {
   start_interpreter();
-  py::gil_scoped_acquire gil;
-  try {
-    py::module_::import("maps").attr("_load_plugin_file")(path);
-  } catch (const py::error_already_set& e) {
-    throw std::runtime_error(e.what());
-  }
+  run_python_plugin_file(path);
 }
 
 [[maybe_unused]] const bool installed = (experiments::set_python_plugin_runner(&run_python_plugin), true);

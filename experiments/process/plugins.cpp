@@ -76,6 +76,14 @@ std::vector<std::string> registered_names() {
   return names;
 }
 
+// The plugin recorded with what it registered (every name not among `before`), as the loaded plugins' last.
+const LoadedPlugin& record_loaded(LoadedPlugin plugin, const std::vector<std::string>& before) {
+  for (const std::string& name : registered_names())
+    if (std::find(before.begin(), before.end(), name) == before.end()) plugin.registered.push_back(name);
+  plugins().push_back(std::move(plugin));
+  return plugins().back();
+}
+
 std::string joined(const std::vector<std::string>& parts, const char* separator) {
   std::string out;
   for (const std::string& part : parts) out += (out.empty() ? "" : separator) + part;
@@ -113,11 +121,7 @@ const LoadedPlugin& load_plugin(const std::string& given_path, const std::string
         throw std::invalid_argument(where + " failed: " + e.what());
       }
     }
-    LoadedPlugin plugin{path, sha256, "python", {}};
-    for (const std::string& name : registered_names())
-      if (std::find(before.begin(), before.end(), name) == before.end()) plugin.registered.push_back(name);
-    plugins().push_back(std::move(plugin));
-    return plugins().back();
+    return record_loaded({path, sha256, "python", {}}, before);
   }
   const std::string version = marked_version(path, named_by);
   if (version.empty())
@@ -157,11 +161,7 @@ const LoadedPlugin& load_plugin(const std::string& given_path, const std::string
   if (!refused.empty())
     throw std::invalid_argument(where + ": its registrations were refused: " + joined(refused, "; "));
 
-  LoadedPlugin plugin{path, sha256, version, {}};
-  for (const std::string& name : registered_names())
-    if (std::find(before.begin(), before.end(), name) == before.end()) plugin.registered.push_back(name);
-  plugins().push_back(std::move(plugin));
-  return plugins().back();
+  return record_loaded({path, sha256, version, {}}, before);
 }
 
 void set_python_plugin_runner(PythonPluginRunner runner) { python_runner() = runner; }
