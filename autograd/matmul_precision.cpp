@@ -27,11 +27,15 @@ std::string matmul_precision_missing(MatmulPrecision precision) {
   return detail::avx512_bf16_missing();
 }
 
+std::string matmul_precision_refusal(MatmulPrecision precision, const std::string& cpu) {
+  const std::string missing = matmul_precision_missing(precision);
+  if (missing.empty()) return "";
+  return "needs a CPU with AVX512-BF16, and this one " + (cpu.empty() ? "" : "(" + cpu + ") ") + "lacks " + missing;
+}
+
 MatmulPrecision set_matmul_precision(MatmulPrecision precision) {
-  if (const std::string missing = matmul_precision_missing(precision); !missing.empty()) {
-    throw std::runtime_error("bf16 matrix products need a CPU with AVX512-BF16; this one lacks " + missing +
-                             " (use float32)");
-  }
+  if (const std::string refusal = matmul_precision_refusal(precision); !refusal.empty())
+    throw std::runtime_error("matrix products in " + to_string(precision) + " " + refusal + " (use float32)");
   const MatmulPrecision previous = current;
   current = precision;
   return previous;

@@ -20,6 +20,9 @@ MatmulPrecision parse_matmul_precision(const std::string& name);
 
 // What this build and CPU lack to run `precision` ("" when nothing: float32 always runs).
 std::string matmul_precision_missing(MatmulPrecision precision);
+// "" when this CPU runs `precision`, otherwise the reason as one phrase for a caller to put after the setting's name:
+// "needs a CPU with AVX512-BF16, and this one (<cpu>) lacks <what>" (the parenthesis only when `cpu` is given).
+std::string matmul_precision_refusal(MatmulPrecision precision, const std::string& cpu = "");
 
 // Sets the calling thread's precision and returns the previous one. Throws std::runtime_error, naming what the CPU
 // lacks, for a precision it cannot run (so no instruction it lacks is ever reached).

@@ -176,9 +176,8 @@ int run_bench_step(const BenchStepOptions& options) {
   const core::RunConfig run_config = parse_run_config_from(request, "bench step");
   const std::string& precision_name = run_config.train.precision;
   const ag::MatmulPrecision precision = ag::parse_matmul_precision(precision_name);
-  if (const std::string missing = ag::matmul_precision_missing(precision); !missing.empty())
-    throw std::invalid_argument("bench step: precision " + precision_name +
-                                " needs a CPU with AVX512-BF16, and this one (" + cpu_model() + ") lacks " + missing);
+  if (const std::string refusal = ag::matmul_precision_refusal(precision, cpu_model()); !refusal.empty())
+    throw std::invalid_argument("bench step: precision " + precision_name + " " + refusal);
   // The steps and the own GEMM reference alike; Eigen's reference stays float32.
   const ag::MatmulPrecisionGuard precision_guard(precision);
   const core::MAPSConfig& config = run_config.maps;

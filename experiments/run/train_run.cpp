@@ -92,10 +92,10 @@ int run_train(const TrainRunOptions& options) {
   }
   if (options.out.empty()) throw UsageError("maps train: --out DIR is required (unless --print-config)");
   // Before the run folder is touched: a precision this CPU lacks is refused by name, not met as a crash.
-  if (const std::string missing = ag::matmul_precision_missing(ag::parse_matmul_precision(config.train.precision));
-      !missing.empty())
-    throw std::invalid_argument(where + ": train.precision \"" + config.train.precision +
-                                "\" needs a CPU with AVX512-BF16, and this one (" + cpu_model() + ") lacks " + missing +
+  if (const std::string refusal =
+          ag::matmul_precision_refusal(ag::parse_matmul_precision(config.train.precision), cpu_model());
+      !refusal.empty())
+    throw std::invalid_argument(where + ": train.precision \"" + config.train.precision + "\" " + refusal +
                                 "; use \"float32\"");
   std::vector<std::string> writes = kTrainWrites;
   if (std::filesystem::is_directory(options.out))

@@ -254,10 +254,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   if (config.keep_every < 0)
     throw std::invalid_argument("train: keep_every must be >= 0 (0: keep no step checkpoints)");
   const ag::MatmulPrecision precision = ag::parse_matmul_precision(config.precision);
-  if (const std::string missing = ag::matmul_precision_missing(precision); !missing.empty())
-    throw std::invalid_argument("train.precision \"" + config.precision +
-                                "\" needs a CPU with AVX512-BF16, and this one lacks " + missing +
-                                " (use \"float32\")");
+  if (const std::string refusal = ag::matmul_precision_refusal(precision); !refusal.empty())
+    throw std::invalid_argument("train.precision \"" + config.precision + "\" " + refusal + " (use \"float32\")");
   fs::create_directories(run_dir);
   const ag::FlushDenormalGuard flush(config.flush_denormal);
   const std::string last_path = (fs::path(run_dir) / run_files::kLastCheckpoint).string();

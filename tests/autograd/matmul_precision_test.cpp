@@ -60,6 +60,12 @@ TEST(MatmulPrecision, NamesParseAndAnUnknownOneIsRefusedWithTheChoices) {
 TEST(MatmulPrecision, ACpuWithoutTheInstructionsRefusesBf16NamingWhatItLacks) {
   const std::string missing = ag::matmul_precision_missing(MatmulPrecision::bf16);
   EXPECT_EQ(missing.empty(), ag::detail::cpu_has_avx512_bf16()) << missing;
+  EXPECT_EQ(ag::matmul_precision_refusal(MatmulPrecision::float32, "any CPU"), "");
+  const std::string refusal = ag::matmul_precision_refusal(MatmulPrecision::bf16, "the CPU's model");
+  EXPECT_EQ(refusal.empty(), missing.empty()) << refusal;
+  if (!missing.empty()) {
+    EXPECT_EQ(refusal, "needs a CPU with AVX512-BF16, and this one (the CPU's model) lacks " + missing);
+  }
   if (missing.empty()) {
     const ag::MatmulPrecisionGuard guard(MatmulPrecision::bf16);
     EXPECT_EQ(ag::matmul_precision(), MatmulPrecision::bf16);
