@@ -63,18 +63,31 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
       if (outcome.status != CellOutcome::Status::kFinished)
         throw std::runtime_error("calibration cell " + cell.name + " did not finish: " + outcome.error);
       const Json& result = outcome.result;
-      const double train_seconds = result["train"]["seconds_this_process"].get<double>();
+      const Json& train = result["train"];
+      const double train_seconds = train["seconds_this_process"].get<double>();
       const double eval_seconds = result["eval"]["seconds"].get<double>();
       const double tasks = static_cast<double>(result["eval"]["tasks"].size());
-      const Json method{{"step_seconds", train_seconds / options.steps},
+      // Validation and checkpoint writes timed apart (train.json), so a plan counts them at its own cells'
+      // validate_every and checkpoint_every rather than at this run's.
+      const double validation_seconds = train.value("validation_seconds", 0.0);
+      const double checkpoint_seconds = train.value("checkpoint_seconds", 0.0);
+      const double validations = std::max(1.0, train.value("validations", 1.0));
+      const double writes = std::max(1.0, train.value("checkpoints_written", 1.0));
+      const Json method{{"step_seconds", (train_seconds - validation_seconds - checkpoint_seconds) / options.steps},
+                        {"validation_seconds", validation_seconds / validations},
+                        {"checkpoint_seconds", checkpoint_seconds / writes},
                         {"states_per_task", cell.request["train"]["states_per_task"]},
+                        {"validation_states_per_task", cell.request["train"]["validation_states_per_task"]},
                         {"modules", cell.request["maps"]["modules"]},
                         {"query_per_task", cell.request["maml"]["query_per_task"]},
                         {"episode_seconds", eval_seconds / (options.episodes * tasks)},
                         {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)}};
-      std::printf("calibrate: %s: %.2f ms per step, %.3f s per episode, %.1f s overhead\n", cell.name.c_str(),
-                  1e3 * method["step_seconds"].get<double>(), method["episode_seconds"].get<double>(),
-                  method["overhead_seconds"].get<double>());
+      std::printf(
+          "calibrate: %s: %.2f ms per step, %.1f ms per validation, %.1f ms per checkpoint, %.3f s per "
+          "episode, %.1f s overhead\n",
+          cell.name.c_str(), 1e3 * method["step_seconds"].get<double>(),
+          1e3 * method["validation_seconds"].get<double>(), 1e3 * method["checkpoint_seconds"].get<double>(),
+          method["episode_seconds"].get<double>(), method["overhead_seconds"].get<double>());
       std::fflush(stdout);
       entry["methods"][cell.method] = method;
     }
@@ -93,7 +106,8 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
   table["command"] = "maps suite calibrate --steps " + std::to_string(options.steps) + " --episodes " +
                      std::to_string(options.episodes);
   table["note"] =
-      "one thread per cell, one cell at a time; step_seconds includes validation at validate_every = steps / 2";
+      "one thread per cell, one cell at a time; step_seconds is a training step alone, validation_seconds one "
+      "scoring of the validation states, checkpoint_seconds one checkpoint written";
   write_json_file(out, table);
   std::printf("calibrate: wrote %s\n", out.c_str());
   return 0;

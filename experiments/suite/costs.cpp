@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -52,23 +53,37 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
     throw std::runtime_error(path + " has no cost for " + method + " on " + cell.set +
                              " (re-measure: maps suite calibrate)");
   }
-  const Json& c = *entry;
+  // A measured cost: a finite number >= 0 (positive where it divides), or `fallback` when absent and allowed.
+  const auto cost = [&](const char* key, bool positive, std::optional<double> fallback = std::nullopt) {
+    const std::string where = path + ": sets." + cell.set + ".methods." + method + "." + key;
+    if (!entry->contains(key)) {
+      if (fallback) return *fallback;
+      throw std::runtime_error(where + " is missing (re-measure: maps suite calibrate)");
+    }
+    const Json& value = entry->at(key);
+    if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0 ||
+        (positive && value.get<double>() <= 0))
+      throw std::runtime_error(where + " is " + value.dump() + "; expected a finite number " +
+                               (positive ? "> 0" : ">= 0") + " (re-measure: maps suite calibrate)");
+    return value.get<double>();
+  };
   const Json& r = cell.request;
   // A step's rows: the batch, and for MAML its query batch too (maml.cpp: support + query rows per task).
-  double rows = r["train"]["states_per_task"].get<double>(), measured_rows = c.at("states_per_task").get<double>();
-  if (method == "maml" && c.contains("query_per_task")) {
+  double rows = r["train"]["states_per_task"].get<double>(), measured_rows = cost("states_per_task", true);
+  if (method == "maml" && entry->contains("query_per_task")) {
     rows += r["maml"]["query_per_task"].get<double>();
-    measured_rows += c.at("query_per_task").get<double>();
+    measured_rows += cost("query_per_task", false);
   }
-  double step = c.at("step_seconds").get<double>() * rows / measured_rows;
+  // The model's size against the measured one's: a step and a validation grow with it.
+  double model_scale = 1.0;
   if (method == "maps") {
-    step *= r["maps"]["modules"].get<double>() / c.at("modules").get<double>();
+    model_scale *= r["maps"]["modules"].get<double>() / cost("modules", true);
   } else {
     // A baseline's products grow with the square of its width (measured at 3 x 128).
     double width = 0.0;
     for (const auto& h : r["baselines"]["hidden"]) width += h.get<double>();
     width /= static_cast<double>(std::max<std::size_t>(1, r["baselines"]["hidden"].size()));
-    step *= std::max(1.0, (width / 128.0) * (width / 128.0));
+    model_scale *= std::max(1.0, (width / 128.0) * (width / 128.0));
   }
   // Measured with every task of the set in each batch and evaluated; data.tasks and data.holdout keep fewer.
   const auto set_tasks = envs::task_names(cell.set);
@@ -80,16 +95,32 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
                       std::find(held.begin(), held.end(), task) == held.end();
     tasks += kept ? 1.0 : 0.0;
   }
-  step *= tasks / static_cast<double>(set_tasks.size());
+  model_scale *= tasks / static_cast<double>(set_tasks.size());
+  const double step = cost("step_seconds", true) * rows / measured_rows * model_scale;
   const auto& scored = r["eval"].value("tasks", Json::array());
   const double evaluated_tasks = scored.empty() ? tasks : static_cast<double>(scored.size());
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
   const double keep_every = r["train"].value("keep_every", 0.0);
   const double evaluations = 1.0 + (keep_every > 0 ? std::floor(r["train"]["steps"].get<double>() / keep_every) : 0.0);
-  return {.overhead = c.at("overhead_seconds").get<double>(),
-          .training = r["train"]["steps"].get<double>() * step,
-          .evaluation = evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks *
-                        c.at("episode_seconds").get<double>()};
+  // Validation scores the validation states (as many whatever the batch) with the same model;
+  // a checkpoint writes the parameters and Adam's state.
+  const double steps = r["train"]["steps"].get<double>();
+  const auto count_every = [steps](double every) { return every > 0 ? std::ceil(steps / every) : 0.0; };
+  const double validations = count_every(r["train"]["validate_every"].get<double>());
+  const double writes = count_every(r["train"]["checkpoint_every"].get<double>()) +
+                        std::floor(keep_every > 0 ? steps / keep_every : 0.0) + validations;
+  // A validation scores validation_states_per_task states of each task, whatever the batch.
+  const double validation_states =
+      r["train"]["validation_states_per_task"].get<double>() /
+      cost("validation_states_per_task", true, r["train"]["validation_states_per_task"].get<double>());
+  const double validation = validations * cost("validation_seconds", false, 0.0) * model_scale * validation_states;
+  const double checkpointing = writes * cost("checkpoint_seconds", false, 0.0);
+  return {
+      .overhead = cost("overhead_seconds", false),
+      .training = steps * step + validation + checkpointing,
+      .evaluation = evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks * cost("episode_seconds", true),
+      .validation = validation,
+      .checkpointing = checkpointing};
 }
 
 double CostTable::collect_seconds(const std::string& set) const {

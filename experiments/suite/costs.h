@@ -10,11 +10,14 @@
 // Measured costs of training and evaluation (experiments/suites/costs.json, written by `maps suite calibrate`),
 // and the estimate of a cell's CPU time they give:
 //   seconds = overhead + steps * step_seconds * (rows / measured rows) [* modules / measured modules, for MAPS]
+//             + validations * validation_seconds [* the same model scale * validation states / measured ones]
+//             + checkpoint writes * checkpoint_seconds
 //             + episodes * tasks * episode_seconds
 // with rows = states_per_task (MAML: states_per_task + query_per_task).
-// Per-step cost grows about linearly in the batch and (for MAPS) in the module count at these shapes; validation
-// is inside step_seconds at the measured validate_every. An estimate, not a promise: `maps suite run` prints how
-// the real times compare.
+// Per-step cost grows about linearly in the batch and (for MAPS) in the module count at these shapes. Tables
+// calibrated before validation and checkpoints were timed apart (2026-12-02) have neither field: their
+// step_seconds holds validation at the measured validate_every, and both terms count zero. An estimate, not a
+// promise: `maps suite run` prints how the real times compare.
 namespace maps::experiments {
 
 struct CostTable {
@@ -24,6 +27,9 @@ struct CostTable {
   // One thread per cell, in parts: a part-trained cell has its training part left, all of the rest.
   struct CellCost {
     double overhead = 0.0, training = 0.0, evaluation = 0.0;
+    // Of training: scoring the validation states, and writing checkpoints (best.ckpt counted at every
+    // validation: an upper bound, as it is written only when the validation loss improves).
+    double validation = 0.0, checkpointing = 0.0;
     double total() const { return overhead + training + evaluation; }
   };
   // Throws naming the set and method when the table lacks them.

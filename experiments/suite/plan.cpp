@@ -41,10 +41,19 @@ int run_suite_plan(const SuitePlanOptions& options) {
   std::vector<Group> groups;
   std::map<std::string, std::size_t> group_of;
   double total = 0.0;
+  // Where the CPU time goes: training steps, validation, checkpoint writes, evaluation, and the rest (start-up,
+  // reading the demonstrations).
+  double steps_part = 0.0, validation_part = 0.0, checkpoint_part = 0.0, evaluation_part = 0.0, other_part = 0.0;
   Json cell_list = Json::array();
   for (const auto* cell : cells) {
-    const double seconds = costs.cell_seconds(*cell);
+    const CostTable::CellCost cost = costs.cell_cost(*cell);
+    const double seconds = cost.total();
     total += seconds;
+    steps_part += cost.training - cost.validation - cost.checkpointing;
+    validation_part += cost.validation;
+    checkpoint_part += cost.checkpointing;
+    evaluation_part += cost.evaluation;
+    other_part += cost.overhead;
     const std::string key = cell->grid + "|" + cell->set + "|" + cell->method + "|" + cell->variant;
     auto [it, inserted] = group_of.emplace(key, groups.size());
     if (inserted) {
@@ -80,6 +89,12 @@ int run_suite_plan(const SuitePlanOptions& options) {
                       {"cells", cell_list},
                       {"count", cells.size()},
                       {"cpu_seconds", total},
+                      {"cpu_seconds_parts",
+                       {{"steps", steps_part},
+                        {"validation", validation_part},
+                        {"checkpoints", checkpoint_part},
+                        {"evaluation", evaluation_part},
+                        {"start_and_data", other_part}}},
                       {"collect_seconds", collect},
                       {"jobs", jobs},
                       {"wall_seconds", total / jobs + collect},
@@ -118,6 +133,12 @@ int run_suite_plan(const SuitePlanOptions& options) {
   std::printf("; %s of wall time on %d jobs", format_duration(total / jobs + collect).c_str(), jobs);
   if (collect > 0)
     std::printf(" (with %s collecting %zu missing demo files)", format_duration(collect).c_str(), missing_files.size());
+  if (total > 0)
+    std::printf(
+        "\nof which training steps %.1f%%, validation %.1f%%, checkpoints %.1f%% (at most), evaluation %.1f%%, "
+        "start-up and data %.1f%%",
+        100 * steps_part / total, 100 * validation_part / total, 100 * checkpoint_part / total,
+        100 * evaluation_part / total, 100 * other_part / total);
   std::printf("\ncosts: %s (measured on %s; `maps suite calibrate` re-measures on this machine)\n", costs.path.c_str(),
               costs.json.value("cpu", std::string("an unnamed CPU")).c_str());
   return 0;

@@ -290,16 +290,26 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
 
   // Scores the policy at progress.step on the validation states and keeps it as best.ckpt when it beats the best so
   // far (never for a NaN loss).
+  const auto seconds_since = [](std::chrono::steady_clock::time_point from) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();
+  };
   const auto validate_and_keep_best = [&] {
+    const auto validation_start = std::chrono::steady_clock::now();
     const double valid = policy.validation_loss(validation, data);
     policy.train();
+    summary.validation_seconds += seconds_since(validation_start);
+    ++summary.validations;
     if (valid < progress.best_validation) {
+      const auto save_start = std::chrono::steady_clock::now();
       progress.best_validation = valid;
       progress.best_step = progress.step;
       nn::save(policy, best_path, policy_record(data, progress.step, valid).dump());
+      summary.checkpoint_seconds += seconds_since(save_start);
+      ++summary.checkpoints_written;
     }
     return valid;
   };
+  const auto start = std::chrono::steady_clock::now();
   if (config.validate_start && !summary.resumed && progress.step == 0) {
     const double valid = validate_and_keep_best();
     if (log) *log << "step 0/" << config.steps << "  (the starting parameters)  valid " << valid << std::endl;
@@ -308,8 +318,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   std::vector<std::string> term_names;
   std::vector<double> term_sums;
   std::int64_t terms_counted = 0;
-  const auto start = std::chrono::steady_clock::now();
-  auto window_start = start;
+  auto window_start = std::chrono::steady_clock::now();
   std::int64_t window_first_step = progress.step;
   const bool cpu_column = curve_has_cpu_column(curve_path);
   double window_cpu_start = process_cpu_seconds();
@@ -382,11 +391,18 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
       window_start = now;
       window_first_step = progress.step;
     }
-    if (config.keep_every > 0 && progress.step % config.keep_every == 0) {
-      const std::string kept = (fs::path(run_dir) / run_files::kept_checkpoint(progress.step)).string();
-      nn::save(policy, kept, policy_record(data, progress.step, std::nullopt).dump());
+    const bool keep = config.keep_every > 0 && progress.step % config.keep_every == 0;
+    const bool save = progress.step % config.checkpoint_every == 0 || last_step;
+    if (keep || save) {
+      const auto save_start = std::chrono::steady_clock::now();
+      if (keep) {
+        const std::string kept = (fs::path(run_dir) / run_files::kept_checkpoint(progress.step)).string();
+        nn::save(policy, kept, policy_record(data, progress.step, std::nullopt).dump());
+      }
+      if (save) save_last(last_path, policy, adam, progress, rng);
+      summary.checkpoint_seconds += seconds_since(save_start);
+      summary.checkpoints_written += (keep ? 1 : 0) + (save ? 1 : 0);
     }
-    if (progress.step % config.checkpoint_every == 0 || last_step) save_last(last_path, policy, adam, progress, rng);
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary.steps_done = progress.step;

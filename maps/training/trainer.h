@@ -65,6 +65,11 @@ struct TrainSummary {
   std::int64_t best_step = -1;
   double best_validation_loss = 0.0;
   double seconds = 0.0;  // this process's training time
+  // Of `seconds`: scoring the validation states, and writing checkpoints (last.ckpt, best.ckpt, kept step_*.ckpt):
+  // the suite's overheads beside the steps (issue 44; docs/performance.md).
+  double validation_seconds = 0.0;
+  double checkpoint_seconds = 0.0;
+  std::int64_t validations = 0, checkpoints_written = 0;
   bool resumed = false;
 };
 

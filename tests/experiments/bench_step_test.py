@@ -5,10 +5,12 @@ count, the peer's factored selector against the plain one on [state, one-hot tas
 Run by ctest with the maps binary as the argument (tests/CMakeLists.txt)."""
 import json
 import math
+import os
 import pathlib
 import re
 import subprocess
 import sys
+import tempfile
 import unittest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -180,6 +182,70 @@ class PeerPyTorch(unittest.TestCase):
         # tests/maps/policies/maps_flops_test.cpp
         self.assertEqual(peer.step_flops(17, 6, 5, 128), 1761607680)
         self.assertEqual(peer.step_flops(39, 4, 10, 32), 1088716800)
+
+
+class StepTable(unittest.TestCase):
+    """experiments/bench/step_table.py's table from step_table.sh's JSON lines, and the script's refusals."""
+
+    TABLE = ROOT / "experiments" / "bench" / "step_table.py"
+    SCRIPT = ROOT / "experiments" / "bench" / "step_table.sh"
+
+    def table(self, records):
+        with tempfile.TemporaryDirectory() as folder:
+            path = pathlib.Path(folder) / "step.jsonl"
+            path.write_text("".join(json.dumps(r) + "\n" for r in records))
+            return subprocess.run([sys.executable, str(self.TABLE), str(path)], capture_output=True, text=True,
+                                  timeout=60)
+
+    @staticmethod
+    def step(kind, precision, ms, gflops, eigen, own):
+        return {"kind": kind, "set": "mt10", "threads": 1, "cpu": "Test CPU", "matmul_precision": precision,
+                "float32_gemm_kernel": "maps AVX-512", "ms_per_step": ms, "gflops": gflops, "gemm_gflops": eigen,
+                "own_gemm_gflops": own}
+
+    def test_shares_of_each_ceiling_the_best_bf16_over_float32_and_pytorch(self):
+        records = [
+            {"kind": "openblas_native", "gflops": 160.0, "openblas": {"core": "Zen"},
+             "env": {"OPENBLAS_CORETYPE": None}},
+            {"kind": "pytorch", "set": "mt10", "threads": 1, "torch": "1.13", "blas": "OpenBLAS", "ms_per_step": 30.0},
+            self.step("step_native", "float32", 10.0, 120.0, 100.0, 150.0),
+            self.step("step_native", "bf16", 8.0, 150.0, 100.0, 300.0),
+        ]
+        done = self.table(records)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = [line for line in done.stdout.splitlines() if line.startswith("| mt10")]
+        self.assertEqual(len(rows), 2, done.stdout)
+        float32 = [cell.strip() for cell in rows[0].split("|")[1:-1]]
+        bf16 = [cell.strip() for cell in rows[1].split("|")[1:-1]]
+        # set, precision, build, threads, ms, GFLOP/s, OpenBLAS, Eigen, own, best, over float32, PyTorch ms, speed-up
+        self.assertEqual(float32[1], "float32")
+        self.assertEqual(float32[6:11], ["0.75", "1.20", "0.80", "0.75", "-"])
+        self.assertEqual(float32[12], "3.00x")
+        self.assertEqual(bf16[6:11], ["0.94", "1.50", "0.50", "0.50", "1.25x"])
+        self.assertIn("Test CPU", done.stdout)
+        self.assertIn("kernel Zen, its own choice", done.stdout)
+
+    def test_a_damaged_line_is_named(self):
+        with tempfile.TemporaryDirectory() as folder:
+            path = pathlib.Path(folder) / "step.jsonl"
+            path.write_text('{"kind": "pytorch"}\n{"kind": \n')
+            done = subprocess.run([sys.executable, str(self.TABLE), str(path)], capture_output=True, text=True,
+                                  timeout=60)
+        self.assertNotEqual(done.returncode, 0)
+        self.assertIn("line 2", done.stderr)
+
+    def test_the_script_refuses_bad_settings_before_running_anything(self):
+        for env, text in (({"PRECISIONS": "float16"}, "PRECISIONS: 'float16'"),
+                          ({"THREADS": "0"}, "THREADS: '0'"),
+                          ({"AVX2_BIN": "/nonexistent/maps"}, "AVX2_BIN '/nonexistent/maps'")):
+            done = subprocess.run(["bash", str(self.SCRIPT), MAPS, "/nonexistent/out.jsonl", "1"],
+                                  capture_output=True, text=True, timeout=60, env=dict(os.environ, **env))
+            self.assertEqual(done.returncode, 2, done.stderr)
+            self.assertIn(text, done.stderr)
+        done = subprocess.run(["bash", str(self.SCRIPT), MAPS, "/nonexistent/out.jsonl", "soon"], capture_output=True,
+                              text=True, timeout=60)
+        self.assertEqual(done.returncode, 2)
+        self.assertIn("SECONDS must be a positive number, got 'soon'", done.stderr)
 
 
 if __name__ == "__main__":

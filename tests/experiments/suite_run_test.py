@@ -177,6 +177,54 @@ class SuiteTest(unittest.TestCase):
             self.assertNotEqual(proc.returncode, 0, bad)
             self.assertIn("--shard", proc.stderr)
 
+    def test_the_plan_counts_validation_and_checkpoint_writes_apart_from_the_steps(self):
+        costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
+            for m in methods.values():
+                m.pop("validation_seconds", None), m.pop("checkpoint_seconds", None)
+        before = plan(TINY, "--costs", write_config(self.dir, costs, "old_costs.json"))
+        gravity_maps = costs["sets"]["gravity"]["methods"]["maps"]
+        gravity_maps.update(validation_seconds=0.5, checkpoint_seconds=0.25)
+        after = plan(TINY, "--costs", write_config(self.dir, costs, "costs.json"))
+        # A table without the fields (calibrated before they were timed apart) counts neither.
+        self.assertEqual(before["cpu_seconds_parts"]["validation"], 0)
+        self.assertEqual(before["cpu_seconds_parts"]["checkpoints"], 0)
+        parts = after["cpu_seconds_parts"]
+        self.assertAlmostEqual(sum(parts.values()), after["cpu_seconds"], places=6)
+        self.assertAlmostEqual(parts["steps"], before["cpu_seconds_parts"]["steps"], places=6)
+        # tiny.json: two Gravity MAPS cells of 60 steps, validating and checkpointing every 20: 3 validations,
+        # 3 last.ckpt and at most 3 best.ckpt writes each.
+        self.assertAlmostEqual(parts["checkpoints"], 2 * 6 * 0.25, places=6)
+        self.assertGreater(parts["validation"], 0)
+        self.assertAlmostEqual(after["cpu_seconds"] - before["cpu_seconds"], parts["validation"] + 3.0, places=6)
+        text = maps("suite", "plan", TINY, "--costs", self.dir / "costs.json").stdout
+        self.assertRegex(text, r"of which training steps [0-9.]+%, validation [0-9.]+%, checkpoints [0-9.]+% \(at most\)")
+
+    def test_a_damaged_cost_table_is_refused_naming_the_value(self):
+        good = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        where = "sets.gravity.methods.maps."
+        cases = [("step_seconds", -0.01, "expected a finite number > 0"),
+                 ("step_seconds", 0, "expected a finite number > 0"),
+                 ("episode_seconds", "fast", "expected a finite number > 0"),
+                 ("overhead_seconds", -1, "expected a finite number >= 0"),
+                 ("modules", 0, "expected a finite number > 0"),
+                 ("states_per_task", None, "expected a finite number > 0"),
+                 ("validation_seconds", -2, "expected a finite number >= 0"),
+                 ("checkpoint_seconds", [1], "expected a finite number >= 0"),
+                 ("step_seconds", "drop", "is missing")]
+        for key, value, message in cases:
+            costs = copy.deepcopy(good)
+            entry = costs["sets"]["gravity"]["methods"]["maps"]
+            if value == "drop":
+                entry.pop(key)
+            else:
+                entry[key] = value
+            path = write_config(self.dir, costs, "costs.json")
+            proc = maps("suite", "plan", TINY, "--costs", path, check=False)
+            self.assertNotEqual(proc.returncode, 0, (key, value))
+            self.assertIn(f"{path}: {where}{key}", proc.stderr)
+            self.assertIn(message, proc.stderr)
+
     # --- running ----------------------------------------------------------------------------------------------
 
     def test_status_counts_each_grid(self):

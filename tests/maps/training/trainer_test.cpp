@@ -126,6 +126,22 @@ TEST(Trainer, ValidateStartMakesTheStartingParametersACandidateForTheBestCheckpo
   EXPECT_EQ(train_policy(*small_maps(1), data, config, fresh_dir("no_validate_start").string(), nullptr).best_step, 20);
 }
 
+TEST(Trainer, TimesValidationAndCheckpointWritesApartFromTheSteps) {
+  const DemoDataset data(synthetic_demo_file(), DataConfig{});
+  // Learning rate 0: the start stays the best, so best.ckpt is written once (at step 0).
+  TrainConfig config = small_config();
+  config.learning_rate = 0.0;
+  config.validate_start = true;
+  config.keep_every = 30;
+  const TrainSummary summary = train_policy(*small_maps(1), data, config, fresh_dir("overheads").string(), nullptr);
+  EXPECT_EQ(summary.validations, 4);  // steps 0, 20, 40, 60
+  // best.ckpt once, last.ckpt at 20, 40 and 60, step_30 and step_60 kept.
+  EXPECT_EQ(summary.checkpoints_written, 6);
+  EXPECT_GT(summary.validation_seconds, 0.0);
+  EXPECT_GT(summary.checkpoint_seconds, 0.0);
+  EXPECT_LT(summary.validation_seconds + summary.checkpoint_seconds, summary.seconds);
+}
+
 TEST(Trainer, AStartWhoseValidationIsNotFiniteIsNeverKeptAndTrainingStopsWithTheReason) {
   const DemoDataset data(synthetic_demo_file(), DataConfig{});
   TrainConfig config = small_config();
