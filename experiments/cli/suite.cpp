@@ -19,6 +19,14 @@ CLI::Option* add_config(CLI::App* command, std::string& path) {
   return command->add_option("config", path, "Suite config (JSON)")->required()->check(CLI::ExistingFile);
 }
 
+CLI::Option* add_precision(CLI::App* command, std::string& precision) {
+  return command
+      ->add_option("--precision", precision,
+                   "Every cell's train.precision (float32, or bf16 on CPUs with AVX512-BF16), unless its set or "
+                   "variant sets it")
+      ->check(CLI::IsMember({"float32", "bf16"}));
+}
+
 void add_plan(CLI::App* suite, Commands& commands) {
   auto options = std::make_shared<SuitePlanOptions>();
   CLI::App* command = suite->add_subcommand("plan", "Print a suite's cells, their count and the estimated CPU time");
@@ -31,6 +39,7 @@ void add_plan(CLI::App* suite, Commands& commands) {
   command->add_flag("--cells", options->list_cells, "List every cell");
   command->add_flag("--json", options->json, "Print one JSON object (every cell and the estimate)");
   command->add_option("--costs", options->costs, "Cost table (default: experiments/suites/costs.json)");
+  add_precision(command, options->precision);
   commands.push_back({command, [options] { return run_suite_plan(*options); }});
 }
 
@@ -47,6 +56,7 @@ void add_run(CLI::App* suite, Commands& commands) {
                    "Run only the cells with index % N == i (i/N; a transfer cell: its source's index)")
       ->capture_default_str();
   command->add_option("--costs", options->costs, "Cost table for the ETA");
+  add_precision(command, options->precision);
   commands.push_back({command, [options] {
                         options->threads = threads_or_cores(options->threads);
                         return run_suite(*options);

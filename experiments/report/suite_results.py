@@ -409,6 +409,15 @@ def load_suite(root, status_file=None):
     return suite
 
 
+def load_suite_or_exit(root, script):
+    """load_suite(root), or exit with status 2 after `script: what is wrong` on stderr (a report script's start)."""
+    try:
+        return load_suite(root)
+    except SuiteError as e:
+        print(f"{script}: {e}", file=sys.stderr)
+        sys.exit(2)
+
+
 def groups(cells):
     """{GroupKey: [cells sorted by seed]}, in key_sort order."""
     out = {}

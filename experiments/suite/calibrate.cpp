@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "autograd/matmul_precision.h"
 #include "envs/task_sets.h"
 #include "experiments/process/cpu_model.h"
 #include "experiments/process/host.h"
@@ -33,6 +34,11 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
   Json calibrated_methods = Json::array();
   for (const auto& method : core::policy_methods()) calibrated_methods.push_back(method.name);
   Json sets = Json::object();
+  const bool bf16 = ag::matmul_precision_refusal(ag::MatmulPrecision::bf16).empty();
+  if (!bf16)
+    std::printf(
+        "calibrate: this CPU has no AVX512-BF16: float32 steps only (a plan of bf16 cells needs a table "
+        "calibrated on a CPU with it)\n");
   for (const auto& set_name : options.sets.empty() ? envs::task_set_names() : options.sets) {
     if (!paper.sets.count(set_name))
       throw std::invalid_argument("--sets: '" + set_name + "' is not a set of experiments/suites/paper.json");
@@ -58,6 +64,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
     if (!had_file) entry["collect_seconds"] = seconds_since(collect_start);
     const fs::path work = fs::path(options.work) / set_name;
     fs::remove_all(work);
+    fs::remove_all(fs::path(options.work) / (set_name + "_bf16"));
     for (const auto& cell : suite.cells) {
       const CellOutcome outcome = run_cell(work, cell, 1);
       if (outcome.status != CellOutcome::Status::kFinished)
@@ -73,15 +80,15 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
       const double checkpoint_seconds = train.value("checkpoint_seconds", 0.0);
       const double validations = std::max(1.0, train.value("validations", 1.0));
       const double writes = std::max(1.0, train.value("checkpoints_written", 1.0));
-      const Json method{{"step_seconds", (train_seconds - validation_seconds - checkpoint_seconds) / options.steps},
-                        {"validation_seconds", validation_seconds / validations},
-                        {"checkpoint_seconds", checkpoint_seconds / writes},
-                        {"states_per_task", cell.request["train"]["states_per_task"]},
-                        {"validation_states_per_task", cell.request["train"]["validation_states_per_task"]},
-                        {"modules", cell.request["maps"]["modules"]},
-                        {"query_per_task", cell.request["maml"]["query_per_task"]},
-                        {"episode_seconds", eval_seconds / (options.episodes * tasks)},
-                        {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)}};
+      Json method{{"step_seconds", (train_seconds - validation_seconds - checkpoint_seconds) / options.steps},
+                  {"validation_seconds", validation_seconds / validations},
+                  {"checkpoint_seconds", checkpoint_seconds / writes},
+                  {"states_per_task", cell.request["train"]["states_per_task"]},
+                  {"validation_states_per_task", cell.request["train"]["validation_states_per_task"]},
+                  {"modules", cell.request["maps"]["modules"]},
+                  {"query_per_task", cell.request["maml"]["query_per_task"]},
+                  {"episode_seconds", eval_seconds / (options.episodes * tasks)},
+                  {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)}};
       std::printf(
           "calibrate: %s: %.2f ms per step, %.1f ms per validation, %.1f ms per checkpoint, %.3f s per "
           "episode, %.1f s overhead\n",
@@ -89,6 +96,23 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
           1e3 * method["validation_seconds"].get<double>(), 1e3 * method["checkpoint_seconds"].get<double>(),
           method["episode_seconds"].get<double>(), method["overhead_seconds"].get<double>());
       std::fflush(stdout);
+      // The same cell with bfloat16 products (train.precision "bf16"), where the CPU has them: its steps alone
+      // differ (validation and evaluation run float32).
+      if (bf16) {
+        SuiteCell bf16_cell = cell;
+        bf16_cell.request["train"]["precision"] = "bf16";
+        const CellOutcome bf16_outcome = run_cell(fs::path(options.work) / (set_name + "_bf16"), bf16_cell, 1);
+        if (bf16_outcome.status != CellOutcome::Status::kFinished)
+          throw std::runtime_error("calibration cell " + cell.name + " (bf16) did not finish: " + bf16_outcome.error);
+        const Json& bf16_train = bf16_outcome.result["train"];
+        method["step_seconds_bf16"] =
+            (bf16_train["seconds_this_process"].get<double>() - bf16_train.value("validation_seconds", 0.0) -
+             bf16_train.value("checkpoint_seconds", 0.0)) /
+            options.steps;
+        std::printf("calibrate: %s: %.2f ms per step in bf16\n", cell.name.c_str(),
+                    1e3 * method["step_seconds_bf16"].get<double>());
+        std::fflush(stdout);
+      }
       entry["methods"][cell.method] = method;
     }
     sets[set_name] = entry;
@@ -107,7 +131,8 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
                      std::to_string(options.episodes);
   table["note"] =
       "one thread per cell, one cell at a time; step_seconds is a training step alone, validation_seconds one "
-      "scoring of the validation states, checkpoint_seconds one checkpoint written";
+      "scoring of the validation states, checkpoint_seconds one checkpoint written; step_seconds_bf16 a step with "
+      "train.precision bf16 (CPUs with AVX512-BF16)";
   write_json_file(out, table);
   std::printf("calibrate: wrote %s\n", out.c_str());
   return 0;

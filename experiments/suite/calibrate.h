@@ -11,7 +11,9 @@ struct SuiteCalibrateOptions {
   std::string out;  // "" : default_costs_path()
   std::string work = "runs/calibrate";
   int steps = 400;
-  int episodes = 2;
+  // The evaluator steps up to 10 episodes of a task together (one batched policy call a step): fewer would time a
+  // policy call on fewer rows than a suite's 100-episode evaluation makes, and overstate an episode's cost 2-3x.
+  int episodes = 10;
   std::vector<std::string> sets;  // empty: every set (envs::task_set_names())
 };
 int run_suite_calibrate(const SuiteCalibrateOptions& options);

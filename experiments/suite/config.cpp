@@ -358,8 +358,17 @@ Suite parse_suite(const Json& json, const std::string& where) {
   return suite;
 }
 
-Suite load_suite(const std::string& path) {
-  Suite suite = parse_suite(load_config_plugins(read_json_file(path), folder_of(path), path), path);
+Suite load_suite(const std::string& path, const std::string& precision) {
+  Json json = read_json_file(path);
+  if (!precision.empty()) {
+    if (!json.is_object()) throw std::invalid_argument(path + ": expected a JSON object (a suite config)");
+    if (json.contains("defaults") && !json["defaults"].is_object())
+      throw std::invalid_argument(path + ".defaults: expected an object");
+    if (json.contains("defaults") && json["defaults"].contains("train") && !json["defaults"]["train"].is_object())
+      throw std::invalid_argument(path + ".defaults.train: expected an object");
+    json["defaults"]["train"]["precision"] = precision;
+  }
+  Suite suite = parse_suite(load_config_plugins(json, folder_of(path), path), path);
   suite.path = path;
   return suite;
 }

@@ -61,7 +61,9 @@ nlohmann::json merge_json(nlohmann::json base, const nlohmann::json& more);
 // grids as listed; within a grid, seeds outermost, then sets, methods, variants and demos as listed (so the first
 // seed of every cell finishes before the second starts).
 Suite parse_suite(const nlohmann::json& json, const std::string& where);
-Suite load_suite(const std::string& path);
+// precision (train.precision: "float32" or "bf16"; "" : as the file says) is set in the suite's defaults, so every
+// cell whose set config or variant does not set it trains so: `maps suite plan|run --precision` (issue 44).
+Suite load_suite(const std::string& path, const std::string& precision = "");
 // The cell of the suite that `cell` starts from (init.run "../<name>", a sibling in its set); nullptr when none.
 const SuiteCell* source_cell(const Suite& suite, const SuiteCell& cell);
 

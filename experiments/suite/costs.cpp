@@ -96,7 +96,13 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
     tasks += kept ? 1.0 : 0.0;
   }
   model_scale *= tasks / static_cast<double>(set_tasks.size());
-  const double step = cost("step_seconds", true) * rows / measured_rows * model_scale;
+  // A bf16 cell's steps at their own measured cost (validation and evaluation run float32 in both).
+  const bool bf16 = r["train"].value("precision", std::string("float32")) == "bf16";
+  if (bf16 && !entry->contains("step_seconds_bf16"))
+    throw std::runtime_error(path + " has no bf16 step cost for " + method + " on " + cell.set + " (cell " + cell.name +
+                             " trains with train.precision bf16; re-measure on a CPU with "
+                             "AVX512-BF16: maps suite calibrate)");
+  const double step = cost(bf16 ? "step_seconds_bf16" : "step_seconds", true) * rows / measured_rows * model_scale;
   const auto& scored = r["eval"].value("tasks", Json::array());
   const double evaluated_tasks = scored.empty() ? tasks : static_cast<double>(scored.size());
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).

@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
 int run_suite_plan(const SuitePlanOptions& options) {
-  const Suite suite = load_suite(options.config_path);
+  const Suite suite = load_suite(options.config_path, options.precision);
   const auto [shard, shards] = parse_shard(options.shard);
   const auto cells = shard_cells(suite, shard, shards);
   const CostTable costs = load_costs(options.costs);

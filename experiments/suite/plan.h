@@ -12,6 +12,7 @@ struct SuitePlanOptions {
   bool list_cells = false;
   bool json = false;
   std::string costs;
+  std::string precision;  // "" : as the config says; else every cell's train.precision (load_suite)
 };
 int run_suite_plan(const SuitePlanOptions& options);
 

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "autograd/matmul_precision.h"
 #include "experiments/process/host.h"
 #include "experiments/process/parallel_tasks.h"
 #include "experiments/suite/cell.h"
@@ -33,9 +34,17 @@ int default_jobs(int threads) {
 }  // namespace
 
 int run_suite(const SuiteRunOptions& options) {
-  const Suite suite = load_suite(options.config_path);
+  const Suite suite = load_suite(options.config_path, options.precision);
   const auto [shard, shards] = parse_shard(options.shard);
   const std::vector<const SuiteCell*> cells = shard_cells(suite, shard, shards);
+  // bf16 cells on a CPU without the instructions: refused here, before any cell starts, rather than each failing.
+  for (const auto* cell : cells) {
+    const std::string precision = cell->request["train"].value("precision", std::string("float32"));
+    const std::string refusal = ag::matmul_precision_refusal(ag::parse_matmul_precision(precision));
+    if (!refusal.empty())
+      throw std::invalid_argument(options.config_path + ": cell " + cell->name + ": train.precision \"bf16\" " +
+                                  refusal + " (use float32 here: --precision float32 sets it in the suite's defaults)");
+  }
   const fs::path out(options.out);
   write_or_check_manifest(out, suite);
   const auto costs = try_load_costs(options.costs);

@@ -284,7 +284,7 @@ std::vector<RunConfigField> make_fields() {
   add(
       "train.precision", [](RunConfig & c) -> auto& { return c.train.precision; }, one_of(ag::matmul_precision_names()),
       "the training steps' matrix products: `float32`, or `bf16` (operands rounded to bfloat16, sums, parameters, "
-      "Adam's state, losses and validation in float32; 1.2-1.3x faster steps where the CPU has AVX512-BF16, refused "
+      "Adam's state, losses and validation in float32; 1.4x faster steps where the CPU has AVX512-BF16, refused "
       "by name on one without; docs/performance.md, \"bfloat16\")");
   add(
       "train.optimizer", [](RunConfig & c) -> auto& { return c.train.optimizer; }, one_of({"joint", "alternating"}),

@@ -200,6 +200,46 @@ class SuiteTest(unittest.TestCase):
         text = maps("suite", "plan", TINY, "--costs", self.dir / "costs.json").stdout
         self.assertRegex(text, r"of which training steps [0-9.]+%, validation [0-9.]+%, checkpoints [0-9.]+% \(at most\)")
 
+    def test_the_precision_option_sets_every_cells_precision_and_its_step_cost(self):
+        costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
+            for m in methods.values():
+                m.pop("step_seconds_bf16", None)
+        without = write_config(self.dir, costs, "float32_costs.json")
+        proc = maps("suite", "plan", TINY, "--precision", "bf16", "--costs", without, check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn(f"{without} has no bf16 step cost for maps on gravity", proc.stderr)
+        self.assertIn("re-measure on a CPU with AVX512-BF16", proc.stderr)
+        for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
+            for m in methods.values():
+                m["step_seconds_bf16"] = m["step_seconds"] / 2
+        both = write_config(self.dir, costs, "costs.json")
+        float32 = plan(TINY, "--costs", both)
+        bf16 = plan(TINY, "--precision", "bf16", "--costs", both)
+        self.assertAlmostEqual(bf16["cpu_seconds_parts"]["steps"], float32["cpu_seconds_parts"]["steps"] / 2, places=6)
+        self.assertEqual(bf16["cpu_seconds_parts"]["evaluation"], float32["cpu_seconds_parts"]["evaluation"])
+        self.assertEqual(plan(TINY, "--precision", "float32", "--costs", both)["cpu_seconds"], float32["cpu_seconds"])
+        proc = maps("suite", "plan", TINY, "--precision", "fp16", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("--precision", proc.stderr)
+        # A run: every cell's request says bf16 where the CPU has it; elsewhere the run is refused before any cell.
+        has_bf16 = "avx512_bf16" in pathlib.Path("/proc/cpuinfo").read_text().split()
+        out = self.dir / "bf16"
+        proc = maps("suite", "run", TINY, "--out", out, "--precision", "bf16", "--shard", "0/1000", check=False)
+        if has_bf16:
+            self.assertEqual(proc.returncode, 0, proc.stderr)
+            cells = json.loads((out / "suite.json").read_text())["cells"]
+            self.assertEqual({c["request"]["train"]["precision"] for c in cells}, {"bf16"})
+            result = json.loads((out / "cells" / cells[0]["name"] / "result.json").read_text())
+            self.assertEqual(result["config"]["train"]["precision"], "bf16")
+            # The folder is now the bf16 suite's: the float32 one is another config.
+            proc = maps("suite", "run", TINY, "--out", out, "--shard", "0/1000", check=False)
+            self.assertNotEqual(proc.returncode, 0)
+        else:
+            self.assertNotEqual(proc.returncode, 0)
+            self.assertIn('train.precision "bf16" needs a CPU with AVX512-BF16', proc.stderr)
+            self.assertFalse((out / "cells").exists())
+
     def test_a_damaged_cost_table_is_refused_naming_the_value(self):
         good = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
         where = "sets.gravity.methods.maps."
