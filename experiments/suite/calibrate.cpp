@@ -65,6 +65,12 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
     const fs::path work = fs::path(options.work) / set_name;
     fs::remove_all(work);
     fs::remove_all(fs::path(options.work) / (set_name + "_bf16"));
+    // A training step alone: train.json's time less its validations and checkpoint writes, over the steps.
+    const auto step_seconds_of = [&options](const Json& train) {
+      return (train["seconds_this_process"].get<double>() - train.value("validation_seconds", 0.0) -
+              train.value("checkpoint_seconds", 0.0)) /
+             options.steps;
+    };
     for (const auto& cell : suite.cells) {
       const CellOutcome outcome = run_cell(work, cell, 1);
       if (outcome.status != CellOutcome::Status::kFinished)
@@ -80,7 +86,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
       const double checkpoint_seconds = train.value("checkpoint_seconds", 0.0);
       const double validations = std::max(1.0, train.value("validations", 1.0));
       const double writes = std::max(1.0, train.value("checkpoints_written", 1.0));
-      Json method{{"step_seconds", (train_seconds - validation_seconds - checkpoint_seconds) / options.steps},
+      Json method{{"step_seconds", step_seconds_of(train)},
                   {"validation_seconds", validation_seconds / validations},
                   {"checkpoint_seconds", checkpoint_seconds / writes},
                   {"states_per_task", cell.request["train"]["states_per_task"]},
@@ -104,11 +110,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
         const CellOutcome bf16_outcome = run_cell(fs::path(options.work) / (set_name + "_bf16"), bf16_cell, 1);
         if (bf16_outcome.status != CellOutcome::Status::kFinished)
           throw std::runtime_error("calibration cell " + cell.name + " (bf16) did not finish: " + bf16_outcome.error);
-        const Json& bf16_train = bf16_outcome.result["train"];
-        method["step_seconds_bf16"] =
-            (bf16_train["seconds_this_process"].get<double>() - bf16_train.value("validation_seconds", 0.0) -
-             bf16_train.value("checkpoint_seconds", 0.0)) /
-            options.steps;
+        method["step_seconds_bf16"] = step_seconds_of(bf16_outcome.result["train"]);
         std::printf("calibrate: %s: %.2f ms per step in bf16\n", cell.name.c_str(),
                     1e3 * method["step_seconds_bf16"].get<double>());
         std::fflush(stdout);
