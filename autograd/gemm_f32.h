@@ -11,37 +11,43 @@
 // (AVX2: 108-114, Eigen's 98-108). Measured by `maps_bench --benchmark_filter=Gemm`
 // (experiments/bench/micro/gemm_bench.cpp); docs/performance.md.
 //
-// Each element of C is summed in the same order (inner blocks in order, k ascending within a block) wherever its
-// tile falls, so a product's result does not depend on how gemm_parallel splits it across threads.
+// The instruction set is chosen at run time (issue 44): the build compiles the kernel once for AVX-512 and once for
+// AVX2 + FMA (gemm_f32_avx512.cpp, gemm_f32_avx2.cpp, each with its own flags, on x86-64 compilers that take them),
+// and the first product picks the widest the CPU runs, so one portable binary runs AVX-512 on a Zen 5 or a Xeon and
+// AVX2 on a Zen 3 or a laptop; elsewhere float32 runs Eigen's GEMM. MAPS_F32_KERNEL=avx512|avx2|eigen in the
+// environment picks one instead (a CPU without it is refused by name). Both instruction sets sum each element of C
+// in the same order (inner blocks in order, k ascending within a block, one fused multiply-add at a time), wherever
+// its tile falls: a product's result depends neither on gemm_parallel's split nor on the kernel chosen.
 
 #include <cstdint>
+#include <string>
+#include <vector>
+
+#include "autograd/gemm_f32_variant.h"
 
 namespace maps::ag::detail {
 
-// AVX-512 (8 x 32 tile) or, on CPUs without it (most laptops' Intel cores), AVX2 with FMA (6 x 16 tile, 12 of the
-// 16 registers); else none and float32 runs Eigen's GEMM.
-#if defined(__AVX512F__) || (defined(__AVX2__) && defined(__FMA__))
-#define MAPS_F32_KERNEL 1
-#else
-#define MAPS_F32_KERNEL 0
-#endif
-inline constexpr bool kHaveF32Kernel = MAPS_F32_KERNEL;
-#if defined(__AVX512F__)
-inline constexpr const char* kF32KernelName = "maps AVX-512";
-#elif MAPS_F32_KERNEL
-inline constexpr const char* kF32KernelName = "maps AVX2";
-#else
-inline constexpr const char* kF32KernelName = "Eigen";
-#endif
+enum class F32Kernel { eigen, avx2, avx512 };
 
-// A float32 matrix read through strides: element (i, j) at data[i * row_stride + j * col_stride].
-struct StridedF32 {
-  const float* data;
-  std::int64_t row_stride, col_stride;
-};
+// "maps AVX-512", "maps AVX2", "Eigen": what provenance.json and `maps bench` record.
+const char* f32_kernel_name(F32Kernel kernel);
+// "avx512", "avx2", "eigen": the names MAPS_F32_KERNEL takes.
+const std::vector<std::string>& f32_kernel_choices();
+// Throws std::invalid_argument naming `where`, the value and the choices.
+F32Kernel parse_f32_kernel(const std::string& name, const std::string& where);
+// "" when this build has `kernel` and this CPU runs it; otherwise why not, as one phrase.
+std::string f32_kernel_missing(F32Kernel kernel);
+// The widest kernel this build has and this CPU runs.
+F32Kernel best_f32_kernel();
+// The kernel float32 products run: MAPS_F32_KERNEL's when set (it throws std::runtime_error naming the variable when
+// the value is unknown or the CPU lacks it), else best_f32_kernel(); decided at the first call.
+F32Kernel f32_kernel();
+// Sets the kernel for the whole process and returns the previous one (tests, benchmarks). Throws
+// std::runtime_error naming what is missing when the build or the CPU cannot run it.
+F32Kernel set_f32_kernel(F32Kernel kernel);
 
-// C [m, n] (row-major, `ldc` between rows) = A [m, k] B [k, n], or += when `accumulate`. Only when
-// kHaveF32Kernel (else it throws std::logic_error).
+// C [m, n] (row-major, `ldc` between rows) = A [m, k] B [k, n], or += when `accumulate`, on f32_kernel() (which must
+// not be eigen: std::logic_error).
 void gemm_f32(StridedF32 a, StridedF32 b, float* c, std::int64_t ldc, std::int64_t m, std::int64_t n, std::int64_t k,
               bool accumulate);
 

@@ -62,7 +62,7 @@ extern std::atomic<int> gemm_flop_counters;
 extern std::atomic<std::uint64_t> gemm_flops_counted;
 
 // C (=|+=) op(A) op(B), one thread. A and B as stored; op transposes when asked. float32 runs the own kernel
-// (gemm_f32.h) when the build has it, float64 (gradient checks) Eigen's.
+// (gemm_f32.h) chosen for the CPU, or Eigen's where none runs; float64 (gradient checks) Eigen's.
 template <typename T>
 void gemm_serial(MatrixRef<const T> a, bool ta, MatrixRef<const T> b, bool tb, MatrixRef<T> c, bool accumulate) {
   if (gemm_flop_counters.load(std::memory_order_relaxed) > 0)
@@ -74,9 +74,11 @@ void gemm_serial(MatrixRef<const T> a, bool ta, MatrixRef<const T> b, bool tb, M
       return;
     }
   }
-  if constexpr (std::is_same_v<T, float> && kHaveF32Kernel) {
-    gemm_f32(op_strides(a, ta), op_strides(b, tb), c.data, c.ld, c.rows, c.cols, ta ? a.rows : a.cols, accumulate);
-    return;
+  if constexpr (std::is_same_v<T, float>) {
+    if (f32_kernel() != F32Kernel::eigen) {
+      gemm_f32(op_strides(a, ta), op_strides(b, tb), c.data, c.ld, c.rows, c.cols, ta ? a.rows : a.cols, accumulate);
+      return;
+    }
   }
   ConstStridedMap<T> ma(a.data, a.rows, a.cols, Eigen::OuterStride<>(a.ld));
   ConstStridedMap<T> mb(b.data, b.rows, b.cols, Eigen::OuterStride<>(b.ld));

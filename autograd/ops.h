@@ -50,8 +50,9 @@ Tensor matmul(const Tensor& a, const Tensor& b);
 // op(a) @ op(b), where op transposes the last two dims when asked; same ranks as matmul (a 3-d
 // left operand against a 2-d right one cannot be transposed). No transposed copy is made.
 Tensor gemm(const Tensor& a, const Tensor& b, bool transpose_a, bool transpose_b);
-// Which kernel runs float32 products in this build: "maps AVX-512" or "maps AVX2" (autograd/gemm_f32.h), or
-// "Eigen" (a CPU or build with neither). float64 products always run Eigen's.
+// Which kernel runs float32 products: "maps AVX-512" or "maps AVX2" (autograd/gemm_f32.h: the widest this build
+// has and this CPU runs, chosen at run time, or MAPS_F32_KERNEL's), or "Eigen" (neither). float64 products always
+// run Eigen's.
 const char* float32_gemm_kernel();
 // Counts the FLOPs (2 m n k per product) of every matrix product any thread runs while it lives, in every op that
 // multiplies (matmul, gemm, linear, parallel_linear, mlp, parallel_mlp, and their gradients): `maps bench step`'s

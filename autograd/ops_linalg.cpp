@@ -102,7 +102,7 @@ Tensor product(const char* op, const Tensor& a, const Tensor& b, bool transpose_
 
 }  // namespace
 
-const char* float32_gemm_kernel() { return detail::kF32KernelName; }
+const char* float32_gemm_kernel() { return detail::f32_kernel_name(detail::f32_kernel()); }
 
 namespace detail {
 std::atomic<int> gemm_flop_counters{0};

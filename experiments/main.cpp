@@ -23,8 +23,14 @@ constexpr AddCommand* kCommands[] = {add_demo,   add_train_expert, add_collect, 
 
 // The version, the commit and what the build computes with: what a bug report or a speed figure needs.
 std::string version_text() {
+  std::string kernel;
+  try {
+    kernel = maps::ag::float32_gemm_kernel();
+  } catch (const std::exception& e) {  // MAPS_F32_KERNEL names none this CPU runs
+    kernel = std::string("(none: ") + e.what() + ")";
+  }
   return std::string("maps ") + maps::experiments::tool_version() + "\ncommit " + maps::experiments::tool_git_commit() +
-         "\nbuild " + maps::experiments::tool_build() + "\nfloat32 GEMM kernel " + maps::ag::float32_gemm_kernel();
+         "\nbuild " + maps::experiments::tool_build() + "\nfloat32 GEMM kernel " + kernel;
 }
 
 }  // namespace

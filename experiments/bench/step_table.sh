@@ -8,8 +8,10 @@
 #   PRECISIONS="float32 bf16"  the precisions (a precision the CPU lacks is reported as refused, not run)
 #   THREADS="1"                the op threads of each row (the ceilings are one thread)
 #   AVX2_BIN=PATH              a maps built for AVX2-only x86 (-DMAPS_NATIVE=OFF -DCMAKE_CXX_FLAGS=-march=x86-64-v3):
-#                              adds its float32 rows, judged against AVX2 ceilings (OpenBLAS forced to its Haswell
-#                              kernel, that build's Eigen and own kernel). AVX2_BIN=build builds build-avx2 first.
+#                              adds its float32 rows: with MAPS_F32_KERNEL=avx2, judged against AVX2 ceilings
+#                              (OpenBLAS forced to its Haswell kernel, that build's Eigen and own kernel); and with
+#                              the kernel it picks at run time (the portable binary's speed on this CPU).
+#                              AVX2_BIN=build builds build-avx2 first.
 #
 # OpenBLAS: the environment may force OPENBLAS_CORETYPE and OPENBLAS_L2_SIZE (this project's VMs do); they are
 # unset for the native ceilings and for PyTorch (which calls OpenBLAS) in those commands alone, and the kernel
@@ -73,8 +75,12 @@ for set in gravity modified mt10; do
       fi
     done
     if [[ -n "$avx2" ]]; then
-      echo "step_table.sh: maps (AVX2 build), $set, float32, $threads thread(s)..." >&2
-      record "step_avx2" "$("$avx2" bench step --set "$set" --precision float32 --threads "$threads" --seconds "$seconds" --json)"
+      # The kernel is chosen at run time (autograd/gemm_f32.h): forced to AVX2 for the AVX2 row, and left to choose
+      # for the portable row (on an AVX-512 CPU the x86-64-v3 build then runs the AVX-512 kernel).
+      echo "step_table.sh: maps (AVX2 build, AVX2 kernel), $set, float32, $threads thread(s)..." >&2
+      record "step_avx2" "$(MAPS_F32_KERNEL=avx2 "$avx2" bench step --set "$set" --precision float32 --threads "$threads" --seconds "$seconds" --json)"
+      echo "step_table.sh: maps (AVX2 build, kernel chosen at run time), $set, float32, $threads thread(s)..." >&2
+      record "step_portable" "$("$avx2" bench step --set "$set" --precision float32 --threads "$threads" --seconds "$seconds" --json)"
     fi
   done
 done

@@ -234,6 +234,21 @@ class BadInputTest(unittest.TestCase):
                 self.expect_refused(args, needle, "a_file" if needle != "is a folder" else WORK, timeout=30)
                 self.assertNotIn("[1/", self.last_stdout, "work started before the output was checked")
 
+    def test_an_unknown_float32_kernel_in_the_environment_is_refused_by_name(self):
+        for value, needle in (("sse", 'MAPS_F32_KERNEL: expected "avx512", "avx2" or "eigen", got "sse"'),
+                              ("AVX2", 'got "AVX2"')):
+            proc = subprocess.run([MAPS, "bench", "step", "--set", "mt10", "--seconds", "0.1"], cwd=WORK,
+                                  capture_output=True, text=True, timeout=120, env=dict(os.environ, MAPS_F32_KERNEL=value))
+            self.assertEqual(proc.returncode, 1, proc.stderr)
+            self.assertIn(needle, proc.stderr)
+            for sign in CRASH_SIGNS:
+                self.assertNotIn(sign, proc.stderr)
+        # --version still answers, saying the kernel is not settled.
+        proc = subprocess.run([MAPS, "--version"], capture_output=True, text=True, timeout=60,
+                              env=dict(os.environ, MAPS_F32_KERNEL="sse"))
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        self.assertIn("float32 GEMM kernel (none: MAPS_F32_KERNEL", proc.stdout)
+
     def test_run_configs(self):
         self.expect_refused(["train", "--config", "absent.json", "--out", "r1"], "absent.json")
         self.expect_refused(["train", "--config", self.write("broken.json", '{"method": "mt_bc", '), "--out", "r2"],

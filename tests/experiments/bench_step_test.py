@@ -225,6 +225,23 @@ class StepTable(unittest.TestCase):
         self.assertIn("Test CPU", done.stdout)
         self.assertIn("kernel Zen, its own choice", done.stdout)
 
+    def test_the_avx2_build_rows_are_judged_against_the_ceilings_of_the_kernel_they_ran(self):
+        avx2 = dict(self.step("step_avx2", "float32", 20.0, 60.0, 80.0, 75.0), float32_gemm_kernel="maps AVX2")
+        portable = self.step("step_portable", "float32", 10.0, 120.0, 80.0, 150.0)
+        records = [{"kind": "openblas_native", "gflops": 160.0, "openblas": {"core": "Zen"}, "env": {}},
+                   {"kind": "openblas_avx2", "gflops": 100.0, "openblas": {"core": "Haswell"},
+                    "env": {"OPENBLAS_CORETYPE": "Haswell"}},
+                   self.step("step_native", "float32", 10.0, 120.0, 100.0, 150.0), avx2, portable]
+        done = self.table(records)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        rows = [[cell.strip() for cell in line.split("|")[1:-1]] for line in done.stdout.splitlines()
+                if line.startswith("| mt10")]
+        self.assertEqual([r[2] for r in rows], ["x86-64-v3 (maps AVX2)", "x86-64-v3, run-time choice (maps AVX-512)",
+                                                "native (maps AVX-512)"])
+        self.assertEqual(rows[0][6:10], ["0.60", "0.75", "0.80", "0.60"])  # against OpenBLAS's Haswell kernel
+        self.assertEqual(rows[1][6:10], ["0.75", "1.50", "0.80", "0.75"])  # against its native kernel
+        self.assertIn("on its AVX2 kernel: 100.0 GFLOP/s (kernel Haswell, forced)", done.stdout)
+
     def test_a_damaged_line_is_named(self):
         with tempfile.TemporaryDirectory() as folder:
             path = pathlib.Path(folder) / "step.jsonl"

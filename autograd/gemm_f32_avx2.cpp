@@ -1,0 +1,7 @@
+// The float32 kernel for AVX2 + FMA, compiled with that instruction set's flags (autograd/CMakeLists.txt; without
+// them, in a build for another architecture, this file is empty).
+#if MAPS_BUILD_F32_AVX2
+#define MAPS_F32_VARIANT_AVX512 0
+#define MAPS_F32_VARIANT_FUNCTION gemm_f32_avx2
+#include "autograd/gemm_f32_kernel.inc"
+#endif
