@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "autograd/matmul_precision.h"
+#include "envs/task_sets.h"
 #include "experiments/process/command_line.h"
 #include "experiments/process/cpu_model.h"
 #include "experiments/process/plugins.h"
@@ -19,6 +20,8 @@
 #include "experiments/run/run_folder.h"
 #include "experiments/run/tee_stream.h"
 #include "io/output_files.h"
+#include "maps/adversarial/gail_state.h"
+#include "maps/adversarial/gail_trainer.h"
 #include "maps/training/init_from_run.h"
 #include "maps/training/trainer.h"
 
@@ -50,6 +53,43 @@ std::string differing_keys(const nlohmann::json& a, const nlohmann::json& b) {
   return joined;
 }
 
+// What the folder's last.ckpt has done: BC steps, or GAIL iterations.
+std::int64_t progress_of(const core::RunConfig& config, const std::string& out) {
+  if (config.imitation == "gail")
+    return adversarial::gail_iterations_done((std::filesystem::path(out) / run_files::kLastCheckpoint).string());
+  return core::trained_steps(out);
+}
+
+// Trains by GAIL and writes train.json; returns its summary line.
+std::string train_adversarially(const core::RunConfig& config, core::Policy& policy, const core::DemoDataset& data,
+                                const std::string& out, std::ostream& log, const nlohmann::json& common) {
+  adversarial::GailConfig gail = config.gail;
+  gail.validation_states_per_task = config.train.validation_states_per_task;
+  const core::EnvFactory make_env = [](const std::string& task) { return envs::make_env(task); };
+  const adversarial::GailSummary summary =
+      adversarial::train_gail(policy, data, make_env, gail, config.seed, out, &log);
+  nlohmann::json record = common;
+  record.update({{"imitation", "gail"},
+                 {"steps", summary.iterations},
+                 {"iterations", summary.iterations},
+                 {"env_steps_per_task", summary.env_steps_per_task},
+                 {"best_step", summary.best_iteration},
+                 {"best_validation_bc", summary.best_validation_loss},
+                 {"seconds_this_process", summary.seconds},
+                 {"env_steps_this_process", summary.env_steps_this_process},
+                 {"physics_seconds", summary.physics_seconds},
+                 {"rollout_policy_seconds", summary.rollout_policy_seconds},
+                 {"discriminator_seconds", summary.discriminator_seconds},
+                 {"ppo_seconds", summary.ppo_seconds},
+                 {"other_seconds", summary.other_seconds},
+                 {"resumed", summary.resumed}});
+  write_json_file((std::filesystem::path(out) / run_files::kTrainSummary).string(), record);
+  return "done: GAIL, " + std::to_string(summary.iterations) + " iterations, " +
+         std::to_string(summary.env_steps_per_task) + " env steps per task; best.ckpt from iteration " +
+         std::to_string(summary.best_iteration) + " (validation BC " + std::to_string(summary.best_validation_loss) +
+         "); " + out + "/best.ckpt";
+}
+
 }  // namespace
 
 // What DIR already holds decides what this invocation does: start, resume, or extend (only train.steps differs).
@@ -68,6 +108,9 @@ void check_existing_run(const std::string& out, const nlohmann::json& resolved, 
                              differing_keys(existing, resolved) +
                              "); use a new folder, or delete it to start over (only train.steps may change, to "
                              "extend a run)");
+  if (resolved.value("imitation", "bc") == "gail")
+    throw std::runtime_error(out + " holds a GAIL run of another config (" + config_path + " differs in " +
+                             differing_keys(existing, resolved) + "); use a new folder, or delete it to start over");
   const std::int64_t done = core::trained_steps(out), wanted = resolved["train"]["steps"].get<std::int64_t>();
   if (done > wanted)
     throw std::invalid_argument(out + " has trained " + std::to_string(done) + " steps, more than train.steps " +
@@ -115,7 +158,8 @@ int run_train(const TrainRunOptions& options) {
     append_provenance(options.out, provenance_record({{"subcommand", "train"},
                                                       {"config_file", options.config_path},
                                                       {"overrides", options.overrides},
-                                                      {"start_step", core::trained_steps(options.out)},
+                                                      {"start_step", progress_of(config, options.out)},
+                                                      {"imitation", config.imitation},
                                                       {"steps", config.train.steps},
                                                       {"threads", options.threads},
                                                       {"matmul_precision", config.train.precision},
@@ -123,7 +167,7 @@ int run_train(const TrainRunOptions& options) {
                                                       {"demo_file_sha256", sha256_of_file(config.data_file)}}));
     const core::PolicyShape shape{data.observation_size(), data.action_size(), data.num_tasks()};
     const auto policy = core::make_policy(config, shape);
-    if (!config.init_run.empty() && core::trained_steps(options.out) == 0) {
+    if (!config.init_run.empty() && progress_of(config, options.out) == 0) {
       const std::string source_dir = init_run_folder(config, options.out);
       try {
         const TrainedRun source = load_trained_run(source_dir, config.init_checkpoint);
@@ -143,17 +187,28 @@ int run_train(const TrainRunOptions& options) {
     log << "maps train: " << config.method << " on " << config.data_file << " (" << data.num_tasks() << " tasks, "
         << (fewest == most ? std::to_string(most) : std::to_string(fewest) + "-" + std::to_string(most))
         << " demos per task, subsample " << config.data.subsample << "), seed " << config.seed << ", "
-        << config.train.steps << " steps -> " << options.out << std::endl;
+        << (config.imitation == "gail"
+                ? "GAIL, " + std::to_string(config.gail.env_steps_per_task) + " env steps per task"
+                : std::to_string(config.train.steps) + " steps")
+        << " -> " << options.out << std::endl;
     const double maps_parameters = core::maps_parameter_count(config, shape);
     log << "maps train: " << policy->parameter_count()
         << " parameters (MAPS under this config: " << static_cast<long long>(maps_parameters) << ")" << std::endl;
     ag::set_num_threads(options.threads);
+    nlohmann::json seeds = nlohmann::json::object();
+    for (int k = 0; k < data.num_tasks(); ++k) seeds[data.task_names()[k]] = data.training_demo_seeds()[k];
+    if (config.imitation == "gail") {
+      log << train_adversarially(config, *policy, data, options.out, log,
+                                 {{"parameters", policy->parameter_count()},
+                                  {"maps_parameters", maps_parameters},
+                                  {"training_demo_seeds", seeds}})
+          << std::endl;
+      return 0;
+    }
     core::TrainConfig train = config.train;
     train.validate_start = !config.init_run.empty();
     const core::TrainSummary summary = core::train_policy(*policy, data, train, options.out, &log);
 
-    nlohmann::json seeds = nlohmann::json::object();
-    for (int k = 0; k < data.num_tasks(); ++k) seeds[data.task_names()[k]] = data.training_demo_seeds()[k];
     write_json_file((dir / run_files::kTrainSummary).string(), {{"steps", summary.steps_done},
                                                                 {"best_step", summary.best_step},
                                                                 {"best_validation_bc", summary.best_validation_loss},

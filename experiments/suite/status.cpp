@@ -19,8 +19,10 @@
 #include "experiments/suite/costs.h"
 #include "experiments/suite/folder.h"
 #include "io/json_input.h"
+#include "maps/adversarial/gail_state.h"
 #include "maps/training/curve_cost.h"
 #include "maps/training/trainer.h"
+#include "nn/serialize.h"
 
 namespace maps::experiments {
 
@@ -29,16 +31,22 @@ using Json = nlohmann::json;
 
 namespace {
 
-// The last step curve.csv records (-1 when none: missing, only the header, or unreadable). A running cell may be
-// writing its last line: only whole lines (ended by a newline) count.
-long long curve_last_step(const fs::path& dir) {
+// The last step curve.csv records in its column `column` (0: a BC run's step; 1: a GAIL run's env steps per task),
+// -1 when none: missing, only the header, or unreadable. A running cell may be writing its last line: only whole
+// lines (ended by a newline) count.
+long long curve_last_step(const fs::path& dir, int column = 0) {
   std::ifstream in(dir / run_files::kCurve, std::ios::binary);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const auto end = text.rfind('\n');
   if (end == std::string::npos || end == 0) return -1;
   const auto before = text.rfind('\n', end - 1);
   const std::size_t begin = before == std::string::npos ? 0 : before + 1;
-  const std::string last = text.substr(begin, end - begin);
+  std::string last = text.substr(begin, end - begin);
+  for (int c = 0; c < column; ++c) {
+    const auto comma = last.find(',');
+    if (comma == std::string::npos) return -1;
+    last = last.substr(comma + 1);
+  }
   const auto comma = last.find(',');
   if (last.empty() || comma == std::string::npos) return -1;
   try {
@@ -50,8 +58,9 @@ long long curve_last_step(const fs::path& dir) {
   }
 }
 
-std::string progress_text(long long step, long long steps) {
-  return step < 0 ? "" : "step " + std::to_string(step) + " of " + std::to_string(steps);
+std::string progress_text(long long step, long long steps, bool gail = false) {
+  return step < 0 ? ""
+                  : (gail ? "env steps per task " : "step ") + std::to_string(step) + " of " + std::to_string(steps);
 }
 
 double share_of(long long step, long long steps) {
@@ -122,7 +131,10 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
   CellState s;
   s.folder = dir.string();
   std::string damage;
-  const long long steps = cell.request["train"]["steps"].get<long long>();
+  // A GAIL cell's progress is its env steps per task (curve.csv's second column, last.ckpt's record).
+  const bool gail = cell.request.value("imitation", std::string("bc")) == "gail";
+  const long long steps = gail ? cell.request["gail"]["env_steps_per_task"].get<long long>()
+                               : cell.request["train"]["steps"].get<long long>();
   if (const auto result = read_result(dir, cell, &damage)) {
     s.state = "done";
     char text[128];
@@ -132,8 +144,8 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     set_cost(s, dir, *result);
   } else if (cell_is_locked(dir)) {
     s.state = "running";
-    const long long step = curve_last_step(dir);
-    s.detail = progress_text(step, steps);
+    const long long step = curve_last_step(dir, gail ? 1 : 0);
+    s.detail = progress_text(step, steps, gail);
     s.trained = share_of(step, steps);
   } else if (fs::exists(dir / suite_files::kError)) {
     s.state = "failed";
@@ -151,8 +163,12 @@ CellState state_in(const fs::path& out, const SuiteCell& cell) {
     s.state = "started";
     // It resumes from last.ckpt's step (its curve may record more, which a resume truncates).
     try {
-      const long long step = core::trained_steps(dir.string());
-      s.detail = "resumable at its last checkpoint, " + progress_text(step, steps);
+      const std::string last = (dir / run_files::kLastCheckpoint).string();
+      const long long step =
+          gail ? adversarial::read_gail_record(nn::load_tensors(last).config, "GAIL checkpoint " + last)
+                     .env_steps_per_task
+               : core::trained_steps(dir.string());
+      s.detail = "resumable at its last checkpoint, " + progress_text(step, steps, gail);
       s.trained = share_of(step, steps);
     } catch (const std::exception& e) {
       s.detail = std::string("its last checkpoint cannot be read, so it cannot resume: ") + e.what();

@@ -163,15 +163,24 @@ ag::Tensor MAPSPolicy::act(const ag::Tensor& observations, const std::vector<std
 }
 
 LossTerms MAPSPolicy::loss(const Batch& batch) {
+  const PolicyForward forward = forward_terms(batch);
+  const ag::Tensor bc = bc_loss(forward.mean_actions, batch);
+  LossTerms result;
+  result.terms.emplace_back("bc", bc);
+  result.terms.insert(result.terms.end(), forward.regularizer.terms.begin(), forward.regularizer.terms.end());
+  result.total = bc * config_.bc_weight;
+  if (forward.regularizer.total.defined()) result.total = result.total + forward.regularizer.total;
+  return result;
+}
+
+PolicyForward MAPSPolicy::forward_terms(const Batch& batch) {
   const ag::Tensor& obs = batch.observations;
   detail::check_batch("MAPSPolicy::loss", shape(), batch);
   detail::check_observations("MAPSPolicy::loss (previous_observations)", shape(), batch.previous_observations,
                              batch.tasks);
-  LossTerms result;
+  PolicyForward result;
   if (uniform_selector()) {
-    const ag::Tensor bc = bc_loss(head(features(obs), checked_scores(obs, batch.tasks)), batch);
-    result.terms.emplace_back("bc", bc);
-    result.total = bc * config_.bc_weight;
+    result.mean_actions = head(features(obs), checked_scores(obs, batch.tasks));
     return result;
   }
   const std::int64_t n = obs.size(0), K = shape().num_tasks, M = config_.modules;
@@ -200,16 +209,15 @@ LossTerms MAPSPolicy::loss(const Batch& batch) {
   out.scores = ag::index_select(all, own_task_rows(batch.tasks));
   out.previous_scores = ag::narrow(scored, 0, K * n, n);
 
-  const ag::Tensor bc = bc_loss(head(features(obs), out.scores), batch);
-  result.terms.emplace_back("bc", bc);
+  result.mean_actions = head(features(obs), out.scores);
   ag::Tensor selector_total = ag::zeros({}, obs.dtype());
   for (std::size_t j = 0; j < losses_.size(); ++j) {
     auto& loss = child_at<SelectorLoss>(losses_[j]);
     const ag::Tensor value = loss.forward(out);
-    result.terms.emplace_back(loss.name(), value);
+    result.regularizer.terms.emplace_back(loss.name(), value);
     selector_total = selector_total + value * loss_weights_[j];
   }
-  result.total = bc * config_.bc_weight + selector_total * config_.selector_weight;
+  result.regularizer.total = selector_total * config_.selector_weight;
   return result;
 }
 

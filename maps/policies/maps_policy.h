@@ -50,6 +50,8 @@ class MAPSPolicy : public Policy {
   ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
   // total = bc_weight * L_BC + selector_weight * sum_j lambda_j L_j; terms: "bc", then each selector loss by name.
   LossTerms loss(const Batch& batch) override;
+  // The head's actions and the selector losses (total: selector_weight * sum_j lambda_j L_j).
+  PolicyForward forward_terms(const Batch& batch) override;
 
   // The selector's scores (scores()).
   ag::Tensor routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override {

@@ -31,6 +31,8 @@ ag::Tensor Policy::bc_loss(const ag::Tensor& mean_actions, const Batch& batch) c
   return ag::mse_loss(mean_actions + std * noise, batch.actions);
 }
 
+PolicyForward Policy::forward_terms(const Batch& batch) { return {act(batch.observations, batch.tasks), {}}; }
+
 double Policy::validation_loss(const Batch& validation, const DemoDataset& /*data*/) {
   return mean_action_error(*this, validation);
 }

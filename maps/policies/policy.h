@@ -28,6 +28,12 @@ struct PolicyShape {
 
 class DemoDataset;
 
+// A batch's mean actions with their graph, and the method's own terms on those states besides imitation.
+struct PolicyForward {
+  ag::Tensor mean_actions;  // [n, A]
+  LossTerms regularizer;    // weighted as the method's loss weighs them; total undefined when there are none
+};
+
 class Policy : public nn::Module {
  public:
   Policy(std::string type_name, PolicyShape shape) : nn::Module(std::move(type_name)), shape_(shape) {}
@@ -36,6 +42,10 @@ class Policy : public nn::Module {
   virtual ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) = 0;
   // The loss of one training batch (built for a balanced batch of batch_per_task() rows per task).
   virtual LossTerms loss(const Batch& batch) = 0;
+  // For imitation objectives other than BC (GAIL's PPO loss, maps/adversarial/): the mean actions of the batch's
+  // states with their graph, and the method's own regularisers on them (MAPS: its selector losses; batch.actions is
+  // not used). loss() is a BC term on these means plus the same regularisers. Default: act() and none.
+  virtual PolicyForward forward_terms(const Batch& batch);
   // Rows per task a training batch should hold (MAML asks for support + query).
   virtual std::int64_t batch_per_task(std::int64_t states_per_task) const { return states_per_task; }
   // Called by the trainer after each optimiser step (PaCo resets the task weights of the tasks its loss masked).

@@ -14,6 +14,7 @@
 #include "envs/env.h"
 #include "envs/expert_policy.h"
 #include "maps/rl/actor_critic.h"
+#include "maps/rl/ppo_update_config.h"
 #include "maps/rl/running_mean_std.h"
 
 // PPO (clipped surrogate, GAE) on one env, with the recipe of issue 3 as defaults: 2048 steps per rollout,
@@ -23,20 +24,10 @@
 // normalised by running mean/std (clip 10), rewards scaled by the running std of the discounted return.
 namespace maps::rl {
 
-struct PPOConfig {
+struct PPOConfig : PPOUpdateConfig {
   std::int64_t total_steps = 1'000'000;  // env steps; the learning rate reaches 0 here
   int steps_per_rollout = 2048;
-  int epochs = 10;
   int minibatch_size = 64;
-  double gamma = 0.99;
-  double gae_lambda = 0.95;
-  double clip = 0.2;
-  double learning_rate = 3e-4;
-  double adam_eps = 1e-5;
-  bool anneal_learning_rate = true;
-  double value_coef = 0.5;
-  double entropy_coef = 0.0;
-  double max_grad_norm = 0.5;
   bool normalize_observations = true;
   bool scale_rewards = true;
   std::vector<std::int64_t> hidden = {64, 64};

@@ -52,6 +52,33 @@ Json read_method_section(const PolicyMethod& method, const Json& given) {
 }
 
 // What no single key's range can say: keys that contradict each other or the method.
+// Keys of one objective set under the other would do nothing: refused by name.
+void check_imitation_keys(const RunConfig& c) {
+  if (c.imitation == "bc") {
+    for (const RunConfigField& field : run_config_fields())
+      if (field.spec.key.rfind("gail.", 0) == 0 && field.get(c) != field.spec.default_value)
+        throw std::invalid_argument("config " + field.spec.key +
+                                    ": set, but imitation is \"bc\" (set \"imitation\": "
+                                    "\"gail\" to train adversarially)");
+    return;
+  }
+  if (c.method == "maml")
+    throw std::invalid_argument(
+        "config imitation: \"gail\" trains one policy by PPO; maml's adaptation is a BC inner "
+        "loop (use imitation \"bc\" for maml)");
+  const TrainConfig defaults;
+  const auto refuse = [](const std::string& key, const std::string& why) {
+    throw std::invalid_argument("config train." + key + ": " + why + " under imitation \"gail\"");
+  };
+  if (c.train.optimizer != defaults.optimizer) refuse("optimizer", "\"alternating\" is a BC step; not available");
+  if (c.train.precision != defaults.precision)
+    refuse("precision", "bf16 products are BC training's only; not available");
+  if (!c.train.freeze.empty()) refuse("freeze", "not available");
+  if (!c.train.lr_scale.empty()) refuse("lr_scale", "not available");
+  if (c.train.keep_every != defaults.keep_every)
+    refuse("keep_every", "not available (gail.checkpoint chooses best.ckpt)");
+}
+
 void check_across_keys(const RunConfig& c, const PolicyMethod& chosen) {
   for (const auto& [name, count] : c.data.task_demos) {
     const bool held_out = std::find(c.data.holdout.begin(), c.data.holdout.end(), name) != c.data.holdout.end();
@@ -74,6 +101,7 @@ void check_across_keys(const RunConfig& c, const PolicyMethod& chosen) {
   if (!chosen.uses_baselines_hidden && c.baseline_hidden != detail::default_hidden_sizes())
     throw std::invalid_argument("config baselines.hidden: " + c.method + " has no baseline MLP (its sizes are " +
                                 chosen.size_keys + ")");
+  check_imitation_keys(c);
   if (c.init_checkpoint.find('/') != std::string::npos || c.init_checkpoint == "." || c.init_checkpoint == "..")
     throw std::invalid_argument(
         "config init.checkpoint: expected a file name of the run folder (best.ckpt, step_<N>.ckpt), got \"" +

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
+#include "maps/adversarial/gail_config.h"
 #include "maps/data/demo_dataset.h"
 #include "maps/policies/baseline_util.h"
 #include "maps/policies/maml.h"
@@ -35,6 +36,8 @@
 //    "baselines": {"hidden": [128, 128, 128]},  // the MLP of Single BC, MT-BC, MT-MH-BC and MAML
 //    "eval": {"episodes": 100, "threads": 0, "tasks": []},   // tasks: evaluate only these of the run's
 //    "init": {"run": "", "checkpoint": "best.ckpt"},        // transfer: start from that run's parameters
+//    "imitation": "bc",                       // or "gail": adversarial imitation, set by "gail": {...}
+//    (docs/adversarial.md)
 //    "<method>": {...}}                       // a registered method's own section (its keys and defaults there)
 //
 // An unknown key is an error naming it (a typo must not silently run the default).
@@ -61,6 +64,11 @@ struct RunConfig {
   // also standardises observations with that checkpoint's statistics, as its modules were trained to see them.
   std::string init_run;
   std::string init_checkpoint = run_files::kBestCheckpoint;
+  // "bc": behaviour cloning on the demonstrations (train_policy, the study's). "gail": adversarial imitation with
+  // interaction in the envs (maps/adversarial/gail_trainer.h), set by the "gail" section; train.* other than
+  // validation_states_per_task and the BC loss's settings do not apply then.
+  std::string imitation = "bc";
+  adversarial::GailConfig gail;
 };
 
 RunConfig parse_run_config(const nlohmann::json& json);

@@ -375,6 +375,107 @@ std::vector<RunConfigField> make_fields() {
   add(
       "init.checkpoint", [](RunConfig & c) -> auto& { return c.init_checkpoint; }, any().not_empty(),
       "the checkpoint of `init.run` to start from");
+  add(
+      "imitation", [](RunConfig & c) -> auto& { return c.imitation; }, one_of({"bc", "gail"}),
+      "`bc`: behaviour cloning on the demonstrations (the study's); `gail`: adversarial imitation, the policy "
+      "trained by PPO on a discriminator's reward in the envs ([adversarial.md](adversarial.md)), set by `gail.*`; "
+      "`train.*` then applies only through `train.validation_states_per_task` and the BC term's loss "
+      "(`gail.bc_weight`)");
+  add(
+      "gail.env_steps_per_task", [](RunConfig & c) -> auto& { return c.gail.env_steps_per_task; }, range(1, 1e10),
+      "env steps per task the run takes; PPO's learning rate anneals to 0 there");
+  add(
+      "gail.rollout_episodes", [](RunConfig & c) -> auto& { return c.gail.rollout_episodes; }, range(1, 1000),
+      "episodes per task per iteration, every task's stepped in lockstep with one policy call a step");
+  add(
+      "gail.threads", [](RunConfig & c) -> auto& { return c.gail.threads; }, range(1, ag::kMaxThreads),
+      "threads stepping the envs and running ops (results do not depend on it)");
+  add(
+      "gail.epochs", [](RunConfig & c) -> auto& { return c.gail.epochs; }, range(1, 1000),
+      "PPO epochs over each iteration's rollout");
+  add(
+      "gail.minibatch_per_task", [](RunConfig & c) -> auto& { return c.gail.minibatch_per_task; }, range(1, kMaxRows),
+      "rows of every task in a PPO minibatch (balanced, as MAPS's selector losses expect)");
+  add(
+      "gail.clip", [](RunConfig & c) -> auto& { return c.gail.clip; }, above(0, 1), "PPO's clip range");
+  add(
+      "gail.gamma", [](RunConfig & c) -> auto& { return c.gail.gamma; }, range(0, 1), "discount");
+  add(
+      "gail.gae_lambda", [](RunConfig & c) -> auto& { return c.gail.gae_lambda; }, range(0, 1), "GAE's lambda");
+  add(
+      "gail.learning_rate", [](RunConfig & c) -> auto& { return c.gail.learning_rate; }, above(0, 1),
+      "Adam's step size for the policy, its log std and the critic");
+  add(
+      "gail.adam_eps", [](RunConfig & c) -> auto& { return c.gail.adam_eps; }, above(0, 1), "that Adam's epsilon");
+  add(
+      "gail.anneal_learning_rate", [](RunConfig & c) -> auto& { return c.gail.anneal_learning_rate; }, any(),
+      "anneal the learning rate linearly to 0 over `gail.env_steps_per_task`");
+  add(
+      "gail.value_coef", [](RunConfig & c) -> auto& { return c.gail.value_coef; }, range(0, 1e3),
+      "the critic's squared error's weight in the PPO loss");
+  add(
+      "gail.entropy_coef", [](RunConfig & c) -> auto& { return c.gail.entropy_coef; }, range(0, 1),
+      "the Gaussian's entropy bonus");
+  add(
+      "gail.max_grad_norm", [](RunConfig & c) -> auto& { return c.gail.max_grad_norm; }, above(0, 1e6),
+      "the gradient's 2-norm clip over the policy, log std and critic together");
+  add(
+      "gail.critic_hidden", [](RunConfig & c) -> auto& { return c.gail.critic_hidden; }, range(1, 4096).not_empty(),
+      "the critic V(s, task): a tanh MLP on [s, one_hot(task)]");
+  add(
+      "gail.initial_log_std", [](RunConfig & c) -> auto& { return c.gail.initial_log_std; }, range(-10, 2),
+      "the Gaussian's state-independent log std at the start, per action");
+  add(
+      "gail.normalize_reward", [](RunConfig & c) -> auto& { return c.gail.normalize_reward; }, any(),
+      "divide each task's rewards by the running std of its discounted return");
+  add(
+      "gail.reward", [](RunConfig & c) -> auto& { return c.gail.reward; }, one_of(adversarial::gail_reward_kinds()),
+      "the policy's reward from the discriminator's logit l: `gail` -log(1 - D) = softplus(l), `log_d` log D, "
+      "`logit` l");
+  add(
+      "gail.discriminator_hidden", [](RunConfig & c) -> auto& { return c.gail.discriminator.hidden; },
+      range(1, 4096).not_empty(), "the discriminator's hidden layers");
+  add(
+      "gail.discriminator_activation", [](RunConfig & c) -> auto& { return c.gail.discriminator.activation; },
+      one_of({"tanh", "relu"}), "its activation");
+  add(
+      "gail.discriminator_conditioning", [](RunConfig & c) -> auto& { return c.gail.discriminator.conditioning; },
+      one_of({"input", "heads"}),
+      "`input`: one_hot(task) beside (s, a), one logit; `heads`: one logit per task from a shared trunk");
+  add(
+      "gail.gradient_penalty", [](RunConfig & c) -> auto& { return c.gail.discriminator_loss.gradient_penalty; },
+      range(0, 1e4), "lambda of E[(||grad D|| - 1)^2] between demonstration and policy pairs (0: off)");
+  add(
+      "gail.entropy_bonus", [](RunConfig & c) -> auto& { return c.gail.discriminator_loss.entropy_bonus; }, range(0, 1),
+      "the discriminator's Bernoulli entropy bonus (0: off)");
+  add(
+      "gail.discriminator_learning_rate", [](RunConfig & c) -> auto& { return c.gail.discriminator_learning_rate; },
+      above(0, 1), "the discriminator's Adam step size");
+  add(
+      "gail.discriminator_updates", [](RunConfig & c) -> auto& { return c.gail.discriminator_updates; },
+      range(0, 100000), "discriminator steps per iteration");
+  add(
+      "gail.discriminator_batch_per_task", [](RunConfig & c) -> auto& { return c.gail.discriminator_batch_per_task; },
+      range(1, kMaxRows), "demonstration pairs per task in a discriminator step, and as many of the policy's");
+  add(
+      "gail.discriminator_warmup_iterations",
+      [](RunConfig & c) -> auto& { return c.gail.discriminator_warmup_iterations; }, range(0, 1000000),
+      "the first iterations, which take `gail.discriminator_warmup_updates` discriminator steps");
+  add(
+      "gail.discriminator_warmup_updates", [](RunConfig & c) -> auto& { return c.gail.discriminator_warmup_updates; },
+      range(0, 100000), "discriminator steps in each warm-up iteration");
+  add(
+      "gail.bc_weight", [](RunConfig & c) -> auto& { return c.gail.bc_weight; }, range(0, kMaxWeight),
+      "weight of a BC term (the method's own BC loss with its regularisers) beside the adversarial one (0: off)");
+  add(
+      "gail.bc_states_per_task", [](RunConfig & c) -> auto& { return c.gail.bc_states_per_task; }, range(1, kMaxRows),
+      "demonstration states per task in that term's batch");
+  add(
+      "gail.checkpoint", [](RunConfig & c) -> auto& { return c.gail.checkpoint; }, one_of({"last", "validation"}),
+      "best.ckpt: the policy after the `last` iteration, or the iteration of lowest `validation` BC loss");
+  add(
+      "gail.checkpoint_every", [](RunConfig & c) -> auto& { return c.gail.checkpoint_every; }, range(1, 1000000),
+      "iterations between writes of last.ckpt (and at the end)");
   return table.take();
 }
 

@@ -1,7 +1,6 @@
 #include "maps/training/trainer.h"
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -19,8 +18,8 @@
 #include "autograd/float_environment.h"
 #include "autograd/matmul_precision.h"
 #include "envs/portable_random.h"
-#include "io/atomic_file.h"
 #include "maps/training/checkpoint_record.h"
+#include "maps/training/curve_file.h"
 #include "maps/training/run_files.h"
 #include "nn/optim/adam.h"
 #include "nn/serialize.h"
@@ -84,33 +83,6 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, s
   rng_text >> rng;
   if (rng_text.fail()) throw std::runtime_error("training checkpoint " + path + ": unreadable RNG state");
   return progress;
-}
-
-// Keeps the header and the whole rows up to `step` (the rows a resumed run will not write again). Rewritten through
-// a temporary and a rename: a kill during the rewrite must leave the old curve, not an empty one (CI once saw a
-// run killed there resume into a curve that began at step 1350).
-void truncate_curve(const std::string& path, std::int64_t step) {
-  std::ifstream in(path);
-  if (!in) return;
-  std::string header;
-  if (!std::getline(in, header)) return;
-  const auto columns = std::count(header.begin(), header.end(), ',');
-  std::string kept = header + "\n";
-  std::string line;
-  for (int number = 2; std::getline(in, line); ++number) {
-    // A row cut short by a kill mid-append has fewer columns; the resumed run writes it again.
-    if (std::count(line.begin(), line.end(), ',') != columns) continue;
-    const std::string first = line.substr(0, line.find(','));
-    std::int64_t row_step = 0;
-    const auto [end, error] = std::from_chars(first.data(), first.data() + first.size(), row_step);
-    if (error != std::errc() || end != first.data() + first.size() || row_step < 0)
-      throw std::runtime_error(path + " line " + std::to_string(number) + ": the step '" + first.substr(0, 40) +
-                               "' is not a step number (a damaged curve: move it away, and the resumed run starts a "
-                               "new one from its checkpoint's step)");
-    if (row_step <= step) kept += line + "\n";
-  }
-  in.close();
-  io::write_file_atomically(path, kept);
 }
 
 // CPU time of the whole process (every thread), the cost of a window of steps whatever else shares the cores.

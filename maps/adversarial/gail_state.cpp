@@ -1,0 +1,166 @@
+#include "maps/adversarial/gail_state.h"
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+
+#include "nn/serialize.h"
+
+namespace maps::adversarial {
+namespace {
+
+using Json = nlohmann::json;
+
+const char* const kPrefixes[] = {"policy.", "head.", "discriminator.", "adam.", "discriminator_adam."};
+constexpr const char* kReturnStats = "return_stats";
+
+void add_prefixed(nn::NamedTensors& out, const nn::NamedTensors& tensors, const std::string& prefix) {
+  for (const auto& t : tensors) out.push_back({prefix + t.name, t.tensor});
+}
+
+nn::NamedTensors with_prefix_stripped(const nn::NamedTensors& tensors, const std::string& prefix) {
+  nn::NamedTensors out;
+  for (const auto& t : tensors)
+    if (t.name.rfind(prefix, 0) == 0) out.push_back({t.name.substr(prefix.size()), t.tensor});
+  return out;
+}
+
+std::string engine_text(const std::mt19937_64& engine) {
+  std::ostringstream text;
+  text << engine;
+  return text.str();
+}
+
+void read_engine(const Json& record, const char* key, std::mt19937_64& engine, const std::string& where) {
+  if (!record.contains(key) || !record[key].is_string())
+    throw std::runtime_error(where + ": \"" + key + "\" must be a random engine's state as text");
+  std::istringstream text(record[key].get<std::string>());
+  std::mt19937_64 read;
+  text >> read;
+  if (text.fail()) throw std::runtime_error(where + ": \"" + key + "\" is not a random engine's state");
+  engine = read;
+}
+
+std::int64_t read_count(const Json& record, const char* key, std::int64_t low, const std::string& where) {
+  if (!record.contains(key) || !record[key].is_number_integer() || record[key].get<std::int64_t>() < low)
+    throw std::runtime_error(where + ": \"" + key + "\" must be a whole number >= " + std::to_string(low));
+  return record[key].get<std::int64_t>();
+}
+
+}  // namespace
+
+void save_gail_state(const std::string& path, const GailState& state, const GailModules& modules,
+                     const std::mt19937_64& rng, const ag::Generator& noise) {
+  nn::NamedTensors tensors;
+  add_prefixed(tensors, modules.policy.state_dict(), kPrefixes[0]);
+  add_prefixed(tensors, modules.head.state_dict(), kPrefixes[1]);
+  add_prefixed(tensors, modules.discriminator.state_dict(), kPrefixes[2]);
+  add_prefixed(tensors, modules.adam.state(), kPrefixes[3]);
+  add_prefixed(tensors, modules.discriminator_adam.state(), kPrefixes[4]);
+  const auto K = static_cast<std::int64_t>(modules.return_stats.size());
+  std::vector<double> stats;
+  for (const auto& s : modules.return_stats) {
+    stats.push_back(s.mean()(0));
+    stats.push_back(s.var()(0));
+    stats.push_back(s.count());
+  }
+  tensors.push_back({kReturnStats, ag::from_vector(stats, {K, 3}, ag::Dtype::Float64)});
+  ag::Generator noise_copy = noise;
+  Json record{{"format", kGailStateFormat},
+              {"iteration", state.iteration},
+              {"env_steps_per_task", state.env_steps_per_task},
+              {"best_iteration", state.best_iteration},
+              {"best_validation", std::isfinite(state.best_validation) ? Json(state.best_validation) : Json(nullptr)},
+              {"rng", engine_text(rng)},
+              {"noise", engine_text(noise_copy.engine())}};
+  nn::save_tensors(path, tensors, record.dump());
+}
+
+GailState read_gail_record(const std::string& text, const std::string& where) {
+  Json record;
+  try {
+    record = Json::parse(text);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(where + ": its record is not JSON (" + e.what() + ")");
+  }
+  if (!record.is_object() || record.value("format", std::string()) != kGailStateFormat)
+    throw std::runtime_error(where + ": not a GAIL training state (expected \"format\": \"" +
+                             std::string(kGailStateFormat) + "\"; a BC run's last.ckpt cannot resume as GAIL)");
+  for (const auto& [key, value] : record.items())
+    if (key != "format" && key != "iteration" && key != "env_steps_per_task" && key != "best_iteration" &&
+        key != "best_validation" && key != "rng" && key != "noise")
+      throw std::runtime_error(where + ": unknown key \"" + key + "\"");
+  GailState state;
+  state.iteration = read_count(record, "iteration", 1, where);
+  state.env_steps_per_task = read_count(record, "env_steps_per_task", 1, where);
+  state.best_iteration = read_count(record, "best_iteration", 0, where);
+  if (state.best_iteration > state.iteration)
+    throw std::runtime_error(where + ": best_iteration " + std::to_string(state.best_iteration) +
+                             " is after the iteration " + std::to_string(state.iteration));
+  const Json& best = record.contains("best_validation") ? record["best_validation"] : Json();
+  if (best.is_null()) {
+    state.best_validation = INFINITY;
+  } else if (best.is_number() && std::isfinite(best.get<double>()) && best.get<double>() >= 0.0) {
+    state.best_validation = best.get<double>();
+  } else {
+    throw std::runtime_error(where + ": \"best_validation\" must be a non-negative number or null");
+  }
+  std::mt19937_64 engine;
+  read_engine(record, "rng", engine, where);
+  read_engine(record, "noise", engine, where);
+  return state;
+}
+
+std::int64_t gail_iterations_done(const std::string& last_checkpoint) {
+  if (!std::filesystem::exists(last_checkpoint)) return 0;
+  return read_gail_record(nn::load_tensors(last_checkpoint).config, "GAIL checkpoint " + last_checkpoint).iteration;
+}
+
+GailState load_gail_state(const std::string& path, GailModules& modules, std::mt19937_64& rng, ag::Generator& noise) {
+  const std::string where = "GAIL checkpoint " + path;
+  const nn::Checkpoint checkpoint = nn::load_tensors(path);
+  const GailState state = read_gail_record(checkpoint.config, where);
+  const Json record = Json::parse(checkpoint.config);
+  std::mt19937_64 read_rng, read_noise;
+  read_engine(record, "rng", read_rng, where);
+  read_engine(record, "noise", read_noise, where);
+
+  const auto K = static_cast<std::int64_t>(modules.return_stats.size());
+  const ag::Tensor* stats = nullptr;
+  for (const auto& t : checkpoint.tensors)
+    if (t.name == kReturnStats) stats = &t.tensor;
+  if (!stats || stats->shape() != ag::Shape{K, 3})
+    throw std::runtime_error(where + ": \"return_stats\" must be a [" + std::to_string(K) + ", 3] tensor");
+  const ag::RowMatrixD values = ag::to_eigen_double(*stats);
+  for (std::int64_t k = 0; k < K; ++k)
+    if (!std::isfinite(values(k, 0)) || !(values(k, 1) >= 0.0) || !std::isfinite(values(k, 1)) ||
+        !(values(k, 2) > 0.0) || !std::isfinite(values(k, 2)))
+      throw std::runtime_error(where + ": return_stats row " + std::to_string(k) +
+                               " must hold a finite mean, a variance >= 0 and a count > 0");
+  for (const auto& t : checkpoint.tensors) {
+    bool known = t.name == kReturnStats;
+    for (const char* prefix : kPrefixes) known = known || t.name.rfind(prefix, 0) == 0;
+    if (!known) throw std::runtime_error(where + ": unknown tensor \"" + t.name + "\"");
+  }
+  try {
+    modules.policy.load_state_dict(with_prefix_stripped(checkpoint.tensors, kPrefixes[0]));
+    modules.head.load_state_dict(with_prefix_stripped(checkpoint.tensors, kPrefixes[1]));
+    modules.discriminator.load_state_dict(with_prefix_stripped(checkpoint.tensors, kPrefixes[2]));
+    modules.adam.load_state(with_prefix_stripped(checkpoint.tensors, kPrefixes[3]));
+    modules.discriminator_adam.load_state(with_prefix_stripped(checkpoint.tensors, kPrefixes[4]));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(where + " does not fit this run's modules: " + e.what());
+  }
+  for (std::int64_t k = 0; k < K; ++k) {
+    Eigen::VectorXd mean(1), var(1);
+    mean << values(k, 0);
+    var << values(k, 1);
+    modules.return_stats[static_cast<std::size_t>(k)].set_state(mean, var, values(k, 2));
+  }
+  rng = read_rng;
+  noise.engine() = read_noise;
+  return state;
+}
+
+}  // namespace maps::adversarial

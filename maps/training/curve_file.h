@@ -1,0 +1,17 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+// curve.csv's rows on resumption (the BC trainer's and GAIL's): a row per validation or iteration, its first column
+// the step or iteration number.
+namespace maps::core {
+
+// Keeps the header and the whole rows whose first column is at most `step` (the rows a resumed run will not write
+// again); rows cut short by a kill mid-append are dropped. A missing file is left missing. Rewritten through a
+// temporary and a rename: a kill during the rewrite must leave the old curve, not an empty one (CI once saw a run
+// killed there resume into a curve that began at step 1350). A first column that is not a whole number is an error
+// naming the file and line.
+void truncate_curve(const std::string& path, std::int64_t step);
+
+}  // namespace maps::core
