@@ -21,6 +21,7 @@
 #include "experiments/suite/demo_files.h"
 #include "experiments/suite/folder.h"
 #include "maps/policies/policy_registry.h"
+#include "maps/training/run_config.h"
 
 namespace maps::experiments {
 
@@ -115,6 +116,27 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
                     1e3 * method["step_seconds_bf16"].get<double>());
         std::fflush(stdout);
       }
+      // The same method trained by GAIL, where asked: its cost per env step (all tasks) with the warm-up off, and
+      // one discriminator step's, for the warm-up's extra ones.
+      if (options.gail_env_steps > 0 && cell.method != "maml") {
+        SuiteCell gail_cell = cell;
+        gail_cell.request["imitation"] = "gail";
+        gail_cell.request["gail"] = {{"env_steps_per_task", options.gail_env_steps},
+                                     {"discriminator_warmup_iterations", 0}};
+        gail_cell.request["train"]["keep_every"] = 0;
+        const CellOutcome gail_outcome = run_cell(fs::path(options.work) / (set_name + "_gail"), gail_cell, 1);
+        if (gail_outcome.status != CellOutcome::Status::kFinished)
+          throw std::runtime_error("calibration cell " + cell.name + " (GAIL) did not finish: " + gail_outcome.error);
+        const Json& gail_train = gail_outcome.result["train"];
+        const double env_steps = gail_train["env_steps_per_task"].get<double>() * tasks;
+        const double updates =
+            std::max(1.0, gail_train["iterations"].get<double>() * core::RunConfig().gail.discriminator_updates);
+        method["gail_env_step_seconds"] = gail_train["seconds_this_process"].get<double>() / env_steps;
+        method["gail_discriminator_update_seconds"] = gail_train["discriminator_seconds"].get<double>() / updates;
+        std::printf("calibrate: %s: %.1f us per env step by GAIL\n", cell.name.c_str(),
+                    1e6 * method["gail_env_step_seconds"].get<double>());
+        std::fflush(stdout);
+      }
       entry["methods"][cell.method] = method;
     }
     sets[set_name] = entry;
@@ -130,11 +152,13 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
   table["cpu"] = cpu_model();
   table["measured"] = utc_now();
   table["command"] = "maps suite calibrate --steps " + std::to_string(options.steps) + " --episodes " +
-                     std::to_string(options.episodes);
+                     std::to_string(options.episodes) +
+                     (options.gail_env_steps > 0 ? " --gail-env-steps " + std::to_string(options.gail_env_steps) : "");
   table["note"] =
       "one thread per cell, one cell at a time; step_seconds is a training step alone, validation_seconds one "
       "scoring of the validation states, checkpoint_seconds one checkpoint written; step_seconds_bf16 a step with "
-      "train.precision bf16 (CPUs with AVX512-BF16)";
+      "train.precision bf16 (CPUs with AVX512-BF16); gail_env_step_seconds an env step of a GAIL run (all its parts, "
+      "at the default gail settings, warm-up off) and gail_discriminator_update_seconds one discriminator step";
   write_json_file(out, table);
   std::printf("calibrate: wrote %s\n", out.c_str());
   return 0;

@@ -15,6 +15,9 @@ struct SuiteCalibrateOptions {
   // policy call on fewer rows than a suite's 100-episode evaluation makes, and overstate an episode's cost 2-3x.
   int episodes = 10;
   std::vector<std::string> sets;  // empty: every set (envs::task_set_names())
+  // > 0: also time every method but MAML trained by GAIL for this many env steps per task (the default gail settings,
+  // warm-up off; the warm-up's discriminator steps are priced apart).
+  std::int64_t gail_env_steps = 0;
 };
 int run_suite_calibrate(const SuiteCalibrateOptions& options);
 

@@ -41,12 +41,6 @@ std::string format_duration(double seconds) {
 }
 
 CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
-  // A GAIL cell's cost is env steps, PPO epochs and discriminator steps, which the table does not measure yet: refused
-  // by name rather than priced as BC steps.
-  if (cell.request.value("imitation", std::string("bc")) == "gail")
-    throw std::runtime_error("cell " + cell.name +
-                             " trains by GAIL (imitation \"gail\"), which the cost table does not price yet "
-                             "(docs/adversarial.md: env steps per second in the pilot)");
   const Json* entry = nullptr;
   // A transfer cell trains MAPS (for one task, from a trained run). A method the table has not measured (one added
   // to the registry since) is estimated as MAPS, whose parameter budget the zoo's methods match by default.
@@ -102,6 +96,26 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
     tasks += kept ? 1.0 : 0.0;
   }
   model_scale *= tasks / static_cast<double>(set_tasks.size());
+  const auto& scored = r["eval"].value("tasks", Json::array());
+  const double evaluated_tasks = scored.empty() ? tasks : static_cast<double>(scored.size());
+  // A GAIL cell: its env steps at the measured cost of one (rollout, discriminator, PPO, validation: every part grows
+  // with the env steps at the default gail settings), plus the warm-up's extra discriminator steps.
+  if (r.value("imitation", std::string("bc")) == "gail") {
+    if (!entry->contains("gail_env_step_seconds"))
+      throw std::runtime_error(path + " has no GAIL cost for " + method + " on " + cell.set + " (cell " + cell.name +
+                               " trains by GAIL: maps suite calibrate --gail-env-steps N)");
+    const Json& g = r["gail"];
+    const double warmup_updates =
+        g["discriminator_warmup_iterations"].get<double>() *
+        std::max(0.0, g["discriminator_warmup_updates"].get<double>() - g["discriminator_updates"].get<double>());
+    const double training = g["env_steps_per_task"].get<double>() * tasks * cost("gail_env_step_seconds", true) +
+                            warmup_updates * cost("gail_discriminator_update_seconds", false, 0.0);
+    return {.overhead = cost("overhead_seconds", false),
+            .training = training,
+            .evaluation = r["eval"]["episodes"].get<double>() * evaluated_tasks * cost("episode_seconds", true),
+            .validation = 0.0,
+            .checkpointing = 0.0};
+  }
   // A bf16 cell's steps at their own measured cost (validation and evaluation run float32 in both).
   const bool bf16 = r["train"].value("precision", std::string("float32")) == "bf16";
   if (bf16 && !entry->contains("step_seconds_bf16"))
@@ -109,8 +123,6 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
                              " trains with train.precision bf16; re-measure on a CPU with "
                              "AVX512-BF16: maps suite calibrate)");
   const double step = cost(bf16 ? "step_seconds_bf16" : "step_seconds", true) * rows / measured_rows * model_scale;
-  const auto& scored = r["eval"].value("tasks", Json::array());
-  const double evaluated_tasks = scored.empty() ? tasks : static_cast<double>(scored.size());
   // With kept checkpoints the evaluation runs once more for each (maps eval --checkpoints).
   const double keep_every = r["train"].value("keep_every", 0.0);
   const double evaluations = 1.0 + (keep_every > 0 ? std::floor(r["train"]["steps"].get<double>() / keep_every) : 0.0);

@@ -14,7 +14,11 @@
 //             + checkpoint writes * checkpoint_seconds
 //             + episodes * tasks * episode_seconds
 // with rows = states_per_task (MAML: states_per_task + query_per_task), and step_seconds_bf16 for a cell with
-// train.precision "bf16".
+// train.precision "bf16". A GAIL cell ("imitation": "gail"):
+//   seconds = overhead + env_steps_per_task * tasks * gail_env_step_seconds
+//             + warm-up iterations * (warm-up updates - updates) * gail_discriminator_update_seconds
+//             + episodes * tasks * episode_seconds
+// (calibrated at the default gail settings: `maps suite calibrate --gail-env-steps N`).
 // Per-step cost grows about linearly in the batch and (for MAPS) in the module count at these shapes. Tables
 // calibrated before validation and checkpoints were timed apart (2026-12-02) have neither field: their
 // step_seconds holds validation at the measured validate_every, and both terms count zero. An estimate, not a

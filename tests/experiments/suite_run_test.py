@@ -200,6 +200,28 @@ class SuiteTest(unittest.TestCase):
         text = maps("suite", "plan", TINY, "--costs", self.dir / "costs.json").stdout
         self.assertRegex(text, r"of which training steps [0-9.]+%, validation [0-9.]+%, checkpoints [0-9.]+% \(at most\)")
 
+    def test_gail_cells_are_priced_by_their_env_steps_or_refused_without_a_gail_cost(self):
+        costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
+            for m in methods.values():
+                m.pop("gail_env_step_seconds", None), m.pop("gail_discriminator_update_seconds", None)
+        config = json.loads(TINY.read_text())
+        config["variants"]["gail"] = {"imitation": "gail", "gail": {"env_steps_per_task": 1000}}
+        config["grids"] = [{"name": "gail", "sets": ["gravity"], "methods": ["mt_bc"], "variants": ["gail"],
+                            "seeds": [0]}]
+        suite = write_config(self.dir, config, "gail_suite.json")
+        without = write_config(self.dir, costs, "no_gail_costs.json")
+        proc = maps("suite", "plan", suite, "--costs", without, check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("has no GAIL cost for mt_bc on gravity", proc.stderr)
+        self.assertIn("maps suite calibrate --gail-env-steps", proc.stderr)
+        gravity = costs["sets"]["gravity"]["methods"]["mt_bc"]
+        gravity.update(gail_env_step_seconds=1e-4, gail_discriminator_update_seconds=0.01)
+        priced = plan(suite, "--costs", write_config(self.dir, costs, "gail_costs.json"))
+        # 1000 env steps on each of Gravity's 5 tasks at 1e-4 s, and the warm-up's 10 iterations of 100 - 5 extra
+        # discriminator steps at 0.01 s.
+        self.assertAlmostEqual(priced["cpu_seconds_parts"]["steps"], 1000 * 5 * 1e-4 + 10 * 95 * 0.01, places=6)
+
     def test_the_precision_option_sets_every_cells_precision_and_its_step_cost(self):
         costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
         for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
