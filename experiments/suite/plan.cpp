@@ -68,7 +68,10 @@ int run_suite_plan(const SuitePlanOptions& options) {
     group.seeds.insert(cell->seed);
     group.cells += 1;
     group.seconds += seconds;
-    group.steps = cell->request["train"]["steps"].get<long long>();
+    // A GAIL cell's budget is its env steps per task.
+    group.steps = cell->request.value("imitation", std::string("bc")) == "gail"
+                      ? cell->request["gail"]["env_steps_per_task"].get<long long>()
+                      : cell->request["train"]["steps"].get<long long>();
     group.episodes = cell->request["eval"]["episodes"].get<int>();
     Json entry = cell->identity();
     entry["estimated_seconds"] = seconds;
@@ -121,7 +124,9 @@ int run_suite_plan(const SuitePlanOptions& options) {
                   format_duration(entry["estimated_seconds"].get<double>()).c_str());
     std::printf("\n");
   }
-  std::printf("| grid | set | method | variant | demos per task | seeds | steps | episodes | cells | CPU |\n");
+  std::printf(
+      "| grid | set | method | variant | demos per task | seeds | steps (GAIL: env steps per task) | episodes | cells "
+      "| CPU |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& g : groups)
     std::printf("| %s | %s | %s | %s | %s | %s | %lld | %d | %d | %s |\n", g.grid.c_str(), g.set.c_str(),
