@@ -209,4 +209,17 @@ std::string load(Module& module, const std::string& path) {
   return std::move(cp.config);
 }
 
+NamedTensors with_prefix(const NamedTensors& tensors, const std::string& prefix) {
+  NamedTensors out;
+  for (const auto& t : tensors) out.push_back({prefix + t.name, t.tensor});
+  return out;
+}
+
+NamedTensors strip_prefix(const NamedTensors& tensors, const std::string& prefix) {
+  NamedTensors out;
+  for (const auto& t : tensors)
+    if (t.name.rfind(prefix, 0) == 0) out.push_back({t.name.substr(prefix.size()), t.tensor});
+  return out;
+}
+
 }  // namespace maps::nn

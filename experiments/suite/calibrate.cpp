@@ -20,8 +20,8 @@
 #include "experiments/suite/costs.h"
 #include "experiments/suite/demo_files.h"
 #include "experiments/suite/folder.h"
+#include "maps/adversarial/gail_config.h"
 #include "maps/policies/policy_registry.h"
-#include "maps/training/run_config.h"
 
 namespace maps::experiments {
 
@@ -130,7 +130,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
         const Json& gail_train = gail_outcome.result["train"];
         const double env_steps = gail_train["env_steps_per_task"].get<double>() * tasks;
         const double updates =
-            std::max(1.0, gail_train["iterations"].get<double>() * core::RunConfig().gail.discriminator_updates);
+            std::max(1.0, gail_train["iterations"].get<double>() * adversarial::GailConfig().discriminator_updates);
         method["gail_env_step_seconds"] = gail_train["seconds_this_process"].get<double>() / env_steps;
         method["gail_discriminator_update_seconds"] = gail_train["discriminator_seconds"].get<double>() / updates;
         std::printf("calibrate: %s: %.1f us per env step by GAIL\n", cell.name.c_str(),

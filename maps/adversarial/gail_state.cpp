@@ -15,17 +15,6 @@ using Json = nlohmann::json;
 const char* const kPrefixes[] = {"policy.", "head.", "discriminator.", "adam.", "discriminator_adam."};
 constexpr const char* kReturnStats = "return_stats";
 
-void add_prefixed(nn::NamedTensors& out, const nn::NamedTensors& tensors, const std::string& prefix) {
-  for (const auto& t : tensors) out.push_back({prefix + t.name, t.tensor});
-}
-
-nn::NamedTensors with_prefix_stripped(const nn::NamedTensors& tensors, const std::string& prefix) {
-  nn::NamedTensors out;
-  for (const auto& t : tensors)
-    if (t.name.rfind(prefix, 0) == 0) out.push_back({t.name.substr(prefix.size()), t.tensor});
-  return out;
-}
-
 std::string engine_text(const std::mt19937_64& engine) {
   std::ostringstream text;
   text << engine;
@@ -53,17 +42,17 @@ std::int64_t read_count(const Json& record, const char* key, std::int64_t low, c
 void save_gail_state(const std::string& path, const GailState& state, const GailModules& modules,
                      const std::mt19937_64& rng, const ag::Generator& noise) {
   nn::NamedTensors tensors;
-  add_prefixed(tensors, modules.policy.state_dict(), kPrefixes[0]);
-  add_prefixed(tensors, modules.head.state_dict(), kPrefixes[1]);
-  add_prefixed(tensors, modules.discriminator.state_dict(), kPrefixes[2]);
-  add_prefixed(tensors, modules.adam.state(), kPrefixes[3]);
-  add_prefixed(tensors, modules.discriminator_adam.state(), kPrefixes[4]);
-  const auto K = static_cast<std::int64_t>(modules.return_stats.size());
+  for (auto& t : nn::with_prefix(modules.policy.state_dict(), kPrefixes[0])) tensors.push_back(std::move(t));
+  for (auto& t : nn::with_prefix(modules.head.state_dict(), kPrefixes[1])) tensors.push_back(std::move(t));
+  for (auto& t : nn::with_prefix(modules.discriminator.state_dict(), kPrefixes[2])) tensors.push_back(std::move(t));
+  for (auto& t : nn::with_prefix(modules.adam.state(), kPrefixes[3])) tensors.push_back(std::move(t));
+  for (auto& t : nn::with_prefix(modules.discriminator_adam.state(), kPrefixes[4])) tensors.push_back(std::move(t));
+  const auto K = static_cast<std::int64_t>(modules.reward_scalers.size());
   std::vector<double> stats;
-  for (const auto& s : modules.return_stats) {
-    stats.push_back(s.mean()(0));
-    stats.push_back(s.var()(0));
-    stats.push_back(s.count());
+  for (const auto& scaler : modules.reward_scalers) {
+    stats.push_back(scaler.stats().mean()(0));
+    stats.push_back(scaler.stats().var()(0));
+    stats.push_back(scaler.stats().count());
   }
   tensors.push_back({kReturnStats, ag::from_vector(stats, {K, 3}, ag::Dtype::Float64)});
   ag::Generator noise_copy = noise;
@@ -77,7 +66,8 @@ void save_gail_state(const std::string& path, const GailState& state, const Gail
   nn::save_tensors(path, tensors, record.dump());
 }
 
-GailState read_gail_record(const std::string& text, const std::string& where) {
+GailState read_gail_record(const std::string& text, const std::string& where, std::mt19937_64* rng,
+                           std::mt19937_64* noise) {
   Json record;
   try {
     record = Json::parse(text);
@@ -107,8 +97,8 @@ GailState read_gail_record(const std::string& text, const std::string& where) {
     throw std::runtime_error(where + ": \"best_validation\" must be a non-negative number or null");
   }
   std::mt19937_64 engine;
-  read_engine(record, "rng", engine, where);
-  read_engine(record, "noise", engine, where);
+  read_engine(record, "rng", rng ? *rng : engine, where);
+  read_engine(record, "noise", noise ? *noise : engine, where);
   return state;
 }
 
@@ -120,13 +110,10 @@ std::int64_t gail_iterations_done(const std::string& last_checkpoint) {
 GailState load_gail_state(const std::string& path, GailModules& modules, std::mt19937_64& rng, ag::Generator& noise) {
   const std::string where = "GAIL checkpoint " + path;
   const nn::Checkpoint checkpoint = nn::load_tensors(path);
-  const GailState state = read_gail_record(checkpoint.config, where);
-  const Json record = Json::parse(checkpoint.config);
   std::mt19937_64 read_rng, read_noise;
-  read_engine(record, "rng", read_rng, where);
-  read_engine(record, "noise", read_noise, where);
+  const GailState state = read_gail_record(checkpoint.config, where, &read_rng, &read_noise);
 
-  const auto K = static_cast<std::int64_t>(modules.return_stats.size());
+  const auto K = static_cast<std::int64_t>(modules.reward_scalers.size());
   const ag::Tensor* stats = nullptr;
   for (const auto& t : checkpoint.tensors)
     if (t.name == kReturnStats) stats = &t.tensor;
@@ -144,19 +131,19 @@ GailState load_gail_state(const std::string& path, GailModules& modules, std::mt
     if (!known) throw std::runtime_error(where + ": unknown tensor \"" + t.name + "\"");
   }
   try {
-    modules.policy.load_state_dict(with_prefix_stripped(checkpoint.tensors, kPrefixes[0]));
-    modules.head.load_state_dict(with_prefix_stripped(checkpoint.tensors, kPrefixes[1]));
-    modules.discriminator.load_state_dict(with_prefix_stripped(checkpoint.tensors, kPrefixes[2]));
-    modules.adam.load_state(with_prefix_stripped(checkpoint.tensors, kPrefixes[3]));
-    modules.discriminator_adam.load_state(with_prefix_stripped(checkpoint.tensors, kPrefixes[4]));
+    modules.policy.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPrefixes[0]));
+    modules.head.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPrefixes[1]));
+    modules.discriminator.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPrefixes[2]));
+    modules.adam.load_state(nn::strip_prefix(checkpoint.tensors, kPrefixes[3]));
+    modules.discriminator_adam.load_state(nn::strip_prefix(checkpoint.tensors, kPrefixes[4]));
   } catch (const std::exception& e) {
     throw std::runtime_error(where + " does not fit this run's modules: " + e.what());
   }
   for (std::int64_t k = 0; k < K; ++k) {
-    Eigen::VectorXd mean(1), var(1);
-    mean << values(k, 0);
-    var << values(k, 1);
-    modules.return_stats[static_cast<std::size_t>(k)].set_state(mean, var, values(k, 2));
+    rl::RunningMeanStd stats(1);
+    stats.set_state(Eigen::VectorXd::Constant(1, values(k, 0)), Eigen::VectorXd::Constant(1, values(k, 1)),
+                    values(k, 2));
+    modules.reward_scalers[static_cast<std::size_t>(k)].set_state(0.0, stats);
   }
   rng = read_rng;
   noise.engine() = read_noise;

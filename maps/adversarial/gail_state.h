@@ -33,13 +33,16 @@ struct GailModules {
   Discriminator& discriminator;
   optim::Adam& adam;
   optim::Adam& discriminator_adam;
-  std::vector<rl::RunningMeanStd>& return_stats;
+  // Each task's reward normaliser; every episode ends inside its rollout, so only the statistics carry over.
+  std::vector<rl::RewardScaler>& reward_scalers;
 };
 
 void save_gail_state(const std::string& path, const GailState& state, const GailModules& modules,
                      const std::mt19937_64& rng, const ag::Generator& noise);
-// The record's state (untrusted text: every key checked); throws std::runtime_error naming `where`.
-GailState read_gail_record(const std::string& text, const std::string& where);
+// The record's state (untrusted text: every key checked), and its two random streams where asked; throws
+// std::runtime_error naming `where`.
+GailState read_gail_record(const std::string& text, const std::string& where, std::mt19937_64* rng = nullptr,
+                           std::mt19937_64* noise = nullptr);
 // The iterations a GAIL run's last.ckpt holds (0 when there is none).
 std::int64_t gail_iterations_done(const std::string& last_checkpoint);
 // Loads everything into `modules`, `rng` and `noise`; throws std::runtime_error naming the file and what is wrong.

@@ -179,7 +179,7 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
   optim::AdamOptions disc_options;
   disc_options.lr = config.discriminator_learning_rate;
   optim::Adam discriminator_adam(discriminator.parameters(), disc_options);
-  std::vector<rl::RunningMeanStd> return_stats(static_cast<std::size_t>(K), rl::RunningMeanStd(1));
+  std::vector<rl::RewardScaler> reward_scalers(static_cast<std::size_t>(K), rl::RewardScaler(config.gamma));
 
   const std::string last_path = (fs::path(run_dir) / core::run_files::kLastCheckpoint).string();
   const std::string best_path = (fs::path(run_dir) / core::run_files::kBestCheckpoint).string();
@@ -187,7 +187,7 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
   GailState state;
   GailSummary summary;
   if (fs::exists(last_path)) {
-    GailModules modules{policy, head, discriminator, adam, discriminator_adam, return_stats};
+    GailModules modules{policy, head, discriminator, adam, discriminator_adam, reward_scalers};
     state = load_gail_state(last_path, modules, rng, noise);
     summary.resumed = true;
     core::truncate_curve(curve_path, state.iteration);
@@ -279,13 +279,9 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
       const std::int64_t start = rollout.episode_start[e], length = rollout.episode_length[e];
       Eigen::VectorXd episode_rewards = rewards.segment(start, length);
       if (config.normalize_reward) {
-        rl::RunningMeanStd& stats = return_stats[static_cast<std::size_t>(rollout.episode_task[e])];
-        double discounted = 0.0;
-        for (std::int64_t t = 0; t < length; ++t) {
-          discounted = config.gamma * discounted + episode_rewards(t);
-          stats.update(Eigen::VectorXd::Constant(1, discounted));
-          episode_rewards(t) = std::clamp(episode_rewards(t) / std::sqrt(stats.var()(0) + 1e-8), -10.0, 10.0);
-        }
+        rl::RewardScaler& scaler = reward_scalers[static_cast<std::size_t>(rollout.episode_task[e])];
+        for (std::int64_t t = 0; t < length; ++t)
+          episode_rewards(t) = scaler.scale(episode_rewards(t), t + 1 == length);
       }
       Eigen::VectorXd next_values(length);
       next_values.head(length - 1) = values.segment(start + 1, length - 1);
@@ -409,7 +405,7 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
     const bool last = state.env_steps_per_task >= config.env_steps_per_task ||
                       (max_iterations >= 0 && iterations_here >= max_iterations);
     if (iteration % config.checkpoint_every == 0 || last) {
-      GailModules modules{policy, head, discriminator, adam, discriminator_adam, return_stats};
+      GailModules modules{policy, head, discriminator, adam, discriminator_adam, reward_scalers};
       save_gail_state(last_path, state, modules, rng, noise);
     }
     summary.other_seconds += seconds_since(phase_start);

@@ -39,23 +39,10 @@ struct Progress {
   double best_validation = INFINITY;
 };
 
-nn::NamedTensors with_prefix(const nn::NamedTensors& tensors, const std::string& prefix) {
-  nn::NamedTensors out;
-  for (const auto& t : tensors) out.push_back({prefix + t.name, t.tensor});
-  return out;
-}
-
-nn::NamedTensors strip_prefix(const nn::NamedTensors& tensors, const std::string& prefix) {
-  nn::NamedTensors out;
-  for (const auto& t : tensors)
-    if (t.name.rfind(prefix, 0) == 0) out.push_back({t.name.substr(prefix.size()), t.tensor});
-  return out;
-}
-
 void save_last(const std::string& path, const Policy& policy, const optim::Adam& adam, const Progress& progress,
                const std::mt19937_64& rng) {
-  nn::NamedTensors tensors = with_prefix(policy.state_dict(), kPolicyPrefix);
-  for (auto& t : with_prefix(adam.state(), kAdamPrefix)) tensors.push_back(std::move(t));
+  nn::NamedTensors tensors = nn::with_prefix(policy.state_dict(), kPolicyPrefix);
+  for (auto& t : nn::with_prefix(adam.state(), kAdamPrefix)) tensors.push_back(std::move(t));
   std::ostringstream rng_text;
   rng_text << rng;
   TrainingState state;
@@ -70,8 +57,8 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, s
   const nn::Checkpoint checkpoint = nn::load_tensors(path);
   const TrainingState state = read_training_state(checkpoint.config, "training checkpoint " + path);
   try {
-    policy.load_state_dict(strip_prefix(checkpoint.tensors, kPolicyPrefix));
-    adam.load_state(strip_prefix(checkpoint.tensors, kAdamPrefix));
+    policy.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPolicyPrefix));
+    adam.load_state(nn::strip_prefix(checkpoint.tensors, kAdamPrefix));
   } catch (const std::exception& e) {
     throw std::runtime_error("training checkpoint " + path + " does not fit this policy: " + e.what());
   }
