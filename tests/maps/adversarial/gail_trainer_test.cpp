@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -236,6 +237,40 @@ TEST_F(GailTrainer, RefusesABadConfigAndAForeignCheckpoint) {
   nn::save_tensors(path("bc/last.ckpt"), {}, R"({"format": "maps-train 1", "step": 3})");
   EXPECT_THAT(error_of([&] { train_gail(*small_maps(1), data, reach_envs(), small_config(), 1, path("bc"), nullptr); }),
               HasSubstr("not a GAIL training state"));
+}
+
+// A damaged last.ckpt is refused naming what is wrong, before any iteration runs on it.
+TEST_F(GailTrainer, RefusesADamagedCheckpointNamingWhatIsWrong) {
+  GailConfig config = small_config();
+  config.env_steps_per_task = 30 * 4 * 2;
+  train_gail(*small_maps(1), data, reach_envs(), config, 1, path("good"), nullptr, 1);
+  const nn::Checkpoint good = nn::load_tensors(path("good/last.ckpt"));
+  const auto record = nlohmann::json::parse(good.config);
+  const auto damaged = [&](const std::string& name, const nlohmann::json& changed, const nn::NamedTensors& tensors) {
+    std::filesystem::create_directories(path(name));
+    nn::save_tensors(path(name + "/last.ckpt"), tensors, changed.dump());
+    return error_of([&] { train_gail(*small_maps(1), data, reach_envs(), config, 1, path(name), nullptr); });
+  };
+  auto with = [&](const char* key, const nlohmann::json& value) {
+    nlohmann::json changed = record;
+    changed[key] = value;
+    return changed;
+  };
+  EXPECT_THAT(damaged("key", with("extra", 1), good.tensors), HasSubstr("unknown key \"extra\""));
+  EXPECT_THAT(damaged("best", with("best_iteration", 5), good.tensors), HasSubstr("best_iteration 5 is after"));
+  EXPECT_THAT(damaged("validation", with("best_validation", -1.0), good.tensors), HasSubstr("\"best_validation\""));
+  EXPECT_THAT(damaged("rng", with("rng", "not an engine"), good.tensors), HasSubstr("\"rng\" is not a random"));
+  EXPECT_THAT(damaged("iteration", with("iteration", 0), good.tensors), HasSubstr("\"iteration\" must be"));
+  nn::NamedTensors bad_stats = good.tensors, extra = good.tensors, missing_policy;
+  for (auto& t : bad_stats)
+    if (t.name == "return_stats")
+      t.tensor = ag::from_vector(std::vector<double>{0, -1, 1, 0, 1, 1}, {2, 3}, ag::Dtype::Float64);
+  EXPECT_THAT(damaged("stats", record, bad_stats), HasSubstr("return_stats row 0"));
+  extra.push_back({"stray", ag::zeros({1})});
+  EXPECT_THAT(damaged("extra_tensor", record, extra), HasSubstr("unknown tensor \"stray\""));
+  for (const auto& t : good.tensors)
+    if (t.name.rfind("policy.", 0) != 0) missing_policy.push_back(t);
+  EXPECT_THAT(damaged("no_policy", record, missing_policy), HasSubstr("does not fit this run's modules"));
 }
 
 TEST(RolloutSeed, StaysAboveDemonstrationAndEvaluationSeeds) {
