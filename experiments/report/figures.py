@@ -566,14 +566,21 @@ def log_ticks(ax):
     ax.yaxis.set_minor_formatter(ticker.FuncFormatter(minor))
 
 
+def setting_panels(settings_per_set):
+    """(figure, axes, height in inches) with one row of panels per set and a column per setting of the set with the
+    most: settings_per_set holds each set's settings (its (demos, k) pairs)."""
+    columns = max(len(settings) for settings in settings_per_set)
+    height = 3.6 * len(settings_per_set) + 1.2
+    fig, axes = plt.subplots(len(settings_per_set), columns, figsize=(max(7.5, 4.6 * columns), height), squeeze=False)
+    return fig, axes, height
+
+
 def validation(cells, out):
     cells = base_cells(cells)
     sets = order(SET_ORDER, {c.set for c in cells})
     if not sets:
         return []
-    columns = max(len({(c.demos, c.subsample) for c in cells if c.set == s}) for s in sets)
-    height = 3.6 * len(sets) + 1.2
-    fig, axes = plt.subplots(len(sets), columns, figsize=(max(7.5, 4.6 * columns), height), squeeze=False)
+    fig, axes, height = setting_panels([{(c.demos, c.subsample) for c in cells if c.set == s} for s in sets])
     rows, drawn = [], False
     for axes_row, set_name in zip(axes, sets):
         mine = [c for c in cells if c.set == set_name]

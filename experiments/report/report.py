@@ -31,6 +31,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 import claims
+import imitation
 import suite_results
 import tables
 from suite_results import SET_ORDER, SuiteError, groups, load_suite, read_json, score_name, success_scored
@@ -38,7 +39,8 @@ from routing_summary import routing_summary
 from suite_stats import describe_n, fmt, vs_single_bc
 
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
-             "zoo_routing.png", "zoo_routing.csv"]
+             "zoo_routing.png", "zoo_routing.csv", "imitation_scores.png", "imitation_scores.csv", "gail_curves.png",
+             "gail_curves.csv"]
 RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
                   "success_at_end", "return_mean", "return_unclipped_cost", "best_step", "steps", "wall_seconds",
                   "compute_seconds", "grid", "cell"]
@@ -255,6 +257,23 @@ def adaptive_seeds_caveat(suite, set_name):
             " once, at the nominal level.", ""]
 
 
+def imitation_section(cells, draw):
+    """GAIL against BC (imitation.py, imitation_figures.py), for a suite with cells trained by GAIL."""
+    import imitation_figures
+    figures = Drawer(imitation_figures, cells, draw.out)
+    body = (["### Scores", ""] + (imitation.objective_table(cells) or ["No GAIL cell has a BC cell of the same"
+                                                                        " setting and seed to pair with."])
+            + embed(figures("imitation_scores")) + embed(figures("gail_curves")))
+    against = imitation.maps_table(cells)
+    body += ["", "### MAPS against the others under each objective", ""] + (
+        against or ["No MAPS cells, or no other method at the same settings."])
+    routing = imitation.routing_table(cells)
+    body += ["", "### MAPS's routing under each objective", ""] + (
+        routing or ["No MAPS cells with module usage under both objectives."])
+    draw.failed += figures.failed
+    return section("Imitation objective: GAIL against BC", body, "")
+
+
 def report_lines(suite, draw, beside=None):
     cells = suite.cells
     beside = beside or Beside()
@@ -293,6 +312,8 @@ def report_lines(suite, draw, beside=None):
                   f" ({', '.join(added)}), its p values and so its verdict are indicative, not"
                   " nominal tests: choosing where to add seeds from the results makes a p below 0.05 more likely than"
                   " 5% when there is no difference."]
+    if imitation.has_gail(cells):
+        lines += imitation_section(cells, draw)
     if {c.method for c in cells} - set(claims.COMPARED):
         # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
         caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731

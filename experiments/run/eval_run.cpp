@@ -157,7 +157,8 @@ int run_eval(const EvalRunOptions& options) {
 
   nlohmann::json tasks = nlohmann::json::array();
   std::printf("| task | score (95%% CI) | return | success |\n|---|---|---|---|\n");
-  for (const auto& t : result.tasks) {
+  for (std::size_t i = 0; i < result.tasks.size(); ++i) {
+    const auto& t = result.tasks[i];
     std::printf("| %s | %.3f +- %.3f | %.1f +- %.1f | %.2f |\n", t.task.c_str(), t.score, t.score_ci95(), t.return_mean,
                 t.return_std, t.success_rate);
     int demos = config.data.demos_per_task;  // the task's own count where data.task_demos sets one (transfer)
@@ -175,6 +176,8 @@ int run_eval(const EvalRunOptions& options) {
                          {"final_success_rate", t.final_success_rate},
                          {"scored_by", by_return ? "return" : "success"},
                          {"returns", t.returns}};
+    // The score's normaliser, so that a reader can put other returns (a GAIL run's training curve) on its scale.
+    if (by_return) entry["expert_return"] = expert_returns.at(i);
     if (t.module_usage.size() > 0) {
       entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());
       entry["selector_entropy"] = t.selector_entropy;

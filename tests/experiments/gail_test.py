@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """`maps train` with "imitation": "gail" end to end (issue 45): every method the issue names trains from a run config
 on a real task set, a finished run reruns as a no-op, a run stopped between iterations resumes, `maps eval` scores the
-result, a BC run's parameters start a GAIL run (init.run), and configs that cannot be meant are refused by name. Run
-by ctest as: gail_test.py path/to/maps."""
+result, a BC run's parameters start a GAIL run (init.run), configs that cannot be meant are refused by name, and a
+suite of both objectives runs and is reported with GAIL paired against BC. Run by ctest as: gail_test.py path/to/maps."""
 import csv
 import json
+import math
 import pathlib
 import subprocess
 import time
@@ -130,6 +131,60 @@ class Gail(unittest.TestCase):
         proc = run("train", "--config", write_config("gail_into_bc"), "--out", "bc_folder", check=False)
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("holds a run of another config", proc.stderr)
+
+    def test_a_suite_runs_both_objectives_and_the_report_pairs_gail_with_bc(self):
+        bc_train = {"steps": 20, "validate_every": 10, "checkpoint_every": 10, "validation_states_per_task": 100}
+        suite = {
+            "description": "GAIL against BC, tiny",
+            "defaults": {"train": bc_train, "eval": {"episodes": 2, "threads": 1}},
+            "sets": {"gravity": {"data": {"file": str(work() / "gravity.h5"), "collect_demos": 3, "subsample": 20},
+                                 "demos": [1, 2],
+                                 "config": {"data": {"tasks": ["gravity/0.5", "gravity/1.0"]},
+                                            "maps": {"modules": 3, "module_hidden": [32], "selector_hidden": [16]}}}},
+            "variants": {"gail": {"imitation": "gail", "gail": dict(GAIL)}},
+            "grids": [{"name": "bc", "sets": ["gravity"], "methods": ["maps", "mt_bc"], "seeds": [0, 1]},
+                      {"name": "gail", "sets": ["gravity"], "methods": ["maps", "mt_bc"], "variants": ["gail"],
+                       "seeds": [0, 1]}]}
+        path = work() / "adversarial.json"
+        path.write_text(json.dumps(suite))
+        run("suite", "run", path, "--out", "adversarial", "--jobs", "2", timeout=1200)
+        report = work() / "adversarial" / "report"
+        proc = subprocess.run([maps_tool.MAPS, "report", str(work() / "adversarial")], cwd=work(),
+                              capture_output=True, text=True, timeout=600)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        text = (report / "report.md").read_text()
+        self.assertIn("## Imitation objective: GAIL against BC", text)
+        self.assertIn("GAIL: 2,000 env steps per task, checkpoint last", text)
+        # Every (method, demos) setting paired over both seeds, and the difference is the mean of the per-seed
+        # differences of the cells' own scores.
+        scores = {}
+        for result in (work() / "adversarial" / "cells" / "gravity").glob("*/result.json"):
+            cell = json.loads(result.read_text())
+            key = (cell["cell"]["method"], cell["config"]["imitation"], cell["cell"]["demos"], cell["cell"]["seed"])
+            scores[key] = cell["eval"]["mean_score"]
+        self.assertEqual(len(scores), 16)
+        rows = [line for line in text.splitlines() if line.startswith("| gravity | ") and " | 20 | 2 | " in line]
+        for method, shown in (("maps", "MAPS"), ("mt_bc", "MT-BC")):
+            for demos in (1, 2):
+                row = [r for r in rows if r.startswith(f"| gravity | {shown} | {demos} | 20 | 2 |")]
+                self.assertEqual(len(row), 1, (method, demos, rows))
+                diffs = [scores[(method, "gail", demos, s)] - scores[(method, "bc", demos, s)] for s in (0, 1)]
+                difference = row[0].split(" | ")[7]
+                self.assertAlmostEqual(float(difference.split(" +- ")[0]), sum(diffs) / 2, delta=0.006)
+        self.assertRegex(text, r"GAIL above BC after Holm in \d of 4 settings, below in \d\.")
+        self.assertIn("### MAPS against the others under each objective", text)
+        self.assertIn("| gravity | MAPS - MT-BC | 1 | 20 | 2 |", text)
+        self.assertIn("### MAPS's routing under each objective", text)
+        self.assertRegex(text, r"\| gravity \| 1 \| 20 \| GAIL \| 2 \| ")
+        for figure in ("imitation_scores", "gail_curves"):
+            self.assertGreater((report / f"{figure}.png").stat().st_size, 1000, figure)
+            with open(report / f"{figure}.csv") as f:
+                self.assertTrue(list(csv.DictReader(f)), figure)
+        with open(report / "gail_curves.csv") as f:
+            curve = list(csv.DictReader(f))
+        # Two iterations of 1000 env steps per task, each point over both seeds.
+        self.assertEqual(sorted({int(r["env_steps_per_task"]) for r in curve}), [1000, 2000])
+        self.assertTrue(all(r["seeds"] == "2" and math.isfinite(float(r["mean"])) for r in curve))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,183 @@
+"""GAIL against BC (issue 45, docs/adversarial.md): the report's tables on the imitation objective. A cell trained by
+GAIL says so in its resolved config ("imitation": "gail"); it is paired with the cell of the same set, method, demos,
+k and seed trained by BC (the method's base cells). Three tables, each a list of Markdown lines:
+
+- objective_table: every method's GAIL - BC difference in mean score, paired by seed, Holm over the whole table (one
+  question, asked at every set, method and demo count);
+- maps_table: MAPS against each other method under each objective, paired by seed, Holm within each objective (does
+  MAPS's lead, or its lack, survive the change of objective?);
+- routing_table: MAPS's routing under each objective (how far each task's module usage is from the tasks' mean, the
+  per-state entropy and top score, the shared and task-specific modules), GAIL - BC paired by seed.
+
+The figures are in imitation_figures.py."""
+import math
+from collections import namedtuple
+
+from suite_results import SET_ORDER, order, method_rank
+from suite_stats import USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, paired, paired_p, usage_distances
+
+Setting = namedtuple("Setting", "set method variant demos subsample")
+OBJECTIVES = ["bc", "gail"]
+NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC"}
+
+
+def objective(cell):
+    """"gail" or "bc" (a config written before the key existed trained by BC)."""
+    return str(cell.config.get("imitation", "bc"))
+
+
+def by_objective(cells):
+    """{Setting: {"bc": [cells], "gail": [cells]}}: a method's cells trained by GAIL under one variant, and beside them
+    the method's base cells (BC) at the same set, demos and k, in report order (set, method, variant, demos, k). A
+    suite may hold several GAIL variants (a pilot's settings): each is its own setting, paired with the same BC cells.
+    Variants of the BC protocol (ablations, controls) are not the BC a GAIL cell is paired with."""
+    base, gail = {}, {}
+    for c in cells:
+        if objective(c) == "gail":
+            gail.setdefault(Setting(c.set, c.method, c.variant, c.demos, c.subsample), []).append(c)
+        elif c.label == c.method:
+            base.setdefault((c.set, c.method, c.demos, c.subsample), []).append(c)
+    sets = order(SET_ORDER, {s.set for s in gail})
+    found = {s: {"bc": base.get((s.set, s.method, s.demos, s.subsample), []), "gail": runs}
+             for s, runs in gail.items()}
+    return dict(sorted(found.items(), key=lambda item: (sets.index(item[0].set), method_rank(item[0].method),
+                                                        item[0].method, item[0].variant, item[0].demos,
+                                                        item[0].subsample)))
+
+
+def has_gail(cells):
+    return any(objective(c) == "gail" for c in cells)
+
+
+def name(method, variant="gail"):
+    """"MAPS"; "MAPS (pilot_b)" for a GAIL variant other than the suite's "gail"."""
+    return NAMES.get(method, method) + ("" if variant == "gail" else f" ({variant})")
+
+
+def table(header, rows):
+    lines = ["| " + " | ".join(header) + " |", "|---" * len(header) + "|"]
+    return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+
+
+def budget_line(cells):
+    """What GAIL ran: its env steps per task and checkpoint rule, from the GAIL cells' configs."""
+    gail = [c for c in cells if objective(c) == "gail"]
+    steps = sorted({int(c.config.get("gail", {}).get("env_steps_per_task", 0)) for c in gail})
+    rules = sorted({str(c.config.get("gail", {}).get("checkpoint", "last")) for c in gail})
+    bc = [c for c in cells if objective(c) == "bc"]
+    return (f"GAIL: {'/'.join(f'{s:,}' for s in steps)} env steps per task, checkpoint {'/'.join(rules)}"
+            f" ({'the policy after the last iteration' if rules == ['last'] else 'gail.checkpoint'}); BC:"
+            f" {'/'.join(str(s) for s in sorted({c.steps for c in bc}))} steps, the best-validation checkpoint."
+            " Both evaluated alike (the suite's eval settings, the mean action).")
+
+
+def objective_table(cells):
+    """Per set, method and demo count: BC's and GAIL's mean score over tasks over the seeds both ran, the paired
+    difference GAIL - BC and its p; Holm over every row. [] without a pair."""
+    rows = []
+    for setting, runs in by_objective(cells).items():
+        diffs = paired(runs["gail"], runs["bc"], lambda c: c.mean_score)
+        if not diffs:
+            continue
+        seeds = {c.seed for c in runs["gail"]} & {c.seed for c in runs["bc"]}
+        rows.append([setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample, len(diffs),
+                     fmt([c.mean_score for c in runs["bc"] if c.seed in seeds]),
+                     fmt([c.mean_score for c in runs["gail"] if c.seed in seeds]), fmt(diffs, signed=True),
+                     mean(diffs), paired_p(diffs)])
+    if not rows:
+        return []
+    adjusted = holm([row[-1] for row in rows])
+    tested = sum(1 for a in adjusted if a == a)
+    higher = [row for row, a in zip(rows, adjusted) if a == a and a < 0.05 and row[-2] > 0]
+    lower = [row for row, a in zip(rows, adjusted) if a == a and a < 0.05 and row[-2] < 0]
+    shown = [row[:-2] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    return ([budget_line(cells), "",
+             "Mean score over tasks, mean +- 95% CI over the seeds both objectives ran; difference = GAIL - BC, paired"
+             f" by seed; p: paired t test; Holm over all {tested} rows with a p (one question: does the objective"
+             " change the score?):", ""]
+            + table(["set", "method", "demos", "k", "pairs", "BC", "GAIL", "GAIL - BC", "p", "p (Holm)"], shown)
+            + ["", f"GAIL above BC after Holm in {len(higher)} of {tested} settings, below in {len(lower)}."])
+
+
+def maps_table(cells):
+    """Under each objective, MAPS against each other method at the same set, demos, k and seeds: the paired
+    difference MAPS - other, p, Holm within the objective. [] where MAPS or another method is missing."""
+    settings = by_objective(cells)
+    rows, families = [], []
+    for setting, runs in settings.items():
+        if setting.method == "maps":
+            continue
+        partner = settings.get(setting._replace(method="maps"))
+        if not partner:
+            continue
+        row = [setting.set, f"{name('maps', setting.variant)} - {name(setting.method)}", setting.demos,
+               setting.subsample]
+        for kind in OBJECTIVES:
+            diffs = paired(partner[kind], runs[kind], lambda c: c.mean_score)
+            rows.append(row + [kind, len(diffs), fmt(diffs, signed=True) if diffs else "-",
+                               paired_p(diffs) if diffs else float("nan")])
+            families.append(kind)
+    if not rows:
+        return []
+    adjusted = holm_within([row[-1] for row in rows], families)
+    merged = {}
+    for row, a in zip(rows, adjusted):
+        key = tuple(row[:4])
+        merged.setdefault(key, {})[row[4]] = [row[5], row[6], fmt_p(row[7]), fmt_p(a)]
+    empty = [0, "-", "-", "-"]
+    shown = [list(key) + merged[key].get("bc", empty) + merged[key].get("gail", empty) for key in merged]
+    return (["MAPS against each other method under each objective: difference = MAPS - the other, mean over tasks,"
+             " paired by seed (mean +- 95% CI); p: paired t test; Holm within each objective's column:", ""]
+            + table(["set", "comparison", "demos", "k", "BC pairs", "BC difference", "BC p", "BC p (Holm)",
+                     "GAIL pairs", "GAIL difference", "GAIL p", "GAIL p (Holm)"], shown))
+
+
+def routing_values(cell):
+    """(mean TV of the tasks' usage from their mean usage, mean per-state entropy, mean per-state top score, shared
+    modules, task-specific modules) of one MAPS cell; entropy and top score None where the results lack them."""
+    entropy = [t.entropy for t in cell.tasks if t.entropy is not None]
+    top = [t.top_score for t in cell.tasks if t.top_score is not None]
+    shared, specific, _, _ = division(cell)
+    return (mean(usage_distances(cell)), mean(entropy) if entropy else None, mean(top) if top else None,
+            len(shared), len(specific))
+
+
+ROUTING_COLUMNS = ["usage distance between tasks (TV)", "per-state entropy (nats)", "per-state top score",
+                   "shared modules", "specific modules"]
+
+
+def routing_table(cells):
+    """MAPS's routing per set, demos and k under BC and GAIL (per seed, then mean +- CI), the paired GAIL - BC
+    difference of the usage distance between tasks (does the adversarial signal divide the tasks otherwise?) and its
+    p, Holm over the rows. [] without MAPS cells with module usage under both."""
+    rows = []
+    modules = None
+    for setting, runs in by_objective(cells).items():
+        if setting.method != "maps":
+            continue
+        bc = [c for c in runs["bc"] if c.has_usage]
+        gail = [c for c in runs["gail"] if c.has_usage]
+        if not bc or not gail:
+            continue
+        modules = len(gail[0].tasks[0].usage)
+        row = [setting.set, setting.demos, setting.subsample]
+        for kind, kind_runs in (("BC", bc), ("GAIL" if setting.variant == "gail" else f"GAIL ({setting.variant})",
+                                             gail)):
+            values = [routing_values(c) for c in kind_runs]
+            columns = [fmt([v[i] for v in values]) if all(v[i] is not None for v in values) else "-"
+                       for i in range(5)]
+            rows.append(row + [kind, len(kind_runs)] + columns + ["", math.nan])
+        diffs = paired(gail, bc, lambda c: routing_values(c)[0])
+        rows[-1][-2] = fmt(diffs, signed=True) if diffs else "-"
+        rows[-1][-1] = paired_p(diffs) if diffs else math.nan
+    if not rows:
+        return []
+    adjusted = holm([row[-1] for row in rows])
+    shown = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    return ([f"MAPS's routing on the evaluation states (per seed, then mean +- 95% CI over seeds; uniform over"
+             f" {modules} modules: TV 0, entropy {math.log(modules):.2f}, top score {1 / modules:.2f}). A task uses a"
+             f" module whose share of its usage is >= {USED_FACTOR:g}/{modules}; shared: used by two or more tasks,"
+             " specific: by one. GAIL - BC: the paired difference of the usage distance between tasks (the task"
+             " division), p: paired t test, Holm over the rows:", ""]
+            + table(["set", "demos", "k", "objective", "seeds"] + ROUTING_COLUMNS
+                    + ["GAIL - BC (TV)", "p", "p (Holm)"], shown))

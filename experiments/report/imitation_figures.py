@@ -1,0 +1,189 @@
+"""The figures of GAIL against BC (issue 45, docs/adversarial.md), each with its numbers in a CSV beside it:
+
+    imitation_scores.png  mean score over tasks against demos per task, one panel per set: each method under BC (solid)
+                          and under GAIL (dashed), band: 95% CI over seeds
+    gail_curves.png       GAIL's learning curves: the training episodes' return over the expert's (mean over tasks,
+                          then over seeds) against env steps per task, one panel per set and demo count, each
+                          method's BC score (evaluated) as a dotted line for reference
+
+Each function returns the Figures it wrote, or [] when the suite has no GAIL cells."""
+import csv
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_panels,  # noqa: E402
+                     write_csv)
+from imitation import by_objective  # noqa: E402
+from suite_results import SET_ORDER, order, read_json, score_name, success_scored  # noqa: E402
+from suite_stats import ci95, describe_n, mean  # noqa: E402
+
+STYLES = {"bc": {"linestyle": "-"}, "gail": {"linestyle": "--", "markerfacecolor": "white"}}
+OBJECTIVE_NAMES = {"bc": "BC", "gail": "GAIL"}
+LINES = ["-", "-.", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]
+
+
+def mine_cells(settings):
+    return [c for runs in settings.values() for kind in runs.values() for c in kind]
+
+
+def variant_name(method, variant):
+    """"MAPS", or "MAPS (pilot_b)" for a GAIL variant other than the suite's "gail"."""
+    return name(method) + ("" if variant == "gail" else f" ({variant})")
+
+
+def imitation_scores(cells, out):
+    settings = by_objective(cells)
+    sets = order(SET_ORDER, {s.set for s in settings})
+    if not sets:
+        return []
+    fig, axes = plt.subplots(1, len(sets), figsize=(max(6.5, 5.2 * len(sets)), 5.0), squeeze=False)
+    rows, drawn = [], []
+    for ax, set_name in zip(axes[0], sets):
+        mine = {s: runs for s, runs in settings.items() if s.set == set_name}
+        means = []
+        for method, variant in dict.fromkeys((s.method, s.variant) for s in mine):
+            for kind in ("bc", "gail"):
+                keys = sorted((s for s in mine if (s.method, s.variant) == (method, variant) and mine[s][kind]),
+                              key=lambda s: s.demos)
+                if not keys or (kind == "bc" and variant != "gail" and (method, "gail") in
+                                {(s.method, s.variant) for s in mine}):
+                    continue  # BC's line once per method (beside the suite's own GAIL variant)
+                runs = [mine[s][kind] for s in keys]
+                shown = name(method) if kind == "bc" else variant_name(method, variant)
+                points = line_with_band(ax, [s.demos for s in keys], runs, lambda c: c.mean_score,
+                                        color=color(method), label=f"{shown}, {OBJECTIVE_NAMES[kind]}",
+                                        **STYLES[kind])
+                rows += [[set_name, method, kind if kind == "bc" else variant, x, keys[0].subsample, n, m, h]
+                         for x, n, m, h in points]
+                means += [m for _, _, m, _ in points]
+                drawn += [c for r in runs for c in r]
+        ax.set_title(f"{set_name}", fontsize=9)
+        ax.set_xlabel("demonstrations per task")
+        ax.set_ylabel(f"{score_name(set_name, drawn, short=True)}\n(mean over tasks)")
+        ax.set_xticks(sorted({s.demos for s in mine}))
+        score_limits(ax, set_name, drawn, means)
+        ax.grid(alpha=0.3)
+    legend_below(fig, axes[0], 3)
+    fig.suptitle("Mean score over tasks against demos per task\nBC: solid; GAIL: dashed, hollow markers\n"
+                 "(mean over seeds, band: 95% CI)")
+    fig.tight_layout(rect=(0, 0.14, 1, 1))
+    save(fig, out, "imitation_scores.png")
+    write_csv(out / "imitation_scores.csv", ["set", "method", "objective", "demos", "subsample", "seeds", "mean",
+                                             "ci95"], rows)
+    return [Figure("imitation_scores.png",
+                   "Each set's mean score over its tasks against demonstrations per task, each method trained by BC"
+                   " (solid) and by GAIL (dashed, hollow markers); points are means over seeds, the band the 95% CI"
+                   f" over seeds. {describe_n(drawn)} (GAIL: iterations). The same evaluation for both"
+                   " (the mean action).")]
+
+
+def expert_returns(cell):
+    """{task: the return its score is divided by}: result.json's expert_return (written by maps eval since
+    2026-12-03), else the evaluation's return over its score where the score is above 0 (it is clipped at 0)."""
+    try:
+        found = {}
+        for task in read_json(cell.folder / "result.json")["eval"]["tasks"]:
+            expert = task.get("expert_return")
+            if expert is None and float(task["score"]) > 0:
+                expert = float(task["return_mean"]) / float(task["score"])
+            if expert is not None and math.isfinite(float(expert)) and float(expert) != 0:
+                found[str(task["task"])] = float(expert)
+        return found
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}
+
+
+def training_curve(cell):
+    """{env steps per task: the mean over tasks of the iteration's mean training return over the task's expert
+    return (expert_returns)} from a GAIL cell's curve.csv. {} when the curve is missing or unreadable, or a task has
+    no expert return to divide by."""
+    if all(t.scored_by == "success" for t in cell.tasks):
+        return success_curve(cell)
+    experts = expert_returns(cell)
+    if not experts or set(experts) != {t.task for t in cell.tasks}:
+        return {}
+    curve = {}
+    try:
+        with (cell.folder / "curve.csv").open() as f:
+            for row in csv.DictReader(f):
+                values = [float(row[f"return:{task}"]) / expert for task, expert in experts.items()]
+                curve[int(row["env_steps_per_task"])] = mean(values)
+    except (OSError, KeyError, ValueError, TypeError, ZeroDivisionError):
+        return {}
+    return curve
+
+
+def success_curve(cell):
+    """{env steps per task: the share of the iteration's training episodes that succeeded at some step, over all
+    tasks} from curve.csv's success column: the curve of a set scored by success (MT10)."""
+    curve = {}
+    try:
+        with (cell.folder / "curve.csv").open() as f:
+            for row in csv.DictReader(f):
+                curve[int(row["env_steps_per_task"])] = float(row["success"])
+    except (OSError, KeyError, ValueError, TypeError):
+        return {}
+    return curve
+
+
+def gail_curves(cells, out):
+    settings = by_objective(cells)
+    sets = order(SET_ORDER, {s.set for s in settings})
+    if not sets:
+        return []
+    fig, axes, height = setting_panels([{(s.demos, s.subsample) for s in settings if s.set == name_}
+                                        for name_ in sets])
+    rows, drawn, used = [], False, []
+    variants = sorted({s.variant for s in settings}, key=lambda v: (v != "gail", v))
+    for axes_row, set_name in zip(axes, sets):
+        mine = {s: runs for s, runs in settings.items() if s.set == set_name}
+        panels = sorted({(s.demos, s.subsample) for s in mine})
+        for ax in axes_row[len(panels):]:
+            ax.set_visible(False)
+        for ax, (demos, k) in zip(axes_row, panels):
+            for setting in (s for s in mine if (s.demos, s.subsample) == (demos, k)):
+                curves = [c for c in (training_curve(c) for c in mine[setting]["gail"]) if c]
+                if not curves:
+                    continue
+                used += mine[setting]["gail"]
+                steps = sorted(set.intersection(*(set(c) for c in curves)))
+                values = [[c[s] for c in curves] for s in steps]
+                means = np.array([mean(v) for v in values])
+                half = np.array([ci95(v) for v in values])
+                ax.plot(steps, means, color=color(setting.method), linestyle=LINES[variants.index(setting.variant)
+                                                                                    % len(LINES)],
+                        label=f"{variant_name(setting.method, setting.variant)}, GAIL (training)")
+                ax.fill_between(steps, means - half, means + half, where=np.isfinite(half), alpha=0.15,
+                                color=color(setting.method), linewidth=0)
+                rows += [[set_name, setting.method, setting.variant, demos, k, s, len(curves), m, h]
+                         for s, m, h in zip(steps, means, half)]
+                bc = mine[setting]["bc"]
+                if bc and setting.variant == variants[0]:
+                    ax.axhline(mean([c.mean_score for c in bc]), color=color(setting.method), linestyle=":",
+                               label=f"{name(setting.method)}, BC (evaluated)")
+                drawn = True
+            ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+            ax.set_xlabel("env steps per task")
+            ax.set_ylabel("success rate (training episodes)" if success_scored(set_name, mine_cells(mine))
+                          else "return / expert's return\n(mean over tasks)")
+            ax.grid(alpha=0.3)
+    if not drawn:
+        plt.close(fig)
+        return []
+    legend_below(fig, axes.flat, 3)
+    fig.suptitle("GAIL's learning curves: training return over the expert's against env steps per task\n"
+                 "(mean over seeds, band: 95% CI; dotted: the same method's BC score)")
+    fig.tight_layout(rect=(0, 1.0 / height, 1, 1))
+    save(fig, out, "gail_curves.png")
+    write_csv(out / "gail_curves.csv", ["set", "method", "variant", "demos", "subsample", "env_steps_per_task", "seeds", "mean",
+                                        "ci95"], rows)
+    return [Figure("gail_curves.png",
+                   "GAIL's learning curves: each iteration's training episodes (actions drawn from the policy's"
+                   " Gaussian, so below what the mean action scores) as return over the task's expert return, mean"
+                   " over tasks, then over seeds (band: 95% CI), against env steps per task; the dotted line is the"
+                   f" same method's BC score at the same demos (evaluated, the mean action). {describe_n(used)}.")]
