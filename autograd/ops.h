@@ -43,6 +43,9 @@ Tensor sigmoid(const Tensor& x);
 Tensor square(const Tensor& x);
 Tensor softplus(const Tensor& x);  // log(1 + exp(x)), computed stably; gradient sigmoid(x), also at 0
 Tensor erf(const Tensor& x);       // gradient 2/sqrt(pi) exp(-x^2); the normal CDF is 0.5 (1 + erf(x / sqrt(2)))
+// Mish (Misra, 2019; Diffusion Policy's activation): x tanh(softplus(x)), one pass; its gradient is built from ops, so
+// it has a second order too.
+Tensor mish(const Tensor& x);
 
 // ----- linear algebra -----
 // [n,k]@[k,m] -> [n,m]; [b,n,k]@[b,k,m] -> [b,n,m]; [b,n,k]@[k,m] -> [b,n,m].

@@ -139,6 +139,21 @@ Tensor softplus(const Tensor& x) {
   return record("softplus", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{mul(g, sigmoid(x))}; });
 }
 
+Tensor mish(const Tensor& x) {
+  Tensor out = unary_kernel(
+      x, "mish",
+      [](const auto& a) {
+        using T = scalar_of<decltype(a)>;
+        return a * (a.max(T(0)) + (-a.abs()).exp().log1p()).tanh();
+      },
+      kTranscendentalGrain);
+  // d/dx x tanh(sp(x)) = tanh(sp(x)) + x (1 - tanh(sp(x))^2) sigmoid(x).
+  return record("mish", out, {x}, [x](const Tensor& g, const Needs&, Node&) {
+    const Tensor t = tanh(softplus(x));
+    return Grads{mul(g, add(t, mul(mul(x, rsub(1.0, square(t))), sigmoid(x))))};
+  });
+}
+
 Tensor erf(const Tensor& x) {
   Tensor out = unary_kernel(
       x, "erf",

@@ -4,6 +4,7 @@
 #include "autograd/autograd.h"
 #include "nn/activation.h"
 #include "nn/clip_grad.h"
+#include "nn/functional.h"
 #include "nn/init.h"
 #include "nn/linear.h"
 #include "nn/mlp.h"

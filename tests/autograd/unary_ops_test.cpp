@@ -1,5 +1,5 @@
 // Elementwise unary ops: neg, exp, log, sqrt, abs, clamp (both sides, min, max), relu, tanh,
-// sigmoid, square, erf, softplus.
+// sigmoid, square, erf, softplus, mish.
 
 #include <gtest/gtest.h>
 
@@ -64,6 +64,8 @@ std::vector<UnaryCase> unary_cases() {
       {"erf", [](const Tensor& x) { return ag::erf(x); }, [](double x) { return std::erf(x); }, normal},
       {"softplus", [](const Tensor& x) { return ag::softplus(x); }, [](double x) { return std::log1p(std::exp(x)); },
        normal},
+      {"mish", [](const Tensor& x) { return ag::mish(x); },
+       [](double x) { return x * std::tanh(std::log1p(std::exp(x))); }, normal},
   };
 }
 
@@ -209,6 +211,21 @@ TEST(UnaryOps, SoftplusIsStableAtExtremes) {
     EXPECT_EQ(values[3], 1000.0);
     ag::sum(y).backward();
     expect_values(x.grad(), {4}, {0, 0, 1, 1}, 1e-6);
+  }
+}
+
+// mish by hand: mish(0) = 0 with slope tanh(ln 2) = 0.6; mish(1) = tanh(ln(1 + e)); far out it is x (slope 1) and 0
+// (slope 0), finite in float32 where exp would overflow.
+TEST(UnaryOps, MishHandValuesAndExtremes) {
+  for (Dtype dtype : kBothDtypes) {
+    SCOPED_TRACE(ag::to_string(dtype));
+    Tensor x = tensor({0, 1, -1000, 1000}, {4}, dtype, true);
+    const Tensor y = ag::mish(x);
+    expect_values(y, {4}, {0, 0.8650983882673103, 0, 1000}, agtest::tolerance(dtype));
+    ag::sum(y).backward();
+    // mish'(1) = tanh(sp(1)) + (1 - tanh(sp(1))^2) sigmoid(1).
+    const double t = 0.8650983882673103;
+    expect_values(x.grad(), {4}, {0.6, t + (1 - t * t) * sigmoid_ref(1.0), 0, 1}, agtest::tolerance(dtype));
   }
 }
 

@@ -1,0 +1,169 @@
+// nn/functional.h (issue 46): layer and group normalisation, the 1-D convolution, down- and upsampling by 2 and the
+// sinusoidal step embedding, each against a hand computation or a direct loop, with gradcheck and gradgradcheck in
+// float64 for every differentiable one, and the refusals of shapes that cannot be meant.
+
+#include "nn/functional.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "autograd/autograd.h"
+#include "tests/nn/nn_test_util.h"
+
+namespace {
+
+namespace ag = maps::ag;
+namespace F = maps::nn::functional;
+using ag::Dtype;
+using ag::Shape;
+using ag::Tensor;
+using nntest::HasSubstr;
+
+Tensor randn64(const Shape& shape, std::uint64_t seed) {
+  ag::Generator gen(seed);
+  return ag::randn(shape, gen, Dtype::Float64).requires_grad_();
+}
+
+void expect_gradients(const char* name, const ag::SingleFunction& f, const std::vector<Tensor>& inputs) {
+  const auto first = ag::gradcheck(name, f, inputs);
+  EXPECT_TRUE(first.ok) << first.message;
+  const auto second = ag::gradgradcheck(name, f, inputs);
+  EXPECT_TRUE(second.ok) << second.message;
+}
+
+// conv1d by its definition: out[b, o, t] = bias[o] + sum_{c, k} w[o, c, k] x[b, c, t + k - padding] (0 outside).
+std::vector<double> conv1d_loop(const Tensor& x, const Tensor& w, const Tensor& bias, std::int64_t padding) {
+  const std::int64_t batch = x.shape()[0], in = x.shape()[1], length = x.shape()[2];
+  const std::int64_t out = w.shape()[0], kernel = w.shape()[2];
+  const std::int64_t out_length = length + 2 * padding - kernel + 1;
+  const auto xv = x.to_vector(), wv = w.to_vector(), bv = bias.to_vector();
+  std::vector<double> result;
+  for (std::int64_t b = 0; b < batch; ++b)
+    for (std::int64_t o = 0; o < out; ++o)
+      for (std::int64_t t = 0; t < out_length; ++t) {
+        double sum = bv[o];
+        for (std::int64_t c = 0; c < in; ++c)
+          for (std::int64_t k = 0; k < kernel; ++k) {
+            const std::int64_t at = t + k - padding;
+            if (at >= 0 && at < length) sum += wv[(o * in + c) * kernel + k] * xv[(b * in + c) * length + at];
+          }
+        result.push_back(sum);
+      }
+  return result;
+}
+
+void expect_near_all(const Tensor& actual, const std::vector<double>& expected, double tolerance) {
+  const auto values = actual.to_vector();
+  ASSERT_EQ(values.size(), expected.size());
+  for (std::size_t i = 0; i < values.size(); ++i) EXPECT_NEAR(values[i], expected[i], tolerance) << "element " << i;
+}
+
+TEST(Functional, LayerNormHasZeroMeanAndUnitVariancePerRow) {
+  const Tensor x = ag::from_vector({1, 2, 3, 4, -2, 0, 2, 8}, {2, 4}, Dtype::Float64);
+  const Tensor y = F::layer_norm(x, 1, 1e-12);
+  // Row 1: mean 2.5, biased variance 1.25.
+  const double s = std::sqrt(1.25);
+  expect_near_all(ag::narrow(y, 0, 0, 1), {-1.5 / s, -0.5 / s, 0.5 / s, 1.5 / s}, 1e-9);
+  for (std::int64_t row = 0; row < 2; ++row) {
+    const auto v = ag::narrow(y, 0, row, 1).to_vector();
+    double mean = 0, square = 0;
+    for (double e : v) mean += e / 4, square += e * e / 4;
+    EXPECT_NEAR(mean, 0.0, 1e-12);
+    EXPECT_NEAR(square, 1.0, 1e-9);
+  }
+  // Over the last two dims: the whole [2, 4] as one group.
+  const auto whole = F::layer_norm(ag::reshape(x, {1, 2, 4}), 2, 1e-12).to_vector();
+  double mean = 0;
+  for (double e : whole) mean += e / 8;
+  EXPECT_NEAR(mean, 0.0, 1e-12);
+}
+
+TEST(Functional, LayerNormGradients) {
+  expect_gradients("layer_norm", [](const std::vector<Tensor>& in) { return F::layer_norm(in[0]); },
+                   {randn64({3, 5}, 1)});
+  expect_gradients("layer_norm(2 dims)", [](const std::vector<Tensor>& in) { return F::layer_norm(in[0], 2); },
+                   {randn64({2, 3, 4}, 2)});
+}
+
+TEST(Functional, GroupNormIsLayerNormOverEachGroupOfChannels) {
+  const Tensor x = randn64({2, 6, 5}, 3).detach();
+  const Tensor y = F::group_norm(x, 3);
+  // Group 1 of batch row 1: channels 2-3, all positions.
+  const Tensor group = ag::reshape(ag::narrow(ag::narrow(x, 0, 1, 1), 1, 2, 2), {1, 10});
+  const Tensor expected = F::layer_norm(group);
+  const Tensor actual = ag::reshape(ag::narrow(ag::narrow(y, 0, 1, 1), 1, 2, 2), {1, 10});
+  expect_near_all(actual, expected.to_vector(), 1e-12);
+  expect_gradients("group_norm", [](const std::vector<Tensor>& in) { return F::group_norm(in[0], 2); },
+                   {randn64({2, 4, 3}, 4)});
+  EXPECT_THAT(nntest::error_of([&] { F::group_norm(x, 4); }), HasSubstr("6 channels do not split into 4 groups"));
+}
+
+TEST(Functional, Conv1dMatchesItsDefinition) {
+  for (const auto& [kernel, padding] :
+       std::vector<std::pair<std::int64_t, std::int64_t>>{{1, 0}, {3, 1}, {5, 2}, {4, 0}}) {
+    SCOPED_TRACE("kernel " + std::to_string(kernel) + ", padding " + std::to_string(padding));
+    const Tensor x = randn64({2, 3, 7}, 5).detach();
+    const Tensor w = randn64({4, 3, kernel}, 6).detach();
+    const Tensor b = randn64({4}, 7).detach();
+    const Tensor y = F::conv1d(x, w, b, padding);
+    EXPECT_EQ(y.shape(), (Shape{2, 4, 7 + 2 * padding - kernel + 1}));
+    expect_near_all(y, conv1d_loop(x, w, b, padding), 1e-12);
+  }
+  // Without a bias, and in float32.
+  const Tensor x = randn64({1, 2, 6}, 8).detach().to(Dtype::Float32);
+  const Tensor w = randn64({3, 2, 3}, 9).detach().to(Dtype::Float32);
+  const Tensor y = F::conv1d(x, w, Tensor(), 1);
+  EXPECT_EQ(y.dtype(), Dtype::Float32);
+  expect_near_all(y, conv1d_loop(x, w, ag::zeros({3}, Dtype::Float32), 1), 1e-5);
+}
+
+TEST(Functional, Conv1dGradients) {
+  expect_gradients("conv1d", [](const std::vector<Tensor>& in) { return F::conv1d(in[0], in[1], in[2], 2); },
+                   {randn64({2, 3, 6}, 10), randn64({2, 3, 5}, 11), randn64({2}, 12)});
+}
+
+TEST(Functional, Conv1dRefusesShapesThatCannotBeMeant) {
+  const Tensor x = ag::zeros({2, 3, 4}, Dtype::Float64);
+  EXPECT_THAT(nntest::error_of([&] {
+                F::conv1d(x, ag::zeros({4, 2, 3}, Dtype::Float64), Tensor(), 1);
+              }),
+              HasSubstr("expected weight of shape [out, 3, kernel]"));
+  EXPECT_THAT(nntest::error_of([&] {
+                F::conv1d(ag::zeros({3, 4}, Dtype::Float64), ag::zeros({4, 3, 3}), Tensor(), 1);
+              }),
+              HasSubstr("expected x of shape [batch, channels, length]"));
+  EXPECT_THAT(nntest::error_of([&] {
+                F::conv1d(x, ag::zeros({4, 3, 7}, Dtype::Float64), Tensor(), 1);
+              }),
+              HasSubstr("longer than the padded length 6"));
+  EXPECT_THAT(nntest::error_of([&] {
+                F::conv1d(x, ag::zeros({4, 3, 3}, Dtype::Float64), Tensor(), -1);
+              }),
+              HasSubstr("padding must be >= 0"));
+}
+
+TEST(Functional, DownsampleAndUpsampleByTwo) {
+  const Tensor x = ag::from_vector({0, 1, 2, 3, 10, 11, 12, 13}, {1, 2, 4}, Dtype::Float64);
+  expect_near_all(F::downsample2(x), {0, 2, 10, 12}, 0.0);
+  expect_near_all(F::upsample2(x), {0, 0, 1, 1, 2, 2, 3, 3, 10, 10, 11, 11, 12, 12, 13, 13}, 0.0);
+  expect_gradients("downsample2", [](const std::vector<Tensor>& in) { return F::downsample2(in[0]); },
+                   {randn64({2, 3, 4}, 13)});
+  expect_gradients("upsample2", [](const std::vector<Tensor>& in) { return F::upsample2(in[0]); },
+                   {randn64({2, 3, 4}, 14)});
+  EXPECT_THAT(nntest::error_of([&] { F::downsample2(ag::zeros({1, 2, 5})); }), HasSubstr("the length must be even"));
+}
+
+TEST(Functional, SinusoidalEmbeddingByHand) {
+  // dim 4: frequencies 1 and 10000^-1.
+  const Tensor e = F::sinusoidal_embedding({0.0, 2.0}, 4, Dtype::Float64);
+  EXPECT_EQ(e.shape(), (Shape{2, 4}));
+  EXPECT_FALSE(e.requires_grad());
+  expect_near_all(e, {0, 0, 1, 1, std::sin(2.0), std::sin(2e-4), std::cos(2.0), std::cos(2e-4)}, 1e-15);
+  EXPECT_THAT(nntest::error_of([] { F::sinusoidal_embedding({1.0}, 6 + 1); }), HasSubstr("dim must be even"));
+  EXPECT_THAT(nntest::error_of([] { F::sinusoidal_embedding({1.0}, 2); }), HasSubstr("at least 4"));
+  EXPECT_THAT(nntest::error_of([] { F::sinusoidal_embedding({std::nan("")}, 4); }), HasSubstr("not finite"));
+}
+
+}  // namespace
