@@ -9,7 +9,8 @@ Activation activation_from_name(const std::string& name) {
   if (name == "tanh") return Activation::Tanh;
   if (name == "relu") return Activation::ReLU;
   if (name == "sigmoid") return Activation::Sigmoid;
-  throw std::invalid_argument("unknown activation \"" + name + "\" (known: identity, tanh, relu, sigmoid)");
+  if (name == "mish") return Activation::Mish;
+  throw std::invalid_argument("unknown activation \"" + name + "\" (known: identity, tanh, relu, sigmoid, mish)");
 }
 
 std::string to_string(Activation activation) {
@@ -22,6 +23,8 @@ std::string to_string(Activation activation) {
       return "relu";
     case Activation::Sigmoid:
       return "sigmoid";
+    case Activation::Mish:
+      return "mish";
   }
   throw std::logic_error("to_string: invalid Activation value");
 }
@@ -36,6 +39,8 @@ ag::Tensor apply_activation(Activation activation, const ag::Tensor& x) {
       return ag::relu(x);
     case Activation::Sigmoid:
       return ag::sigmoid(x);
+    case Activation::Mish:
+      return ag::mish(x);
   }
   throw std::logic_error("apply_activation: invalid Activation value");
 }
@@ -56,6 +61,8 @@ std::shared_ptr<UnaryModule> make_activation(Activation activation) {
       return std::make_shared<ReLU>();
     case Activation::Sigmoid:
       return std::make_shared<Sigmoid>();
+    case Activation::Mish:
+      return std::make_shared<Mish>();
   }
   throw std::logic_error("make_activation: invalid Activation value");
 }

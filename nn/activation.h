@@ -36,6 +36,15 @@ class Sigmoid : public UnaryModule {
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<Sigmoid>(*this); }
 };
 
+class Mish : public UnaryModule {
+ public:
+  Mish() : UnaryModule("Mish") {}
+  ag::Tensor forward(const ag::Tensor& x) override { return ag::mish(x); }
+
+ protected:
+  std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<Mish>(*this); }
+};
+
 class Identity : public UnaryModule {
  public:
   Identity() : UnaryModule("Identity") {}
@@ -45,9 +54,9 @@ class Identity : public UnaryModule {
   std::shared_ptr<Module> shallow_copy() const override { return std::make_shared<Identity>(*this); }
 };
 
-enum class Activation { Identity, Tanh, ReLU, Sigmoid };
+enum class Activation { Identity, Tanh, ReLU, Sigmoid, Mish };
 
-// "identity" | "tanh" | "relu" | "sigmoid"; anything else throws listing the valid names.
+// "identity" | "tanh" | "relu" | "sigmoid" | "mish"; anything else throws listing the valid names.
 Activation activation_from_name(const std::string& name);
 std::string to_string(Activation activation);
 // Applies the activation as a function (no module).

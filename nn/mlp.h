@@ -17,7 +17,7 @@ class Linear;
 class MLP : public UnaryModule {
  public:
   MLP(const std::vector<std::int64_t>& sizes, Activation activation, ag::Generator& gen, bool activate_last = false);
-  // activation: "identity" | "tanh" | "relu" | "sigmoid".
+  // activation: "identity" | "tanh" | "relu" | "sigmoid" | "mish".
   MLP(const std::vector<std::int64_t>& sizes, const std::string& activation, ag::Generator& gen,
       bool activate_last = false);
 
