@@ -110,7 +110,7 @@ def maps_table(cells):
         partner = settings.get(setting._replace(method="maps"))
         if not partner:
             continue
-        row = [setting.set, f"{name('maps', setting.variant)} - {name(setting.method)}", setting.demos,
+        row = [setting.set, f"{name('maps', setting.variant)} - {name(setting.method, setting.variant)}", setting.demos,
                setting.subsample]
         for kind in OBJECTIVES:
             diffs = paired(partner[kind], runs[kind], lambda c: c.mean_score)

@@ -24,7 +24,7 @@ from suite_stats import ci95, describe_n, mean  # noqa: E402
 
 STYLES = {"bc": {"linestyle": "-"}, "gail": {"linestyle": "--", "markerfacecolor": "white"}}
 OBJECTIVE_NAMES = {"bc": "BC", "gail": "GAIL"}
-LINES = ["-", "-.", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]
+LINES = ["-", "-.", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1)), (0, (1, 1)), (0, (8, 2, 2, 2))]
 
 
 def mine_cells(settings):
@@ -175,7 +175,7 @@ def gail_curves(cells, out):
     if not drawn:
         plt.close(fig)
         return []
-    legend_below(fig, axes.flat, 3)
+    legend_below(fig, axes.flat, 2)
     fig.suptitle("GAIL's learning curves: training return over the expert's against env steps per task\n"
                  "(mean over seeds, band: 95% CI; dotted: the same method's BC score)")
     fig.tight_layout(rect=(0, 1.0 / height, 1, 1))

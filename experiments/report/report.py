@@ -136,7 +136,12 @@ def beside_study(suite, study_dir=None, wanted=True):
     and wanted. A study that is not there or cannot be read leaves a note, never an error."""
     root = pathlib.Path(study_dir) if study_dir else DEFAULT_STUDY
     steps = planned_steps(root) or STUDY_STEPS
-    longest = max(c.steps for c in suite.cells)
+    # A GAIL cell's steps are its iterations, not training steps: the rule reads the BC cells alone, and a suite of
+    # GAIL cells only is not quick-scale.
+    trained = [c.steps for c in suite.cells if imitation.objective(c) == "bc"]
+    if not trained:
+        return Beside(False, 0, steps, root)
+    longest = max(trained)
     beside = Beside(longest <= QUICK_SHARE * steps, longest, steps, root)
     if not beside.quick:
         return beside

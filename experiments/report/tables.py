@@ -112,7 +112,8 @@ def score_table(cells):
     rows = []
     for key, runs in groups(cells).items():
         row = [key.label, key.demos, key.subsample, len(runs), span(sorted({c.steps for c in runs}))]
-        row += [fmt([s for s in (task_score(c, t) for c in runs) if s is not None]) for t in tasks]
+        scores = [[s for s in (task_score(c, t) for c in runs) if s is not None] for t in tasks]
+        row += [fmt(values) if values else "-" for values in scores]  # "-": a task these cells did not train on
         row.append(f"**{fmt([c.mean_score for c in runs])}**")
         row.append(span(sorted(c.best_step for c in runs)))
         rows.append(row)
