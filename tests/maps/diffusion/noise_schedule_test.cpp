@@ -11,10 +11,12 @@
 #include <cmath>
 
 #include "tests/common/error_of.h"
+#include "tests/maps/diffusion/diffusion_test_util.h"
 
 namespace {
 
 namespace ag = maps::ag;
+using diffusiontest::randn64;
 using maps::diffusion::NoiseSchedule;
 using ::testing::HasSubstr;
 
@@ -27,11 +29,6 @@ double max_abs(const ag::Tensor& a, const ag::Tensor& b) {
   double worst = 0.0;
   for (std::size_t i = 0; i < x.size(); ++i) worst = std::max(worst, std::abs(x[i] - y[i]));
   return worst;
-}
-
-ag::Tensor randn(const ag::Shape& shape, std::uint64_t seed) {
-  ag::Generator gen(seed);
-  return ag::randn(shape, gen, ag::Dtype::Float64);
 }
 
 TEST(NoiseSchedule, CosineScheduleAsItsFormula) {
@@ -52,7 +49,7 @@ TEST(NoiseSchedule, CosineScheduleAsItsFormula) {
 
 TEST(NoiseSchedule, AddNoiseScalesEachRowAtItsTimestep) {
   const NoiseSchedule schedule(100);
-  const ag::Tensor x0 = randn({3, 4}, 1), noise = randn({3, 4}, 2);
+  const ag::Tensor x0 = randn64({3, 4}, 1), noise = randn64({3, 4}, 2);
   const ag::Tensor x = schedule.add_noise(x0, noise, {0, 50, 99});
   const auto xv = x.to_vector(), x0v = x0.to_vector(), nv = noise.to_vector();
   const int steps[] = {0, 50, 99};
@@ -80,7 +77,7 @@ TEST(NoiseSchedule, DdimTimestepsLeadingSpacing) {
 // the last one (previous = -1) on x0 itself.
 TEST(NoiseSchedule, DdimWithTheTrueNoiseRetracesTheForwardProcess) {
   const NoiseSchedule schedule(100);
-  const ag::Tensor x0 = ag::clamp(randn({2, 6}, 3), -1.0, 1.0), noise = randn({2, 6}, 4);
+  const ag::Tensor x0 = ag::clamp(randn64({2, 6}, 3), -1.0, 1.0), noise = randn64({2, 6}, 4);
   const auto steps = schedule.ddim_timesteps(8);
   ag::Tensor x = schedule.add_noise(x0, noise, {steps[0], steps[0]});
   for (std::size_t i = 0; i < steps.size(); ++i) {
@@ -102,7 +99,7 @@ TEST(NoiseSchedule, ClippingBoundsTheCleanEstimate) {
 
 TEST(NoiseSchedule, DdpmStepIsThePosterior) {
   const NoiseSchedule schedule(100);
-  const ag::Tensor x0 = ag::clamp(randn({2, 5}, 5), -1.0, 1.0), noise = randn({2, 5}, 6), z = randn({2, 5}, 7);
+  const ag::Tensor x0 = ag::clamp(randn64({2, 5}, 5), -1.0, 1.0), noise = randn64({2, 5}, 6), z = randn64({2, 5}, 7);
   const int t = 40;
   const ag::Tensor x_t = schedule.add_noise(x0, noise, {t, t});
   const double abar = schedule.alpha_bar(t), abar_prev = schedule.alpha_bar(t - 1), beta = schedule.beta(t);
