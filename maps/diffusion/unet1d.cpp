@@ -6,7 +6,7 @@
 namespace maps::diffusion {
 
 ConditionalUnet1d::ConditionalUnet1d(const Unet1dConfig& config, ag::Generator& gen)
-    : nn::Module("ConditionalUnet1d"), config_(config) {
+    : Denoiser("ConditionalUnet1d"), config_(config) {
   if (config.action_dim < 1 || config.cond_dim < 0 || config.down_dims.empty() || config.kernel < 1)
     throw std::invalid_argument("ConditionalUnet1d: action_dim must be positive, cond_dim >= 0, down_dims not empty");
   const std::int64_t cond = config.step_embed_dim + config.cond_dim;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "maps/diffusion/conditional_blocks.h"
+#include "maps/diffusion/denoiser.h"
 
 namespace maps::diffusion {
 
@@ -22,13 +23,13 @@ struct Unet1dConfig {
   std::int64_t groups = 8;
 };
 
-class ConditionalUnet1d : public nn::Module {
+class ConditionalUnet1d : public Denoiser {
  public:
   ConditionalUnet1d(const Unet1dConfig& config, ag::Generator& gen);
 
   // The noise estimate for `noisy` [B, H, action_dim] at the denoising steps (one per row) given cond [B, cond_dim]:
   // [B, H, action_dim]. H must divide by 2^(levels - 1).
-  ag::Tensor forward(const ag::Tensor& noisy, const std::vector<int>& steps, const ag::Tensor& cond);
+  ag::Tensor forward(const ag::Tensor& noisy, const std::vector<int>& steps, const ag::Tensor& cond) override;
 
   const Unet1dConfig& config() const { return config_; }
 
