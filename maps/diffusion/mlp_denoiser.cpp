@@ -1,0 +1,41 @@
+#include "maps/diffusion/mlp_denoiser.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace maps::diffusion {
+
+MlpDenoiser::MlpDenoiser(const MlpDenoiserConfig& config, ag::Generator& gen)
+    : Denoiser("MlpDenoiser"), config_(config) {
+  if (config.horizon < 1 || config.action_dim < 1 || config.cond_dim < 0 || config.hidden.empty())
+    throw std::invalid_argument(
+        "MlpDenoiser: horizon and action_dim must be positive, cond_dim >= 0, hidden not empty");
+  step_embedding_ = register_module("step_embedding", std::make_shared<StepEmbedding>(config.step_embed_dim, gen));
+  std::int64_t in = config.horizon * config.action_dim + config.step_embed_dim + config.cond_dim;
+  std::vector<std::int64_t> sizes = config.hidden;
+  sizes.push_back(config.horizon * config.action_dim);
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    layers_.push_back(register_module("layer" + std::to_string(i), std::make_shared<nn::Linear>(in, sizes[i], gen)));
+    in = sizes[i];
+  }
+}
+
+ag::Tensor MlpDenoiser::forward(const ag::Tensor& noisy, const std::vector<int>& steps, const ag::Tensor& cond) {
+  const std::int64_t flat = config_.horizon * config_.action_dim;
+  if (noisy.dim() != 3 || noisy.size(1) != config_.horizon || noisy.size(2) != config_.action_dim ||
+      static_cast<std::size_t>(noisy.size(0)) != steps.size() || cond.dim() != 2 || cond.size(0) != noisy.size(0) ||
+      cond.size(1) != config_.cond_dim)
+    throw std::invalid_argument("MlpDenoiser: expected noisy [batch, " + std::to_string(config_.horizon) + ", " +
+                                std::to_string(config_.action_dim) + "], one step per row and cond [batch, " +
+                                std::to_string(config_.cond_dim) + "], got " + ag::to_string(noisy.shape()) + ", " +
+                                std::to_string(steps.size()) + " steps and " + ag::to_string(cond.shape()));
+  ag::Tensor x = ag::concat(
+      {ag::reshape(noisy, {noisy.size(0), flat}), child_at<StepEmbedding>(step_embedding_).forward(steps), cond}, 1);
+  for (std::size_t i = 0; i < layers_.size(); ++i) {
+    x = child_at<nn::Linear>(layers_[i]).forward(x);
+    if (i + 1 < layers_.size()) x = ag::mish(x);
+  }
+  return ag::reshape(x, noisy.shape());
+}
+
+}  // namespace maps::diffusion
