@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.ticker as ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
-from suite_results import (METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups, groups,  # noqa: E402
+from suite_results import (METHOD_NAMES, METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups, groups,  # noqa: E402
                            maps_reference, module_sweep_cells, order, score_name, short_task, success_scored,
                            task_names, task_score)
 from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, span, usage_distances,  # noqa: E402
@@ -32,9 +32,6 @@ from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, span
 
 Figure = namedtuple("Figure", "file caption")
 DPI = 120
-NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML",
-         "transfer": "MAPS transfer", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style",
-         "top_k_moe": "top-k MoE", "soft_modularization": "Soft Modularization"}
 COLORS = {"maps": "tab:blue", "maml": "tab:orange", "mt_bc": "m", "mt_mh_bc": "tab:red", "single_bc": "tab:green",
           "transfer": "tab:cyan", "moore": "tab:purple", "paco": "tab:brown", "care": "tab:olive",
           "top_k_moe": "tab:gray", "soft_modularization": "tab:pink"}
@@ -46,7 +43,7 @@ plt.rcParams.update({"font.size": 10, "axes.titlesize": 10, "legend.fontsize": 9
 
 
 def name(method):
-    return NAMES.get(method, method)
+    return METHOD_NAMES.get(method, method)
 
 
 def color(method):

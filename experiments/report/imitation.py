@@ -13,12 +13,12 @@ The figures are in imitation_figures.py."""
 import math
 from collections import namedtuple
 
-from suite_results import SET_ORDER, order, method_rank
-from suite_stats import USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, paired, paired_p, usage_distances
+from suite_results import METHOD_NAMES, SET_ORDER, method_rank, order
+from suite_stats import USED_FACTOR, division, fmt, holm, mean, paired, paired_p, usage_distances
+from tables import against_columns, holm_columns, table
 
 Setting = namedtuple("Setting", "set method variant demos subsample")
 OBJECTIVES = ["bc", "gail"]
-NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC"}
 
 
 def objective(cell):
@@ -51,12 +51,7 @@ def has_gail(cells):
 
 def name(method, variant="gail"):
     """"MAPS"; "MAPS (pilot_b)" for a GAIL variant other than the suite's "gail"."""
-    return NAMES.get(method, method) + ("" if variant == "gail" else f" ({variant})")
-
-
-def table(header, rows):
-    lines = ["| " + " | ".join(header) + " |", "|---" * len(header) + "|"]
-    return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return METHOD_NAMES.get(method, method) + ("" if variant == "gail" else f" ({variant})")
 
 
 def budget_line(cells):
@@ -74,29 +69,26 @@ def budget_line(cells):
 def objective_table(cells):
     """Per set, method and demo count: BC's and GAIL's mean score over tasks over the seeds both ran, the paired
     difference GAIL - BC and its p; Holm over every row. [] without a pair."""
-    rows = []
+    rows, signs = [], []
     for setting, runs in by_objective(cells).items():
-        diffs = paired(runs["gail"], runs["bc"], lambda c: c.mean_score)
-        if not diffs:
-            continue
-        seeds = {c.seed for c in runs["gail"]} & {c.seed for c in runs["bc"]}
-        rows.append([setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample, len(diffs),
-                     fmt([c.mean_score for c in runs["bc"] if c.seed in seeds]),
-                     fmt([c.mean_score for c in runs["gail"] if c.seed in seeds]), fmt(diffs, signed=True),
-                     mean(diffs), paired_p(diffs)])
+        columns = against_columns(runs["gail"], runs["bc"])  # pairs, BC, GAIL, GAIL - BC, p
+        if columns:
+            rows.append([setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample]
+                        + columns)
+            signs.append(mean(paired(runs["gail"], runs["bc"], lambda c: c.mean_score)))
     if not rows:
         return []
     adjusted = holm([row[-1] for row in rows])
     tested = sum(1 for a in adjusted if a == a)
-    higher = [row for row, a in zip(rows, adjusted) if a == a and a < 0.05 and row[-2] > 0]
-    lower = [row for row, a in zip(rows, adjusted) if a == a and a < 0.05 and row[-2] < 0]
-    shown = [row[:-2] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    higher = sum(1 for sign, a in zip(signs, adjusted) if a < 0.05 and sign > 0)
+    lower = sum(1 for sign, a in zip(signs, adjusted) if a < 0.05 and sign < 0)
+    shown, _ = holm_columns(rows)
     return ([budget_line(cells), "",
              "Mean score over tasks, mean +- 95% CI over the seeds both objectives ran; difference = GAIL - BC, paired"
              f" by seed; p: paired t test; Holm over all {tested} rows with a p (one question: does the objective"
              " change the score?):", ""]
             + table(["set", "method", "demos", "k", "pairs", "BC", "GAIL", "GAIL - BC", "p", "p (Holm)"], shown)
-            + ["", f"GAIL above BC after Holm in {len(higher)} of {tested} settings, below in {len(lower)}."])
+            + ["", f"GAIL above BC after Holm in {higher} of {tested} settings, below in {lower}."])
 
 
 def maps_table(cells):
@@ -119,11 +111,9 @@ def maps_table(cells):
             families.append(kind)
     if not rows:
         return []
-    adjusted = holm_within([row[-1] for row in rows], families)
     merged = {}
-    for row, a in zip(rows, adjusted):
-        key = tuple(row[:4])
-        merged.setdefault(key, {})[row[4]] = [row[5], row[6], fmt_p(row[7]), fmt_p(a)]
+    for row in holm_columns(rows, families)[0]:
+        merged.setdefault(tuple(row[:4]), {})[row[4]] = row[5:]
     empty = [0, "-", "-", "-"]
     shown = [list(key) + merged[key].get("bc", empty) + merged[key].get("gail", empty) for key in merged]
     return (["MAPS against each other method under each objective: difference = MAPS - the other, mean over tasks,"
@@ -172,8 +162,7 @@ def routing_table(cells):
         rows[-1][-1] = paired_p(diffs) if diffs else math.nan
     if not rows:
         return []
-    adjusted = holm([row[-1] for row in rows])
-    shown = [row[:-1] + [fmt_p(row[-1]), fmt_p(a)] for row, a in zip(rows, adjusted)]
+    shown, _ = holm_columns(rows)
     return ([f"MAPS's routing on the evaluation states (per seed, then mean +- 95% CI over seeds; uniform over"
              f" {modules} modules: TV 0, entropy {math.log(modules):.2f}, top score {1 / modules:.2f}). A task uses a"
              f" module whose share of its usage is >= {USED_FACTOR:g}/{modules}; shared: used by two or more tasks,"

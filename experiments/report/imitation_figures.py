@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_panels,  # noqa: E402
                      write_csv)
 from imitation import by_objective  # noqa: E402
-from suite_results import SET_ORDER, order, read_json, score_name, success_scored  # noqa: E402
+from suite_results import SET_ORDER, order, score_name, success_scored  # noqa: E402
 from suite_stats import ci95, describe_n, mean  # noqa: E402
 
 STYLES = {"bc": {"linestyle": "-"}, "gail": {"linestyle": "--", "markerfacecolor": "white"}}
@@ -83,19 +83,16 @@ def imitation_scores(cells, out):
 
 
 def expert_returns(cell):
-    """{task: the return its score is divided by}: result.json's expert_return (written by maps eval since
-    2026-12-03), else the evaluation's return over its score where the score is above 0 (it is clipped at 0)."""
-    try:
-        found = {}
-        for task in read_json(cell.folder / "result.json")["eval"]["tasks"]:
-            expert = task.get("expert_return")
-            if expert is None and float(task["score"]) > 0:
-                expert = float(task["return_mean"]) / float(task["score"])
-            if expert is not None and math.isfinite(float(expert)) and float(expert) != 0:
-                found[str(task["task"])] = float(expert)
-        return found
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return {}
+    """{task: the return its score is divided by}: the evaluation's expert_return, else (a result written before maps
+    eval recorded it) its return over its score where the score is above 0 (it is clipped at 0)."""
+    found = {}
+    for t in cell.tasks:
+        expert = t.expert_return
+        if expert is None and t.score > 0 and math.isfinite(t.return_mean):
+            expert = t.return_mean / t.score
+        if expert is not None and math.isfinite(expert) and expert != 0:
+            found[t.task] = expert
+    return found
 
 
 def training_curve(cell):

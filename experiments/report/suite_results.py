@@ -35,6 +35,10 @@ STATUS_FORMAT = "maps-suite-status/1"
 SET_ORDER = []
 METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer", "moore", "paco", "care", "top_k_moe",
                 "soft_modularization"]
+# Each method's name in the report's text and figures.
+METHOD_NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML",
+         "transfer": "MAPS transfer", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style",
+         "top_k_moe": "top-k MoE", "soft_modularization": "Soft Modularization"}
 SELECTOR_TERMS = ["share", "explore", "sparse", "smooth"]
 
 GroupKey = namedtuple("GroupKey", "set label demos subsample")
@@ -57,6 +61,8 @@ class TaskResult:
     # HalfCheetah: the return with Gym's control cost on the unclipped action (nan where eval.json predates it)
     return_unclipped_cost: float = float("nan")
     scored_by: str = None  # "success" or "return", as maps eval scored it (None where eval.json predates the key)
+    # The return the score is divided by (maps eval writes it since 2026-12-03 where it scores by return), else None.
+    expert_return: float = None
 
 
 @dataclass
@@ -274,7 +280,7 @@ def read_cell(path):
                                 float(t.get("return_mean", float("nan"))), usage,
                                 optional_float(t.get("selector_entropy")), optional_float(t.get("selector_top_score")),
                                 return_unclipped_cost=float(t.get("return_mean_unclipped_cost", float("nan"))),
-                                scored_by=t.get("scored_by")))
+                                scored_by=t.get("scored_by"), expert_return=optional_float(t.get("expert_return"))))
     if not tasks:
         raise ValueError("no tasks in eval")
     for t in tasks:
