@@ -209,10 +209,8 @@ std::string load(Module& module, const std::string& path) {
   return std::move(cp.config);
 }
 
-NamedTensors with_prefix(const NamedTensors& tensors, const std::string& prefix) {
-  NamedTensors out;
+void append_with_prefix(NamedTensors& out, const NamedTensors& tensors, const std::string& prefix) {
   for (const auto& t : tensors) out.push_back({prefix + t.name, t.tensor});
-  return out;
 }
 
 NamedTensors strip_prefix(const NamedTensors& tensors, const std::string& prefix) {

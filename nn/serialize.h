@@ -31,9 +31,9 @@ void save(const Module& module, const std::string& path, const std::string& conf
 // the stored config. The module is unchanged when anything is wrong.
 std::string load(Module& module, const std::string& path);
 
-// For a checkpoint holding several modules' tensors side by side: `tensors` renamed prefix + name, and the tensors
-// whose name starts with `prefix`, the prefix removed.
-NamedTensors with_prefix(const NamedTensors& tensors, const std::string& prefix);
+// For a checkpoint holding several modules' tensors side by side: appends `tensors` to `out` renamed prefix + name;
+// and the tensors whose name starts with `prefix`, the prefix removed.
+void append_with_prefix(NamedTensors& out, const NamedTensors& tensors, const std::string& prefix);
 NamedTensors strip_prefix(const NamedTensors& tensors, const std::string& prefix);
 
 }  // namespace maps::nn

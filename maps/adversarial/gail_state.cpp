@@ -42,11 +42,11 @@ std::int64_t read_count(const Json& record, const char* key, std::int64_t low, c
 void save_gail_state(const std::string& path, const GailState& state, const GailModules& modules,
                      const std::mt19937_64& rng, const ag::Generator& noise) {
   nn::NamedTensors tensors;
-  for (auto& t : nn::with_prefix(modules.policy.state_dict(), kPrefixes[0])) tensors.push_back(std::move(t));
-  for (auto& t : nn::with_prefix(modules.head.state_dict(), kPrefixes[1])) tensors.push_back(std::move(t));
-  for (auto& t : nn::with_prefix(modules.discriminator.state_dict(), kPrefixes[2])) tensors.push_back(std::move(t));
-  for (auto& t : nn::with_prefix(modules.adam.state(), kPrefixes[3])) tensors.push_back(std::move(t));
-  for (auto& t : nn::with_prefix(modules.discriminator_adam.state(), kPrefixes[4])) tensors.push_back(std::move(t));
+  nn::append_with_prefix(tensors, modules.policy.state_dict(), kPrefixes[0]);
+  nn::append_with_prefix(tensors, modules.head.state_dict(), kPrefixes[1]);
+  nn::append_with_prefix(tensors, modules.discriminator.state_dict(), kPrefixes[2]);
+  nn::append_with_prefix(tensors, modules.adam.state(), kPrefixes[3]);
+  nn::append_with_prefix(tensors, modules.discriminator_adam.state(), kPrefixes[4]);
   const auto K = static_cast<std::int64_t>(modules.reward_scalers.size());
   std::vector<double> stats;
   for (const auto& scaler : modules.reward_scalers) {

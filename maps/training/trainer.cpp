@@ -41,8 +41,9 @@ struct Progress {
 
 void save_last(const std::string& path, const Policy& policy, const optim::Adam& adam, const Progress& progress,
                const std::mt19937_64& rng) {
-  nn::NamedTensors tensors = nn::with_prefix(policy.state_dict(), kPolicyPrefix);
-  for (auto& t : nn::with_prefix(adam.state(), kAdamPrefix)) tensors.push_back(std::move(t));
+  nn::NamedTensors tensors;
+  nn::append_with_prefix(tensors, policy.state_dict(), kPolicyPrefix);
+  nn::append_with_prefix(tensors, adam.state(), kAdamPrefix);
   std::ostringstream rng_text;
   rng_text << rng;
   TrainingState state;
