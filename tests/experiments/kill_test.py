@@ -52,9 +52,8 @@ def kill_at(args, seconds):
 
 
 def timed_with_start_up(args, curve):
-    """Runs maps to the end; returns (start-up seconds until `curve` got its first row, total seconds). Kill delays
-    scale with the training part alone: on a machine where start-up is a large share of the run, delays scaled by the
-    whole run let a few starts finish the training (CI once landed 4 kills where 5 were required)."""
+    """Runs maps to the end; returns (start-up seconds until `curve` got its first row, total seconds): the first
+    kill_at's range, before a killed start has timed its own start-up."""
     start = time.monotonic()
     proc = subprocess.Popen([MAPS, *map(str, args)], cwd=WORK, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     start_up = None
@@ -78,25 +77,41 @@ def curve_rows(path):
         return 0
 
 
-def kill_after_progress(args, curve, extra_seconds):
-    """Starts maps with args, waits until `curve` has grown by a row (the run got past its start-up and resumed
-    work), then SIGKILLs it `extra_seconds` later unless it ended first; True if it was killed. Waiting for progress
-    rather than killing at a fixed time keeps every start useful on a loaded machine, where start-up alone can take
-    longer than a fixed delay (CI once killed 40 starts in a row before any of them trained a step)."""
-    rows = curve_rows(curve)
+def kill_after_progress(args, curve, rows_ahead, share_of_a_row):
+    """Starts maps with args, waits until `curve` holds `rows_ahead` rows more than before (the run got past its
+    start-up and trained), then SIGKILLs it `share_of_a_row` of one row's time later (the last row's interval, timed
+    live) unless it ended first. Returns (whether it was killed, seconds from launch to its first row past the file's
+    rows: this start's start-up, for the next kill_at). Progress is counted in rows, not seconds from a reference run:
+    a delay scaled by a reference run measured while the machine was busy lets a start on a quieter machine train to
+    the end (CI once landed 2 kills where 5 were required, and before that killed 40 starts in a row before any of
+    them trained a step when start-up was slow). A resumed run first cuts the curve back to its checkpoint, so the
+    rows it must pass are counted from the file before the start."""
+    before = curve_rows(curve)
+    target = before + rows_ahead
+    launched = time.monotonic()
     proc = subprocess.Popen([MAPS, *map(str, args)], cwd=WORK, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        while proc.poll() is None and curve_rows(curve) <= rows:
-            time.sleep(0.005)
+        rows, last_row_time, interval, start_up = before, launched, None, None
+        while proc.poll() is None and rows < target:
+            time.sleep(0.002)
+            now_rows = curve_rows(curve)
+            if now_rows != rows:
+                now = time.monotonic()
+                if now_rows > rows:
+                    interval = now - last_row_time
+                if start_up is None and now_rows > before:
+                    start_up = now - launched
+                rows, last_row_time = now_rows, now
+        start_up = start_up if start_up is not None else time.monotonic() - launched
         try:
-            proc.wait(timeout=extra_seconds)
+            proc.wait(timeout=share_of_a_row * (interval if interval is not None else 0.01))
         except subprocess.TimeoutExpired:
             proc.send_signal(signal.SIGKILL)
             proc.wait()
-            return True
+            return True, start_up
         if proc.returncode != 0:
             raise AssertionError(f"maps {' '.join(map(str, args))} failed: {proc.stderr.read().decode()}")
-        return False
+        return False, start_up
     finally:
         proc.stderr.close()
 
@@ -141,12 +156,15 @@ class KillTest(unittest.TestCase):
         args = ["train", "--config", config, "--out", killed_dir]
         kills = 0
         for start in range(100):
-            # Every third start is killed at any moment from its launch (start-up, loading, the first checkpoint
-            # write); the others after they have trained past a validation row, so the run always moves on.
+            # Every third start is killed at any moment from its launch until a little past its first new row
+            # (start-up, loading, the first checkpoint write), timed by the last start that got that far; the others
+            # after they have trained a few validation rows past where the file was, at a random point of the next
+            # row (every row is also a checkpoint write), so the run always moves on.
             if start % 3 == 0:
-                killed = kill_at(args, self.rng.uniform(0.0, seconds / 4))
+                killed = kill_at(args, self.rng.uniform(0.0, 1.2 * start_up))
             else:
-                killed = kill_after_progress(args, killed_dir / "curve.csv", self.rng.uniform(0.0, training / 10))
+                killed, start_up = kill_after_progress(args, killed_dir / "curve.csv", self.rng.randint(2, 10),
+                                                       self.rng.uniform(0.0, 1.5))
             if not killed:
                 break
             kills += 1
