@@ -193,6 +193,7 @@ int run_bench_step(const BenchStepOptions& options) {
   optim::Adam adam(policy.parameters(), {.lr = 1e-4});
   SetShapes batch_shapes = s;
   batch_shapes.per_task = policy.batch_per_task(s.per_task);
+  batch_shapes.shape = policy.shape();  // a policy predicting chunks trains on chunks of actions
   const core::Batch batch = random_batch(batch_shapes, gen);
   // Seconds of the last step's phases: forward (the loss terms), backward, Adam.
   std::array<double, 3> phase{};

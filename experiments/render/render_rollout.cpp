@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -67,11 +68,30 @@ int run_render_policy(const RenderOptions& options) {
     maps_policy->force_module(options.module);
   }
   const ag::Dtype dtype = ag::Dtype::Float32;
+  // As the evaluator runs it: a policy predicting chunks through an executor, the previous state beside the current.
+  const chunking::ActionChunking& chunks = run.policy->chunking();
+  std::optional<chunking::ChunkExecutor> executor;
+  Eigen::VectorXd previous;
+  auto start_episode = [&](const Eigen::VectorXd& first) {
+    previous = first;
+    if (chunks.chunked()) executor.emplace(chunks, run.policy->step_action_size());
+  };
   auto act = [&](const Eigen::VectorXd& observation) {
     ag::NoGradGuard no_grad;
-    const ag::Tensor x = data.standardizer().apply(Eigen::MatrixXd(observation.transpose()), dtype);
-    const ag::Tensor action = run.policy->act(x, {task});
-    return Eigen::VectorXd(ag::to_eigen_double(action).row(0).transpose());
+    auto predict = [&] {
+      const ag::Tensor x = data.standardizer().apply(Eigen::MatrixXd(observation.transpose()), dtype);
+      const ag::Tensor before = data.standardizer().apply(Eigen::MatrixXd(previous.transpose()), dtype);
+      return Eigen::VectorXd(ag::to_eigen_double(run.policy->act_with_history(x, before, {task})).row(0).transpose());
+    };
+    Eigen::VectorXd action;
+    if (!executor) {
+      action = predict();
+    } else {
+      if (executor->needs_chunk()) executor->add(predict());
+      action = executor->action();
+    }
+    previous = observation;
+    return action;
   };
   const std::uint64_t seed = options.seed_given ? options.seed : envs::kEvalSeedBegin;
 
@@ -80,6 +100,7 @@ int run_render_policy(const RenderOptions& options) {
     auto env = envs::make_env(options.task);
     auto& mujoco_env = dynamic_cast<envs::MujocoEnv&>(*env);
     Eigen::VectorXd obs = env->reset(seed);
+    start_episode(obs);
     int steps = 0;
     double total = 0.0;
     bool success = false;

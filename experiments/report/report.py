@@ -30,6 +30,7 @@ import traceback
 from collections import Counter
 from dataclasses import dataclass, field
 
+import aggregates
 import claims
 import imitation
 import suite_results
@@ -324,6 +325,9 @@ def report_lines(suite, draw, beside=None):
         caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
         lines += section("Against MAPS, every set", per_set(suite, tables.paired_table, caveat),
                          "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds).")
+
+    lines += section("Aggregate statistics: IQM and probability of improvement",
+                     per_set(suite, aggregates.aggregate_table, []), "No cells with a score for every task.")
 
     task_figures = {f.file: f for f in draw("fig2_tasks")}
     for set_name in suite.sets():

@@ -22,19 +22,22 @@ std::uint64_t name_hash(const std::string& name) {
 // Rows of a demo kept for training or validation, with each row's predecessor in time (row t - 1 of the demo,
 // row 0 paired with itself). The predecessor is the real previous state even when subsampling skips it: the
 // smoothness loss compares consecutive states, and it reads only observations, never action labels.
-void append_rows(const envs::Demonstration& demo, std::int64_t offset, std::int64_t step, Eigen::MatrixXd& obs,
-                 Eigen::MatrixXd& prev, Eigen::MatrixXd& actions) {
+// With horizon H > 1 a row's actions are the chunk of the H actions from its own on, the last repeated past the end.
+void append_rows(const envs::Demonstration& demo, std::int64_t offset, std::int64_t step, std::int64_t horizon,
+                 Eigen::MatrixXd& obs, Eigen::MatrixXd& prev, Eigen::MatrixXd& actions) {
   const std::int64_t T = demo.num_samples();
   const std::int64_t kept = offset < T ? (T - offset + step - 1) / step : 0;
   const Eigen::Index start = obs.rows();
+  const Eigen::Index A = demo.actions.cols();
   obs.conservativeResize(start + kept, demo.obs.cols());
   prev.conservativeResize(start + kept, demo.obs.cols());
-  actions.conservativeResize(start + kept, demo.actions.cols());
+  actions.conservativeResize(start + kept, horizon * A);
   for (std::int64_t i = 0; i < kept; ++i) {
     const std::int64_t t = offset + i * step;
     obs.row(start + i) = demo.obs.row(t);
     prev.row(start + i) = demo.obs.row(t > 0 ? t - 1 : 0);
-    actions.row(start + i) = demo.actions.row(t);
+    for (std::int64_t j = 0; j < horizon; ++j)
+      actions.block(start + i, j * A, 1, A) = demo.actions.row(std::min(t + j, T - 1));
   }
 }
 
@@ -73,6 +76,8 @@ std::vector<bool> kept_tasks(const std::vector<std::string>& file_tasks, const s
 
 DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
     : task_set_(file.task_set), config_(config) {
+  if (config.action_horizon < 1 || config.action_horizon > 1000)
+    throw std::invalid_argument("data: action horizon must be 1 to 1000, got " + std::to_string(config.action_horizon));
   if (config.subsample < 1)
     throw std::invalid_argument("data: subsample must be >= 1, got " + std::to_string(config.subsample));
   if (config.demos_per_task < 0)
@@ -118,14 +123,16 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
     std::vector<std::uint64_t> seeds;
     for (int i : pool) {
       const std::int64_t offset = static_cast<std::int64_t>(draw_below(rng, config.subsample));
-      append_rows(file.demos[i], offset, config.subsample, data.train_obs, data.train_prev_obs, data.train_actions);
+      append_rows(file.demos[i], offset, config.subsample, config.action_horizon, data.train_obs, data.train_prev_obs,
+                  data.train_actions);
       seeds.push_back(file.demos[i].seed);
     }
     if (!kept) continue;
     if (data.train_obs.rows() == 0)
       throw std::invalid_argument("data: subsample " + std::to_string(config.subsample) + " leaves task " +
                                   file.task_names[k] + " no training states");
-    for (int i : valid[k]) append_rows(file.demos[i], 0, 1, data.valid_obs, data.valid_prev_obs, data.valid_actions);
+    for (int i : valid[k])
+      append_rows(file.demos[i], 0, 1, config.action_horizon, data.valid_obs, data.valid_prev_obs, data.valid_actions);
     double total = 0.0;
     int count = 0;
     for (const auto& demo : file.demos)
@@ -151,7 +158,8 @@ void DemoDataset::use_standardizer(const Standardizer& standardizer) {
 Batch DemoDataset::make_batch(const std::vector<std::pair<int, std::int64_t>>& picks, ag::Dtype dtype, bool validation,
                               std::int64_t per_task) const {
   const auto n = static_cast<Eigen::Index>(picks.size());
-  Eigen::MatrixXd obs(n, observation_size()), prev(n, observation_size()), actions(n, action_size_);
+  Eigen::MatrixXd obs(n, observation_size()), prev(n, observation_size()),
+      actions(n, action_size_ * config_.action_horizon);
   Batch batch;
   batch.tasks.reserve(picks.size());
   for (Eigen::Index j = 0; j < n; ++j) {

@@ -34,6 +34,10 @@ struct DataConfig {
   // task a stream of its own from the seed and its name, so its draw depends on the seed and its own count only
   // (transfer's comparison: the other tasks get the same demos whatever the new task's count).
   std::string draws = "sequential";
+  // H: a batch's actions are chunks [n, H * A], each row the state's action and the H - 1 after it in its
+  // demonstration, time-major, the last action repeated past the demonstration's end (Diffusion Policy's padding);
+  // 1: [n, A]. Set from the method's chunking, not by a config key of its own.
+  std::int64_t action_horizon = 1;
 };
 
 // data.draws must be "sequential" or "per_task": an error naming it otherwise.
@@ -55,7 +59,8 @@ class DemoDataset {
 
   int num_tasks() const { return static_cast<int>(task_names_.size()); }
   std::int64_t observation_size() const { return standardizer_.size(); }
-  std::int64_t action_size() const { return action_size_; }
+  std::int64_t action_size() const { return action_size_; }  // A, one step's
+  std::int64_t action_horizon() const { return config_.action_horizon; }
   const std::vector<std::string>& task_names() const { return task_names_; }
   const std::string& task_set() const { return task_set_; }
   const DataConfig& config() const { return config_; }

@@ -23,9 +23,18 @@ ag::Tensor sample_ddim(Denoiser& denoiser, const NoiseSchedule& schedule, const 
     throw std::invalid_argument("sample_ddim: expected cond [batch, C] and a positive horizon and action size, got " +
                                 ag::to_string(cond.shape()) + ", " + std::to_string(horizon) + " and " +
                                 std::to_string(action_dim));
+  return sample_ddim_from(denoiser, schedule, cond, ag::randn({cond.size(0), horizon, action_dim}, gen, cond.dtype()),
+                          inference_steps, clip);
+}
+
+ag::Tensor sample_ddim_from(Denoiser& denoiser, const NoiseSchedule& schedule, const ag::Tensor& cond,
+                            const ag::Tensor& noise, int inference_steps, bool clip) {
+  if (cond.dim() != 2 || noise.dim() != 3 || noise.size(0) != cond.size(0))
+    throw std::invalid_argument("sample_ddim: expected cond [batch, C] and noise [batch, horizon, actions], got " +
+                                ag::to_string(cond.shape()) + " and " + ag::to_string(noise.shape()));
   ag::NoGradGuard no_grad;
   const auto steps = schedule.ddim_timesteps(inference_steps);
-  ag::Tensor x = ag::randn({cond.size(0), horizon, action_dim}, gen, cond.dtype());
+  ag::Tensor x = noise;
   for (std::size_t i = 0; i < steps.size(); ++i) {
     const int previous = i + 1 < steps.size() ? steps[i + 1] : -1;
     const std::vector<int> at(static_cast<std::size_t>(cond.size(0)), steps[i]);

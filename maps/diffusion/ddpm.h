@@ -19,5 +19,8 @@ ag::Tensor denoising_loss(Denoiser& denoiser, const NoiseSchedule& schedule, con
 // inference step for every row, without recording a graph.
 ag::Tensor sample_ddim(Denoiser& denoiser, const NoiseSchedule& schedule, const ag::Tensor& cond, std::int64_t horizon,
                        std::int64_t action_dim, int inference_steps, bool clip, ag::Generator& gen);
+// The same from a given starting noise [B, H, action_dim] (a policy drawing each row's noise from its own stream).
+ag::Tensor sample_ddim_from(Denoiser& denoiser, const NoiseSchedule& schedule, const ag::Tensor& cond,
+                            const ag::Tensor& noise, int inference_steps, bool clip);
 
 }  // namespace maps::diffusion

@@ -142,10 +142,10 @@ std::vector<std::unique_ptr<envs::Env>> make_envs(const EnvFactory& make_env, co
     throw std::invalid_argument("evaluate: task '" + task + "' has observations of size " +
                                 std::to_string(spec.observation_size) + ", but the standardizer expects " +
                                 std::to_string(standardizer.size()));
-  if (spec.action_size != policy.shape().action_size)
+  if (spec.action_size != policy.step_action_size())
     throw std::invalid_argument("evaluate: task '" + task + "' takes actions of size " +
                                 std::to_string(spec.action_size) + ", but the policy was built for " +
-                                std::to_string(policy.shape().action_size));
+                                std::to_string(policy.step_action_size()));
   return result;
 }
 
@@ -175,11 +175,29 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   };
   std::vector<Running> running;
   Eigen::MatrixXd obs(env_count, obs_size);
+  // A policy predicting chunks or reading the previous state: each env's episode has its executor, and row j of
+  // `prev` is the state before obs's row j (the first state itself at the start, as the demonstrations pair it).
+  const chunking::ActionChunking& chunking = policy.chunking();
+  const bool by_chunks = chunking.chunked();
+  const bool with_history = chunking.previous_observation;
+  const std::int64_t predicted_size = by_chunks ? chunking.horizon * action_size : action_size;
+  std::vector<chunking::ChunkExecutor> executors;
+  if (by_chunks) executors.assign(envs.size(), chunking::ChunkExecutor(chunking, action_size));
+  Eigen::MatrixXd prev(with_history ? env_count : 0, obs_size);
+  auto check_actions = [&](const ag::Tensor& a, std::int64_t rows) {
+    if (!a.defined() || a.dim() != 2 || a.size(0) != rows || a.size(1) != predicted_size)
+      throw std::runtime_error("evaluate: task '" + task + "': the policy returned actions of shape " +
+                               shape_string(a) + ", expected [" + std::to_string(rows) + ", " +
+                               std::to_string(predicted_size) + "] (one row per " +
+                               (by_chunks ? "episode asking for a chunk" : "running episode") + ")");
+  };
   std::size_t next_episode = 0;
   auto start_episode = [&](std::size_t env, Eigen::Index row) {
     const Eigen::VectorXd first = envs[env]->reset(config.first_seed + next_episode);
     check_observation(first);
     obs.row(row) = first.transpose();
+    if (with_history) prev.row(row) = first.transpose();
+    if (by_chunks) executors[env] = chunking::ChunkExecutor(chunking, action_size);
     running.push_back({env, next_episode++});
   };
   for (std::size_t e = 0; e < envs.size(); ++e) start_episode(e, static_cast<Eigen::Index>(e));
@@ -207,12 +225,36 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
       // Thread-local: every worker needs its own guard.
       ag::NoGradGuard no_grad;
       const ag::Tensor x = standardizer.apply(obs, config.dtype);
-      const ag::Tensor a = policy.act(x, ids);
-      if (!a.defined() || a.dim() != 2 || a.size(0) != n || a.size(1) != action_size)
-        throw std::runtime_error("evaluate: task '" + task + "': the policy returned actions of shape " +
-                                 shape_string(a) + ", expected [" + std::to_string(n) + ", " +
-                                 std::to_string(action_size) + "] (one row per running episode)");
-      actions = ag::to_eigen_double(a);
+      if (!by_chunks) {
+        const ag::Tensor a =
+            with_history ? policy.act_with_history(x, standardizer.apply(prev, config.dtype), ids) : policy.act(x, ids);
+        check_actions(a, n);
+        actions = ag::to_eigen_double(a);
+      } else {
+        // Only the episodes whose executor asks for a chunk query the policy (all of them when ensembling).
+        std::vector<Eigen::Index> asking;
+        for (std::size_t j = 0; j < running.size(); ++j)
+          if (executors[running[j].env].needs_chunk()) asking.push_back(static_cast<Eigen::Index>(j));
+        if (!asking.empty()) {
+          const auto q = static_cast<Eigen::Index>(asking.size());
+          Eigen::MatrixXd asked_obs(q, obs_size), asked_prev(q, obs_size);
+          for (Eigen::Index i = 0; i < q; ++i) {
+            asked_obs.row(i) = obs.row(asking[static_cast<std::size_t>(i)]);
+            asked_prev.row(i) = (with_history ? prev : obs).row(asking[static_cast<std::size_t>(i)]);
+          }
+          const std::vector<std::int64_t> asked_ids(asking.size(), task_id);
+          const ag::Tensor a = policy.act_with_history(standardizer.apply(asked_obs, config.dtype),
+                                                       standardizer.apply(asked_prev, config.dtype), asked_ids);
+          check_actions(a, q);
+          const ag::RowMatrixD chunks = ag::to_eigen_double(a);
+          for (Eigen::Index i = 0; i < q; ++i)
+            executors[running[static_cast<std::size_t>(asking[static_cast<std::size_t>(i)])].env].add(
+                chunks.row(i).transpose());
+        }
+        actions.resize(n, action_size);
+        for (std::size_t j = 0; j < running.size(); ++j)
+          actions.row(static_cast<Eigen::Index>(j)) = executors[running[j].env].action().transpose();
+      }
       if (usage != nullptr) {
         const ag::Tensor u = (*usage)(x, ids);
         const bool width_ok = usage_sum.size() == 0 || (u.defined() && u.dim() == 2 && u.size(1) == usage_sum.size());
@@ -252,7 +294,9 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
         freed.push_back(stepped[j].env);
       } else {
         check_observation(r.observation);
-        obs.row(static_cast<Eigen::Index>(running.size())) = r.observation.transpose();
+        const auto row = static_cast<Eigen::Index>(running.size());
+        if (with_history) prev.row(row) = obs.row(static_cast<Eigen::Index>(j));
+        obs.row(row) = r.observation.transpose();
         running.push_back(stepped[j]);
       }
     }
@@ -264,6 +308,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
       }
     }
     obs.conservativeResize(static_cast<Eigen::Index>(running.size()), obs_size);
+    if (with_history) prev.conservativeResize(static_cast<Eigen::Index>(running.size()), obs_size);
     const auto t2 = Clock::now();
     run.policy_seconds += seconds_between(t0, t1);
     run.env_seconds += seconds_between(t1, t2);

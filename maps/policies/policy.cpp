@@ -33,6 +33,21 @@ ag::Tensor Policy::bc_loss(const ag::Tensor& mean_actions, const Batch& batch) c
 
 PolicyForward Policy::forward_terms(const Batch& batch) { return {act(batch.observations, batch.tasks), {}}; }
 
+ag::Tensor Policy::act_with_history(const ag::Tensor& observations, const ag::Tensor& /*previous_observations*/,
+                                    const std::vector<std::int64_t>& tasks) {
+  return act(observations, tasks);
+}
+
+void Policy::set_chunking(const chunking::ActionChunking& chunking, std::int64_t action_size) {
+  chunking::check_action_chunking(chunking, "chunking");
+  if (action_size < 1 || chunking.horizon * action_size != shape_.action_size)
+    throw std::invalid_argument(type_name() + ": chunks of " + std::to_string(chunking.horizon) + " actions of size " +
+                                std::to_string(action_size) + " need an output of " +
+                                std::to_string(chunking.horizon * action_size) + ", the policy was built for " +
+                                std::to_string(shape_.action_size));
+  chunking_ = chunking;
+}
+
 double Policy::validation_loss(const Batch& validation, const DemoDataset& /*data*/) {
   return mean_action_error(*this, validation);
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
+#include "maps/chunking/action_chunking.h"
 #include "maps/data/batch.h"
 #include "nn/module.h"
 
@@ -38,8 +39,21 @@ class Policy : public nn::Module {
  public:
   Policy(std::string type_name, PolicyShape shape) : nn::Module(std::move(type_name)), shape_(shape) {}
 
-  // Actions [n, A] for standardised observations [n, S] of the given tasks (deterministic: the mean action).
+  // Actions [n, A] for standardised observations [n, S] of the given tasks (deterministic: the mean action). A
+  // policy predicting chunks (chunking().horizon H > 1) returns [n, H * A]: each row the step's action and the H - 1
+  // after it, time-major; shape().action_size is then H * A.
   virtual ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) = 0;
+  // What the evaluator calls: act() given the previous states too ([n, S], standardised; the first state itself at
+  // an episode's start), which a policy with chunking().previous_observation reads. Default: act(observations).
+  virtual ag::Tensor act_with_history(const ag::Tensor& observations, const ag::Tensor& previous_observations,
+                                      const std::vector<std::int64_t>& tasks);
+  // How its predictions are executed (horizon 1: one action per step, the default).
+  const chunking::ActionChunking& chunking() const { return chunking_; }
+  // Predict chunks of chunking.horizon actions of action_size each: the policy must have been built for
+  // shape().action_size = horizon * action_size (make_policy does both). Throws when the sizes disagree.
+  void set_chunking(const chunking::ActionChunking& chunking, std::int64_t action_size);
+  // The env's action size (shape().action_size / horizon).
+  std::int64_t step_action_size() const { return shape_.action_size / chunking_.horizon; }
   // The loss of one training batch (built for a balanced batch of batch_per_task() rows per task).
   virtual LossTerms loss(const Batch& batch) = 0;
   // For imitation objectives other than BC (GAIL's PPO loss, maps/adversarial/): the mean actions of the batch's
@@ -87,6 +101,7 @@ class Policy : public nn::Module {
 
  private:
   PolicyShape shape_;
+  chunking::ActionChunking chunking_;
   std::int64_t log_std_slot_ = -1;
 };
 

@@ -24,6 +24,7 @@ io::Registry<PolicyMethod>& registry() {
         care_method(),
         top_k_moe_method(),
         soft_modularization_method(),
+        diffusion_policy_method(),
     };
     // clang-format on
   });

@@ -49,6 +49,10 @@ struct PolicyMethod {
   bool uses_baselines_hidden = false;
   // Whether train.bc_loss "sampled" applies (MAML's inner steps use the mean's squared error).
   bool sampled_bc_loss = true;
+  // A method that predicts action chunks by its own design (Diffusion Policy): its chunks from its filled-in section.
+  // Empty: the run's chunking.* applies (one action per step by default). make() gets the shape with the output
+  // widened to horizon x the action size either way.
+  std::function<chunking::ActionChunking(const nlohmann::json& own)> own_chunking;
   std::function<std::shared_ptr<Policy>(const PolicyShape&, const MethodOptions&, ag::Generator&)> make;
 };
 
@@ -76,6 +80,7 @@ PolicyMethod paco_method();
 PolicyMethod care_method();
 PolicyMethod top_k_moe_method();
 PolicyMethod soft_modularization_method();
+PolicyMethod diffusion_policy_method();
 
 // Parameters of an MLP with these layer sizes (weights and biases), for the entries' counts.
 double mlp_parameter_count(const std::vector<std::int64_t>& sizes);

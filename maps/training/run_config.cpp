@@ -171,6 +171,17 @@ RunConfig parse_run_config(const Json& json) {
       throw std::invalid_argument("config maps.selector_losses: unknown selector loss '" + name +
                                   "'; known: " + selector_loss_names());
   }
+  chunking::check_action_chunking(c.chunking, "chunking");
+  if (chosen.own_chunking && !(c.chunking.horizon == 1 && c.chunking.execution == "ensemble" &&
+                               c.chunking.execute == 1 && c.chunking.ensemble_decay == 0.01))
+    throw std::invalid_argument("config chunking: " + c.method +
+                                " predicts chunks of its own; set them in its "
+                                "section (\"" +
+                                c.method + "\": {\"horizon\": ...}), not in chunking.*");
+  c.data.action_horizon = action_chunking(c).horizon;
+  if (c.imitation == "gail" && c.data.action_horizon > 1)
+    throw std::invalid_argument("config chunking.horizon: GAIL's PPO acts one step at a time; action chunks (horizon " +
+                                std::to_string(c.data.action_horizon) + ") are for imitation \"bc\"");
   c.data.seed = c.seed;
   c.train.seed = c.seed;
   c.maml.finetune_seed = c.seed;
@@ -203,16 +214,39 @@ Json to_json(const RunConfig& c) {
   return out;
 }
 
-double policy_parameter_count(const RunConfig& config, const PolicyShape& shape) {
-  const MethodOptions options{config.maps, config.maml, config.baseline_hidden, config.method_options};
-  return policy_method(config.method).parameters(shape, options);
+chunking::ActionChunking action_chunking(const RunConfig& config) {
+  const PolicyMethod& method = policy_method(config.method);
+  if (!method.own_chunking) return config.chunking;
+  chunking::ActionChunking own = method.own_chunking(config.method_options);
+  chunking::check_action_chunking(own, config.method);
+  return own;
 }
 
-double maps_parameter_count(const RunConfig& config, const PolicyShape& shape) {
+namespace {
+
+// The shape a method is built for: its output one chunk wide.
+PolicyShape chunked_shape(const RunConfig& config, PolicyShape shape) {
+  shape.action_size *= action_chunking(config).horizon;
+  return shape;
+}
+
+}  // namespace
+
+double policy_parameter_count(const RunConfig& config, const PolicyShape& step_shape) {
+  const MethodOptions options{config.maps, config.maml, config.baseline_hidden, config.method_options};
+  return policy_method(config.method).parameters(chunked_shape(config, step_shape), options);
+}
+
+double maps_parameter_count(const RunConfig& config, const PolicyShape& step_shape) {
+  // MAPS as this config would run it: chunks from chunking.*, not from a method's own (Diffusion Policy is matched
+  // to MAPS at one action per step, the study's).
+  PolicyShape shape = step_shape;
+  shape.action_size *= config.chunking.horizon;
   return maps_parameter_count(shape, config.maps);
 }
 
-std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape) {
+std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& step_shape) {
+  const PolicyShape shape = chunked_shape(config, step_shape);
   const PolicyMethod& method = policy_method(config.method);
   const MethodOptions options{config.maps, config.maml, config.baseline_hidden, config.method_options};
   const double parameters = method.parameters(shape, options);
@@ -223,6 +257,8 @@ std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& 
   // The initialisation's own stream of the run's seed ("init").
   ag::Generator gen(envs::splitmix64(config.seed ^ 0x696e6974ULL));
   std::shared_ptr<Policy> policy = method.make(shape, options, gen);
+  const chunking::ActionChunking chunks = action_chunking(config);
+  if (chunks.chunked() || chunks.previous_observation) policy->set_chunking(chunks, step_shape.action_size);
   if (config.train.bc_loss == "sampled") policy->use_sampled_bc_loss();
   return policy;
 }

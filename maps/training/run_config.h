@@ -34,6 +34,7 @@
 //    "maml": {"inner_lr": 0.01, "inner_steps": 1, "first_order": false, "query_per_task": 160, "finetune_steps": 10,
 //             "validate": "unadapted"},              // or "adapted": checkpoints judged after fine-tuning
 //    "baselines": {"hidden": [128, 128, 128]},  // the MLP of Single BC, MT-BC, MT-MH-BC and MAML
+//    "chunking": {"horizon": 1, "execution": "ensemble", "execute": 1, "ensemble_decay": 0.01},  // action chunks
 //    "eval": {"episodes": 100, "threads": 0, "tasks": []},   // tasks: evaluate only these of the run's
 //    "init": {"run": "", "checkpoint": "best.ckpt"},        // transfer: start from that run's parameters
 //    "imitation": "bc",                       // or "gail": adversarial imitation, set by "gail": {...}
@@ -57,6 +58,9 @@ struct RunConfig {
   std::vector<std::int64_t> baseline_hidden = detail::default_hidden_sizes();
   // The method's own section ("moore": {...}) with every default filled in; {} for a method without one.
   nlohmann::json method_options = nlohmann::json::object();
+  // Action chunks for a method that predicts one action per step (chunking.*); a method with chunks of its own
+  // (PolicyMethod::own_chunking) leaves it at its default and sets them in its section.
+  chunking::ActionChunking chunking;
   int eval_episodes = 100;
   int eval_threads = 0;
   std::vector<std::string> eval_tasks;  // `maps eval` scores only these of the run's tasks (empty: all)
@@ -84,9 +88,13 @@ nlohmann::json to_json(const RunConfig& config);
 nlohmann::json transfer_request(nlohmann::json source_request, const std::string& task, int demos,
                                 const std::vector<std::string>& freeze, double module_lr_scale);
 
-// The method's policy for the data's shapes, initialised from the run's seed.
+// How the run's policy predicts and executes actions: the method's own chunks, else chunking.*.
+chunking::ActionChunking action_chunking(const RunConfig& config);
+// The method's policy for the data's shapes (one step's action size; make_policy widens the output for chunks),
+// initialised from the run's seed.
 std::shared_ptr<Policy> make_policy(const RunConfig& config, const PolicyShape& shape);
-// The method's parameter count for these shapes, and MAPS's under the same config (the zoo's budget).
+// The method's parameter count for these shapes, and MAPS's under the same config (the zoo's budget; with
+// chunking.* MAPS's output is as wide, a method's own chunks leave it at one action).
 double policy_parameter_count(const RunConfig& config, const PolicyShape& shape);
 double maps_parameter_count(const RunConfig& config, const PolicyShape& shape);
 

@@ -188,7 +188,8 @@ std::vector<RunConfigField> make_fields() {
       "a registered method (`maps train --help` lists them with a line each): `maps`, `single_bc` (one MLP per "
       "task), `mt_bc` (one MLP on [state, one-hot task]), `mt_mh_bc` (a shared trunk with a head per task), "
       "`maml`, and the zoo's modular methods ([zoo.md](zoo.md)): `moore`, `paco`, `care`, `top_k_moe`, "
-      "`soft_modularization`; a plugin's (`plugins`)");
+      "`soft_modularization`, and Diffusion Policy `diffusion_policy` (action chunks sampled by DDIM); a plugin's "
+      "(`plugins`)");
   table.choices_from(policy_method_names);
   add(
       "plugins", [](RunConfig & c) -> auto& { return c.plugins; }, any(),
@@ -354,6 +355,23 @@ std::vector<RunConfigField> make_fields() {
       "baselines.hidden", [](RunConfig & c) -> auto& { return c.baseline_hidden; }, range(1, kMaxWidth).not_empty(),
       "the MLP of Single BC, MT-BC, MT-MH-BC and MAML (refused for the methods it does not size: `maps`, whose "
       "sizes are `maps.*_hidden`, and the zoo's, whose sizes are in their own sections)");
+  add(
+      "chunking.horizon", [](RunConfig & c) -> auto& { return c.chunking.horizon; }, range(1, 1000),
+      "actions each query predicts, the step's and the H - 1 after it (1: one per step); the method's output grows "
+      "to H x the action size and it is trained on the demonstrations' chunks (the last action repeated past a "
+      "demonstration's end) ([zoo.md](zoo.md), action chunking); a method with chunks of its own "
+      "(`diffusion_policy`) sets them in its section instead");
+  add(
+      "chunking.execution", [](RunConfig & c) -> auto& { return c.chunking.execution; },
+      one_of(chunking::execution_names()),
+      "`ensemble`: query every step and average every chunk covering the step with ACT's weights exp(-m i), i = 0 "
+      "the oldest; `open_loop`: take `chunking.execute` actions of a chunk, then query again");
+  add(
+      "chunking.execute", [](RunConfig & c) -> auto& { return c.chunking.execute; }, range(1, 1000),
+      "`open_loop`: actions taken from each chunk (at most `chunking.horizon`)");
+  add(
+      "chunking.ensemble_decay", [](RunConfig & c) -> auto& { return c.chunking.ensemble_decay; }, range(0, 1e3),
+      "`ensemble`: m in the weights exp(-m i) (ACT: 0.01)");
   add(
       "eval.episodes", [](RunConfig & c) -> auto& { return c.eval_episodes; }, range(1, 1000000),
       "`maps eval`'s episodes per task (held-out seeds from 4,000,000,000)");

@@ -63,6 +63,46 @@ TEST(DemoDataset, BatchesAreBalancedStandardisedAndCarryThePreviousState) {
   }
 }
 
+// With an action horizon H each row's actions are the chunk of its demonstration's next H actions (its own first),
+// the last action repeated past the end; states, draws and validation rows are those of horizon 1.
+TEST(DemoDataset, ChunksAreTheNextActionsOfTheRowsOwnDemoPaddedWithItsLast) {
+  const envs::DemoFile file = synthetic_demo_file();
+  DataConfig one;
+  one.demos_per_task = 2;
+  one.subsample = 7;
+  one.seed = 4;
+  DataConfig chunked = one;
+  chunked.action_horizon = 5;
+  const DemoDataset a(file, one), b(file, chunked);
+  EXPECT_EQ(a.training_demo_seeds(), b.training_demo_seeds());
+  EXPECT_EQ(b.action_size(), 2);
+  EXPECT_EQ(b.action_horizon(), 5);
+  for (int k = 0; k < 2; ++k) {
+    const Batch va = a.task_validation_batch(k, ag::Dtype::Float64),
+                vb = b.task_validation_batch(k, ag::Dtype::Float64);
+    ASSERT_EQ(vb.actions.shape(), (ag::Shape{va.size(), 10}));
+    EXPECT_EQ(va.observations.to_vector(), vb.observations.to_vector());
+    const auto single = va.actions.matrix<double>(), chunks = vb.actions.matrix<double>();
+    // Validation keeps every state of its demos in order, 40 per demo: row r's chunk is rows r .. r + 4 of its demo.
+    for (Eigen::Index r = 0; r < single.rows(); ++r) {
+      const Eigen::Index demo_end = (r / 40 + 1) * 40 - 1;
+      for (Eigen::Index j = 0; j < 5; ++j)
+        for (Eigen::Index d = 0; d < 2; ++d)
+          EXPECT_EQ(chunks(r, 2 * j + d), single(std::min(r + j, demo_end), d)) << "row " << r << " step " << j;
+    }
+  }
+  std::mt19937_64 ra(9), rb(9);
+  const Batch ta = a.sample(6, ra, ag::Dtype::Float64), tb = b.sample(6, rb, ag::Dtype::Float64);
+  EXPECT_EQ(ta.observations.to_vector(), tb.observations.to_vector());
+  EXPECT_EQ(tb.actions.shape(), (ag::Shape{12, 10}));
+  const auto first = ta.actions.matrix<double>(), chunks = tb.actions.matrix<double>();
+  for (Eigen::Index r = 0; r < 12; ++r) EXPECT_EQ(chunks.row(r).head(2), first.row(r)) << "row " << r;
+  DataConfig bad = one;
+  bad.action_horizon = 0;
+  EXPECT_THAT([&] { DemoDataset(file, bad); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("action horizon must be 1 to 1000, got 0")));
+}
+
 TEST(DemoDataset, BadRequestsAreNamed) {
   const envs::DemoFile file = synthetic_demo_file();
   DataConfig config;
