@@ -7,6 +7,7 @@
 #include "envs/portable_random.h"
 #include "maps/diffusion/ddpm.h"
 #include "maps/diffusion/mlp_denoiser.h"
+#include "maps/diffusion/modular_denoiser.h"
 #include "maps/diffusion/unet1d.h"
 #include "maps/policies/policy_registry.h"
 
@@ -44,6 +45,22 @@ diffusion::MlpDenoiserConfig mlp_config(const PolicyShape& shape, const Diffusio
   return m;
 }
 
+diffusion::ModularDenoiserConfig modular_config(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
+  diffusion::ModularDenoiserConfig m;
+  m.horizon = c.horizon;
+  m.action_dim = shape.action_size / c.horizon;
+  m.state_size = shape.observation_size;
+  m.cond_dim = condition_size(shape, c);
+  m.num_tasks = shape.num_tasks;
+  m.modules = c.maps.modules;
+  m.module_hidden.assign(c.maps.module_hidden.size(), c.width);
+  m.selector_hidden = c.maps.selector_hidden;
+  m.step_embed_dim = mlp_step_embedding(c.width);
+  m.activation = c.maps.activation;
+  m.selector_losses = c.maps.selector_losses;
+  return m;
+}
+
 double step_embedding_count(double e) { return e * 4 * e + 4 * e + 4 * e * e + e; }
 
 double unet_count(const diffusion::Unet1dConfig& u) {
@@ -75,9 +92,15 @@ double mlp_count(const diffusion::MlpDenoiserConfig& m) {
 }
 
 void check_config(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
-  if (c.denoiser != "unet" && c.denoiser != "mlp")
-    throw std::invalid_argument("config diffusion_policy.denoiser: expected \"unet\" or \"mlp\", got \"" + c.denoiser +
-                                "\"");
+  if (c.denoiser != "unet" && c.denoiser != "mlp" && c.denoiser != "maps")
+    throw std::invalid_argument("config diffusion_policy.denoiser: expected \"unet\", \"mlp\" or \"maps\", got \"" +
+                                c.denoiser + "\"");
+  if (c.denoiser == "maps" && c.maps.observations != "standardized")
+    throw std::invalid_argument("config maps.observations: the \"maps\" denoiser sees standardised states, got \"" +
+                                c.maps.observations + "\"");
+  if (c.denoiser == "maps" && c.maps.selector != "learned")
+    throw std::invalid_argument("config maps.selector: the \"maps\" denoiser has a learned selector, got \"" +
+                                c.maps.selector + "\"");
   if (c.horizon < 1 || shape.action_size % c.horizon != 0)
     throw std::invalid_argument("diffusion_policy: an output of " + std::to_string(shape.action_size) +
                                 " is not a chunk of " + std::to_string(c.horizon) + " actions");
@@ -124,8 +147,11 @@ DiffusionPolicy::DiffusionPolicy(PolicyShape shape, const DiffusionPolicyConfig&
   if (config.denoiser == "unet") {
     denoiser_ =
         register_module("denoiser", std::make_shared<diffusion::ConditionalUnet1d>(unet_config(shape, config), gen));
-  } else {
+  } else if (config.denoiser == "mlp") {
     denoiser_ = register_module("denoiser", std::make_shared<diffusion::MlpDenoiser>(mlp_config(shape, config), gen));
+  } else {
+    denoiser_ =
+        register_module("denoiser", std::make_shared<diffusion::ModularDenoiser>(modular_config(shape, config), gen));
   }
 }
 
@@ -167,8 +193,23 @@ LossTerms DiffusionPolicy::loss(const Batch& batch) {
   const ag::Tensor l =
       diffusion::denoising_loss(denoiser(), schedule_, chunks_of(batch),
                                 condition(batch.observations, batch.previous_observations, batch.tasks), gen);
-  return {l, {{"denoise", l}}};
+  auto* modular = dynamic_cast<diffusion::ModularDenoiser*>(&denoiser());
+  if (modular == nullptr) return {l, {{"denoise", l}}};
+  LossTerms result;
+  result.terms.emplace_back("denoise", l);
+  const LossTerms selector = modular->selector_terms(batch.observations, batch.previous_observations, batch.tasks);
+  result.terms.insert(result.terms.end(), selector.terms.begin(), selector.terms.end());
+  result.total = l * config_.maps.bc_weight;
+  if (selector.total.defined()) result.total = result.total + selector.total * config_.maps.selector_weight;
+  return result;
 }
+
+ag::Tensor DiffusionPolicy::routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  auto* modular = dynamic_cast<diffusion::ModularDenoiser*>(&denoiser());
+  return modular != nullptr ? modular->scores(observations, tasks) : ag::Tensor();
+}
+
+std::int64_t DiffusionPolicy::routed_modules() const { return config_.denoiser == "maps" ? config_.maps.modules : 0; }
 
 double DiffusionPolicy::validation_loss(const Batch& validation, const DemoDataset& /*data*/) {
   ag::NoGradGuard no_grad;
@@ -189,7 +230,9 @@ double DiffusionPolicy::validation_loss(const Batch& validation, const DemoDatas
 }
 
 double diffusion_policy_parameter_count(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
-  return c.denoiser == "unet" ? unet_count(unet_config(shape, c)) : mlp_count(mlp_config(shape, c));
+  if (c.denoiser == "unet") return unet_count(unet_config(shape, c));
+  if (c.denoiser == "maps") return diffusion::modular_denoiser_parameter_count(modular_config(shape, c));
+  return mlp_count(mlp_config(shape, c));
 }
 
 namespace {
@@ -205,6 +248,7 @@ DiffusionPolicyConfig diffusion_policy_config(const PolicyShape& shape, const Me
   c.training_steps = static_cast<int>(option_int(o.own, "training_steps"));
   c.inference_steps = static_cast<int>(option_int(o.own, "inference_steps"));
   c.clip = o.own.at("clip").get<bool>();
+  c.maps = o.maps;
   if (c.width != 0) return c;
   // Matched to MAPS as the study runs it: one action per step (MAPS's budget does not grow with the chunk).
   const PolicyShape step_shape{shape.observation_size, shape.action_size / c.horizon, shape.num_tasks};
@@ -227,12 +271,14 @@ PolicyMethod diffusion_policy_method() {
       "Diffusion Policy (state-based): DDPM on chunks of the next actions given the last states and the task, "
       "DDIM sampling, receding-horizon execution";
   method.options = {
-      io::choice_option("denoiser", "unet", {"unet", "mlp"},
+      io::choice_option("denoiser", "unet", {"unet", "mlp", "maps"},
                         "`unet`: Diffusion Policy's conditional 1-D U-Net (FiLM); `mlp`: chunk, step embedding and "
-                        "condition through an MLP"),
+                        "condition through an MLP; `maps`: MAPS's modules as denoisers, mixed by its selector on the "
+                        "state and task, with its selector losses (`maps.*`)"),
       io::integer_option("width", 0, 0, 65536,
                          "U-Net: down_dims [w, 2w, 4w] and step embedding w (the paper's low-dimensional U-Net: "
-                         "256); MLP: hidden width; 0: matched to MAPS's parameter count"),
+                         "256); MLP and MAPS: hidden width (MAPS: every module layer's); 0: matched to MAPS's "
+                         "parameter count"),
       io::integer_option("layers", 3, 1, 64, "MLP denoiser: hidden layers (Mish)"),
       io::integer_option("horizon", 16, 1, 1000, "actions per chunk (the paper: 16; a multiple of 4 for the U-Net)"),
       io::integer_option("execute", 8, 1, 1000, "actions executed per chunk before sampling again (the paper: 8)"),

@@ -7,6 +7,7 @@
 
 #include "maps/diffusion/denoiser.h"
 #include "maps/diffusion/noise_schedule.h"
+#include "maps/policies/maps_policy.h"
 #include "maps/policies/policy.h"
 
 // State-based Diffusion Policy (Chi et al., RSS 2023; issue 46, docs/zoo.md) as a zoo method: a denoiser over a chunk
@@ -19,9 +20,12 @@
 namespace maps::core {
 
 struct DiffusionPolicyConfig {
-  std::string denoiser = "unet";  // "unet": the conditional 1-D U-Net; "mlp": MlpDenoiser
+  // "unet": the conditional 1-D U-Net; "mlp": MlpDenoiser; "maps": ModularDenoiser, MAPS's modules and selector
+  // (issue 46, item 3) with maps.* settings (modules, selector, activation, selector losses and the two weights).
+  std::string denoiser = "unet";
   // U-Net: down_dims [w, 2w, 4w] with step embedding w (Diffusion Policy's low-dimensional U-Net is w = 256); MLP:
-  // `layers` hidden layers of width w, step embedding 2 max(8, floor(w / 8)).
+  // `layers` hidden layers of width w, step embedding 2 max(8, floor(w / 8)); MAPS: each module's layers (as many as
+  // maps.module_hidden) of width w, the same step embedding.
   std::int64_t width = 256;
   std::int64_t layers = 3;  // MLP only
   std::int64_t horizon = 16;
@@ -30,6 +34,7 @@ struct DiffusionPolicyConfig {
   int training_steps = 100;
   int inference_steps = 8;  // DDIM's
   bool clip = true;         // clip the predicted clean chunk to [-1, 1] at each step
+  MAPSConfig maps;          // the "maps" denoiser's modules, selector and losses
 };
 
 class DiffusionPolicy : public Policy {
@@ -42,8 +47,12 @@ class DiffusionPolicy : public Policy {
   ag::Tensor act_with_history(const ag::Tensor& observations, const ag::Tensor& previous_observations,
                               const std::vector<std::int64_t>& tasks) override;
   // terms {"denoise"}: the mean squared error of the noise estimate, at a step and noise per row from the batch's
-  // noise seed.
+  // noise seed; with the "maps" denoiser also its selector losses, total = maps.bc_weight x denoise +
+  // maps.selector_weight x sum_j lambda_j L_j (MAPS's weighting, the denoising loss in the BC loss's place).
   LossTerms loss(const Batch& batch) override;
+  // The "maps" denoiser's selector scores (undefined for the others).
+  ag::Tensor routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
+  std::int64_t routed_modules() const override;
   // The denoising loss on the validation rows at steps and noise from a fixed seed (the same at every
   // validation, so checkpoints compare on the same draw), in chunks of rows, without gradients.
   double validation_loss(const Batch& validation, const DemoDataset& data) override;

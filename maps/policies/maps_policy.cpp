@@ -12,6 +12,13 @@ namespace maps::core {
 
 bool is_selector_kind(const std::string& kind) { return kind == "learned" || kind == "uniform" || kind == "task"; }
 
+ScoredHead make_scored_head(std::int64_t modules, std::int64_t features, std::int64_t outputs, ag::Generator& gen) {
+  auto blocks = std::make_shared<nn::ParallelLinear>(modules, features, outputs, gen, /*bias=*/false);
+  const double bound = 1.0 / std::sqrt(static_cast<double>(modules * features));
+  blocks->weight().detach().copy_(ag::rand(blocks->weight().shape(), gen, ag::Dtype::Float32, -bound, bound));
+  return {blocks, ag::rand({outputs}, gen, ag::Dtype::Float32, -bound, bound)};
+}
+
 MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generator& gen)
     : Policy("MAPSPolicy", shape), config_(config), activation_(nn::activation_from_name(config.activation)) {
   const std::int64_t S = shape.observation_size, A = shape.action_size, K = shape.num_tasks, M = config.modules;
@@ -41,15 +48,10 @@ MAPSPolicy::MAPSPolicy(PolicyShape shape, const MAPSConfig& config, ag::Generato
   // Drawn either way, so that the modules and the head start from the same numbers for a seed.
   auto selector = std::make_shared<nn::MLP>(selector_sizes, activation_, gen);
   if (!uniform_selector()) selector_ = register_module("selector", selector);
-  // The head is Linear(M * F -> A) over the concatenated scored features, kept as M blocks [F, A]: then
-  // head = sum_i g_i (v_i W_i) + b is one batched matmul and needs no transposing copy. Initialised as that Linear:
-  // uniform in +-1/sqrt(M F) (PyTorch's Kaiming-uniform bound for fan_in M F), bias too.
-  const std::int64_t F = in;
-  auto head = std::make_shared<nn::ParallelLinear>(M, F, A, gen, /*bias=*/false);
-  const double bound = 1.0 / std::sqrt(static_cast<double>(M * F));
-  head->weight().detach().copy_(ag::rand(head->weight().shape(), gen, ag::Dtype::Float32, -bound, bound));
-  head_weight_ = register_module("head", head);
-  head_bias_ = register_parameter("head_bias", ag::rand({A}, gen, ag::Dtype::Float32, -bound, bound));
+  // As M blocks: head = sum_i g_i (v_i W_i) + b is one batched matmul and needs no transposing copy.
+  ScoredHead head = make_scored_head(M, in, A, gen);
+  head_weight_ = register_module("head", head.blocks);
+  head_bias_ = register_parameter("head_bias", head.bias);
   for (const auto& [name, weight] : config.selector_losses) {
     if (uniform_selector()) break;  // constant under uniform scores
     if (!(weight >= 0.0) || !std::isfinite(weight))

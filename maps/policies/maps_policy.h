@@ -39,6 +39,14 @@ struct MAPSConfig {
   std::string observations = "standardized";
 };
 
+// MAPS's head, Linear(M F -> out) over the concatenated scored features kept as M blocks [F, out] without bias, and
+// its bias [out]; both uniform in +-1/sqrt(M F) (PyTorch's bound for fan_in M F), drawn in that order.
+struct ScoredHead {
+  std::shared_ptr<nn::ParallelLinear> blocks;
+  ag::Tensor bias;
+};
+ScoredHead make_scored_head(std::int64_t modules, std::int64_t features, std::int64_t outputs, ag::Generator& gen);
+
 // The kinds MAPSConfig::selector takes, and their list as error messages quote it.
 inline constexpr const char* kSelectorKinds = "\"learned\", \"uniform\" or \"task\"";
 bool is_selector_kind(const std::string& kind);

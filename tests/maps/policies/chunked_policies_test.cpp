@@ -133,14 +133,15 @@ TEST(DiffusionPolicy, ParameterCountIsTheRegistrysEstimateAndTheDefaultIsMatched
   const core::PolicyShape step_shape{17, 6, 5};
   for (const nlohmann::json& own :
        {nlohmann::json{{"width", 16}}, nlohmann::json{{"width", 24}, {"observations", 1}, {"horizon", 8}},
-        nlohmann::json{{"denoiser", "mlp"}, {"width", 40}, {"layers", 2}, {"horizon", 5}, {"execute", 5}}}) {
+        nlohmann::json{{"denoiser", "mlp"}, {"width", 40}, {"layers", 2}, {"horizon", 5}, {"execute", 5}},
+        nlohmann::json{{"denoiser", "maps"}, {"width", 20}, {"horizon", 6}, {"execute", 3}}}) {
     const auto config = config_of({{"method", "diffusion_policy"}, {"diffusion_policy", own}});
     const auto policy = core::make_policy(config, step_shape);
     EXPECT_EQ(static_cast<double>(policy->parameter_count()), core::policy_parameter_count(config, step_shape))
         << own.dump();
   }
-  // Width 0: the multiple of 8 (U-Net) or the width (MLP) whose count is nearest MAPS's at one action per step.
-  for (const std::string denoiser : {"unet", "mlp"}) {
+  // Width 0: the multiple of 8 (U-Net) or the width (MLP, MAPS) whose count is nearest MAPS's at one action per step.
+  for (const std::string denoiser : {"unet", "mlp", "maps"}) {
     const auto config = config_of({{"method", "diffusion_policy"}, {"diffusion_policy", {{"denoiser", denoiser}}}});
     const double maps_count = core::maps_parameter_count(config_of({{"method", "maps"}}), step_shape);
     const auto policy = core::make_policy(config, step_shape);
@@ -180,33 +181,75 @@ TEST(DiffusionPolicy, SamplingIsDeterministicAndDoesNotDependOnTheBatch) {
   EXPECT_EQ(first, policy->validation_loss(batch, data));
 }
 
+// The "maps" denoiser: MAPS's weighting of the denoising loss and its selector losses, its routing as the policy's.
+TEST(DiffusionPolicy, TheMAPSDenoiserAddsMAPSsSelectorLossesAndRoutes) {
+  const auto config =
+      config_of({{"method", "diffusion_policy"},
+                 {"maps", {{"modules", 3}, {"selector_hidden", {8}}}},
+                 {"diffusion_policy", {{"denoiser", "maps"}, {"width", 12}, {"horizon", 4}, {"execute", 2}}}});
+  const auto policy = core::make_policy(config, {3, 2, 2});
+  policy->to(ag::Dtype::Float64);
+  ASSERT_EQ(policy->routed_modules(), 3);
+  core::Batch batch = chunk_batch(4, 5, 6);
+  batch.previous_observations = batch.observations * 0.9;
+  const core::LossTerms terms = policy->loss(batch);
+  std::vector<std::string> names;
+  for (const auto& [name, value] : terms.terms) names.push_back(name);
+  EXPECT_EQ(names, (std::vector<std::string>{"denoise", "share", "explore", "sparse", "smooth"}));
+  const std::vector<double> lambdas{1.0, 0.5, 0.001, 1.0};
+  double expected = 0.75 * terms.terms[0].second.item();
+  for (std::size_t j = 0; j < 4; ++j) expected += 0.25 * lambdas[j] * terms.terms[j + 1].second.item();
+  EXPECT_NEAR(terms.total.item(), expected, 1e-12);
+  const ag::Tensor routing = policy->routing(batch.observations, batch.tasks);
+  ASSERT_EQ(routing.shape(), (ag::Shape{10, 3}));
+  const auto values = routing.to_vector();
+  for (std::int64_t r = 0; r < 10; ++r) EXPECT_NEAR(values[3 * r] + values[3 * r + 1] + values[3 * r + 2], 1.0, 1e-12);
+  // The other denoisers do not route.
+  const auto plain = core::make_policy(
+      config_of({{"method", "diffusion_policy"}, {"diffusion_policy", {{"denoiser", "mlp"}, {"width", 12}}}}),
+      {3, 2, 2});
+  EXPECT_EQ(plain->routed_modules(), 0);
+  EXPECT_FALSE(plain->routing(batch.observations.to(ag::Dtype::Float32), batch.tasks).defined());
+  EXPECT_THAT(error_of([] {
+                core::make_policy(config_of({{"method", "diffusion_policy"},
+                                             {"maps", {{"selector", "uniform"}}},
+                                             {"diffusion_policy", {{"denoiser", "maps"}}}}),
+                                  {3, 2, 2});
+              }),
+              HasSubstr("config maps.selector: the \"maps\" denoiser has a learned selector"));
+}
+
+// MAPS's denoiser too (issue 46, item 3), with MAPS's selector losses at their weights.
 TEST(DiffusionPolicy, LearnsToSampleEachTasksChunk) {
   if (std::getenv("MAPS_TEST_QUICK")) GTEST_SKIP() << "a learning check, run in the Release pass";
-  const auto config = config_of({{"method", "diffusion_policy"},
-                                 {"seed", 3},
-                                 {"diffusion_policy",
-                                  {{"denoiser", "mlp"},
-                                   {"width", 64},
-                                   {"horizon", 4},
-                                   {"execute", 2},
-                                   {"training_steps", 50},
-                                   {"inference_steps", 10}}}});
-  const auto policy = core::make_policy(config, {3, 2, 2});
-  core::Batch batch = chunk_batch(4, 32, 4);
-  batch.observations = batch.observations.to(ag::Dtype::Float32);
-  batch.previous_observations = batch.observations;
-  batch.actions = batch.actions.to(ag::Dtype::Float32);
-  maps::optim::Adam adam(policy->parameters(), {.lr = 2e-3});
-  for (int step = 0; step < 1500; ++step) {
-    batch.noise_seed = static_cast<std::uint64_t>(step);
-    adam.zero_grad();
-    policy->loss(batch).total.backward();
-    adam.step();
+  for (const std::string denoiser : {"mlp", "maps"}) {
+    const auto config = config_of({{"method", "diffusion_policy"},
+                                   {"seed", 3},
+                                   {"maps", {{"modules", 3}, {"selector_hidden", {16}}}},
+                                   {"diffusion_policy",
+                                    {{"denoiser", denoiser},
+                                     {"width", denoiser == "mlp" ? 64 : 32},
+                                     {"horizon", 4},
+                                     {"execute", 2},
+                                     {"training_steps", 50},
+                                     {"inference_steps", 10}}}});
+    const auto policy = core::make_policy(config, {3, 2, 2});
+    core::Batch batch = chunk_batch(4, 32, 4);
+    batch.observations = batch.observations.to(ag::Dtype::Float32);
+    batch.previous_observations = batch.observations;
+    batch.actions = batch.actions.to(ag::Dtype::Float32);
+    maps::optim::Adam adam(policy->parameters(), {.lr = 2e-3});
+    for (int step = 0; step < 1500; ++step) {
+      batch.noise_seed = static_cast<std::uint64_t>(step);
+      adam.zero_grad();
+      policy->loss(batch).total.backward();
+      adam.step();
+    }
+    const core::Batch fresh = chunk_batch(4, 8, 5);
+    const ag::Tensor sampled = policy->act(fresh.observations.to(ag::Dtype::Float32), fresh.tasks);
+    const double error = max_abs_diff(sampled.to(ag::Dtype::Float64), fresh.actions);
+    EXPECT_LT(error, 0.15) << denoiser << ": largest error of a sampled action";
   }
-  const core::Batch fresh = chunk_batch(4, 8, 5);
-  const ag::Tensor sampled = policy->act(fresh.observations.to(ag::Dtype::Float32), fresh.tasks);
-  const double error = max_abs_diff(sampled.to(ag::Dtype::Float64), fresh.actions);
-  EXPECT_LT(error, 0.15) << "largest error of a sampled action";
 }
 
 }  // namespace
