@@ -57,4 +57,18 @@ ag::Tensor ConditionalResidualBlock1d::forward(const ag::Tensor& x, const ag::Te
   return child_at<ConvBlock1d>(second_).forward(scale * h + bias) + shortcut;
 }
 
+ag::Tensor flat_denoiser_input(const std::string& who, const ag::Tensor& noisy, const std::vector<int>& steps,
+                               const ag::Tensor& cond, std::int64_t horizon, std::int64_t action_dim,
+                               std::int64_t cond_dim, StepEmbedding& embedding) {
+  if (noisy.dim() != 3 || noisy.size(1) != horizon || noisy.size(2) != action_dim ||
+      static_cast<std::size_t>(noisy.size(0)) != steps.size() || cond.dim() != 2 || cond.size(0) != noisy.size(0) ||
+      cond.size(1) != cond_dim)
+    throw std::invalid_argument(who + ": expected noisy [batch, " + std::to_string(horizon) + ", " +
+                                std::to_string(action_dim) + "], one step per row and cond [batch, " +
+                                std::to_string(cond_dim) + "], got " + ag::to_string(noisy.shape()) + ", " +
+                                std::to_string(steps.size()) + " steps and " + ag::to_string(cond.shape()));
+  return ag::concat(
+      {ag::reshape(noisy, {noisy.size(0), horizon * action_dim}), embedding.forward(steps).to(noisy.dtype()), cond}, 1);
+}
+
 }  // namespace maps::diffusion

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "nn/nn.h"
@@ -25,6 +26,13 @@ class StepEmbedding : public nn::Module {
   std::int64_t dim_;
   std::size_t first_ = 0, second_ = 0;
 };
+
+// The input of the flat denoisers (MLP, MAPS's, the top-k MoE): [noisy chunk flattened, the steps' embedding, cond]
+// [B, H A + E + C], after checking noisy [B, horizon, action_dim], one step per row and cond [B, cond_dim]; a
+// mismatch is an error naming `who` and both shapes.
+ag::Tensor flat_denoiser_input(const std::string& who, const ag::Tensor& noisy, const std::vector<int>& steps,
+                               const ag::Tensor& cond, std::int64_t horizon, std::int64_t action_dim,
+                               std::int64_t cond_dim, StepEmbedding& embedding);
 
 // Conv1d(in, out, k, padding k / 2) -> GroupNorm(groups, out) -> Mish: [B, in, L] -> [B, out, L].
 class ConvBlock1d : public nn::UnaryModule {

@@ -21,16 +21,8 @@ MlpDenoiser::MlpDenoiser(const MlpDenoiserConfig& config, ag::Generator& gen)
 }
 
 ag::Tensor MlpDenoiser::forward(const ag::Tensor& noisy, const std::vector<int>& steps, const ag::Tensor& cond) {
-  const std::int64_t flat = config_.horizon * config_.action_dim;
-  if (noisy.dim() != 3 || noisy.size(1) != config_.horizon || noisy.size(2) != config_.action_dim ||
-      static_cast<std::size_t>(noisy.size(0)) != steps.size() || cond.dim() != 2 || cond.size(0) != noisy.size(0) ||
-      cond.size(1) != config_.cond_dim)
-    throw std::invalid_argument("MlpDenoiser: expected noisy [batch, " + std::to_string(config_.horizon) + ", " +
-                                std::to_string(config_.action_dim) + "], one step per row and cond [batch, " +
-                                std::to_string(config_.cond_dim) + "], got " + ag::to_string(noisy.shape()) + ", " +
-                                std::to_string(steps.size()) + " steps and " + ag::to_string(cond.shape()));
-  ag::Tensor x = ag::concat(
-      {ag::reshape(noisy, {noisy.size(0), flat}), child_at<StepEmbedding>(step_embedding_).forward(steps), cond}, 1);
+  ag::Tensor x = flat_denoiser_input("MlpDenoiser", noisy, steps, cond, config_.horizon, config_.action_dim,
+                                     config_.cond_dim, child_at<StepEmbedding>(step_embedding_));
   for (std::size_t i = 0; i < layers_.size(); ++i) {
     x = child_at<nn::Linear>(layers_[i]).forward(x);
     if (i + 1 < layers_.size()) x = ag::mish(x);

@@ -57,17 +57,9 @@ ag::Tensor ModularDenoiser::scores(const ag::Tensor& states, const std::vector<s
 }
 
 ag::Tensor ModularDenoiser::forward(const ag::Tensor& noisy, const std::vector<int>& steps, const ag::Tensor& cond) {
-  const std::int64_t n = noisy.size(0), out = config_.horizon * config_.action_dim, M = config_.modules;
-  if (noisy.dim() != 3 || noisy.size(1) != config_.horizon || noisy.size(2) != config_.action_dim ||
-      static_cast<std::size_t>(n) != steps.size() || cond.dim() != 2 || cond.size(0) != n ||
-      cond.size(1) != config_.cond_dim)
-    throw std::invalid_argument("ModularDenoiser: expected noisy [batch, " + std::to_string(config_.horizon) + ", " +
-                                std::to_string(config_.action_dim) + "], one step per row and cond [batch, " +
-                                std::to_string(config_.cond_dim) + "], got " + ag::to_string(noisy.shape()) + ", " +
-                                std::to_string(steps.size()) + " steps and " + ag::to_string(cond.shape()));
-  const ag::Tensor x = ag::concat(
-      {ag::reshape(noisy, {n, out}), child_at<StepEmbedding>(step_embedding_).forward(steps).to(noisy.dtype()), cond},
-      1);
+  const std::int64_t n = noisy.size(0), M = config_.modules;
+  const ag::Tensor x = flat_denoiser_input("ModularDenoiser", noisy, steps, cond, config_.horizon, config_.action_dim,
+                                           config_.cond_dim, child_at<StepEmbedding>(step_embedding_));
   ag::Tensor h = x;
   for (std::size_t slot : module_layers_) h = child_at<nn::ParallelLinear>(slot).forward_activated(h, activation_);
   const ag::Tensor g = selector_scores(ag::narrow(cond, 1, 0, config_.state_size),

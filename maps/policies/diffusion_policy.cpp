@@ -8,6 +8,7 @@
 #include "maps/diffusion/ddpm.h"
 #include "maps/diffusion/mlp_denoiser.h"
 #include "maps/diffusion/modular_denoiser.h"
+#include "maps/diffusion/sparse_moe_denoiser.h"
 #include "maps/diffusion/unet1d.h"
 #include "maps/policies/policy_registry.h"
 
@@ -61,6 +62,21 @@ diffusion::ModularDenoiserConfig modular_config(const PolicyShape& shape, const 
   return m;
 }
 
+diffusion::SparseMoeDenoiserConfig moe_config(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
+  diffusion::SparseMoeDenoiserConfig m;
+  m.horizon = c.horizon;
+  m.action_dim = shape.action_size / c.horizon;
+  m.state_size = shape.observation_size;
+  m.cond_dim = condition_size(shape, c);
+  m.num_tasks = shape.num_tasks;
+  m.experts = c.experts;
+  m.top_k = c.top_k;
+  m.hidden.assign(static_cast<std::size_t>(c.layers), c.width);
+  m.router_hidden = std::max<std::int64_t>(8, c.width / 4);
+  m.step_embed_dim = mlp_step_embedding(c.width);
+  return m;
+}
+
 double step_embedding_count(double e) { return e * 4 * e + 4 * e + 4 * e * e + e; }
 
 double unet_count(const diffusion::Unet1dConfig& u) {
@@ -92,9 +108,10 @@ double mlp_count(const diffusion::MlpDenoiserConfig& m) {
 }
 
 void check_config(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
-  if (c.denoiser != "unet" && c.denoiser != "mlp" && c.denoiser != "maps")
-    throw std::invalid_argument("config diffusion_policy.denoiser: expected \"unet\", \"mlp\" or \"maps\", got \"" +
-                                c.denoiser + "\"");
+  if (c.denoiser != "unet" && c.denoiser != "mlp" && c.denoiser != "maps" && c.denoiser != "moe")
+    throw std::invalid_argument(
+        "config diffusion_policy.denoiser: expected \"unet\", \"mlp\", \"maps\" or \"moe\", got \"" + c.denoiser +
+        "\"");
   if (c.denoiser == "maps" && c.maps.observations != "standardized")
     throw std::invalid_argument("config maps.observations: the \"maps\" denoiser sees standardised states, got \"" +
                                 c.maps.observations + "\"");
@@ -149,9 +166,12 @@ DiffusionPolicy::DiffusionPolicy(PolicyShape shape, const DiffusionPolicyConfig&
         register_module("denoiser", std::make_shared<diffusion::ConditionalUnet1d>(unet_config(shape, config), gen));
   } else if (config.denoiser == "mlp") {
     denoiser_ = register_module("denoiser", std::make_shared<diffusion::MlpDenoiser>(mlp_config(shape, config), gen));
-  } else {
+  } else if (config.denoiser == "maps") {
     denoiser_ =
         register_module("denoiser", std::make_shared<diffusion::ModularDenoiser>(modular_config(shape, config), gen));
+  } else {
+    denoiser_ =
+        register_module("denoiser", std::make_shared<diffusion::SparseMoeDenoiser>(moe_config(shape, config), gen));
   }
 }
 
@@ -193,6 +213,10 @@ LossTerms DiffusionPolicy::loss(const Batch& batch) {
   const ag::Tensor l =
       diffusion::denoising_loss(denoiser(), schedule_, chunks_of(batch),
                                 condition(batch.observations, batch.previous_observations, batch.tasks), gen);
+  if (auto* moe = dynamic_cast<diffusion::SparseMoeDenoiser*>(&denoiser())) {
+    const ag::Tensor mi = moe->mutual_information(moe->probabilities(batch.observations, batch.tasks), batch.tasks);
+    return {l - mi * config_.mutual_information_weight, {{"denoise", l}, {"mutual_information", mi}}};
+  }
   auto* modular = dynamic_cast<diffusion::ModularDenoiser*>(&denoiser());
   if (modular == nullptr) return {l, {{"denoise", l}}};
   LossTerms result;
@@ -205,11 +229,19 @@ LossTerms DiffusionPolicy::loss(const Batch& batch) {
 }
 
 ag::Tensor DiffusionPolicy::routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
+  if (auto* moe = dynamic_cast<diffusion::SparseMoeDenoiser*>(&denoiser())) {
+    ag::NoGradGuard no_grad;
+    const ag::Tensor g = moe->gates(moe->probabilities(observations, tasks), nullptr);
+    return g / ag::sum(g, {1}, true);
+  }
   auto* modular = dynamic_cast<diffusion::ModularDenoiser*>(&denoiser());
   return modular != nullptr ? modular->scores(observations, tasks) : ag::Tensor();
 }
 
-std::int64_t DiffusionPolicy::routed_modules() const { return config_.denoiser == "maps" ? config_.maps.modules : 0; }
+std::int64_t DiffusionPolicy::routed_modules() const {
+  if (config_.denoiser == "maps") return config_.maps.modules;
+  return config_.denoiser == "moe" ? config_.experts : 0;
+}
 
 double DiffusionPolicy::validation_loss(const Batch& validation, const DemoDataset& /*data*/) {
   ag::NoGradGuard no_grad;
@@ -232,6 +264,7 @@ double DiffusionPolicy::validation_loss(const Batch& validation, const DemoDatas
 double diffusion_policy_parameter_count(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
   if (c.denoiser == "unet") return unet_count(unet_config(shape, c));
   if (c.denoiser == "maps") return diffusion::modular_denoiser_parameter_count(modular_config(shape, c));
+  if (c.denoiser == "moe") return diffusion::sparse_moe_denoiser_parameter_count(moe_config(shape, c));
   return mlp_count(mlp_config(shape, c));
 }
 
@@ -249,6 +282,9 @@ DiffusionPolicyConfig diffusion_policy_config(const PolicyShape& shape, const Me
   c.inference_steps = static_cast<int>(option_int(o.own, "inference_steps"));
   c.clip = o.own.at("clip").get<bool>();
   c.maps = o.maps;
+  c.experts = option_int(o.own, "experts");
+  c.top_k = option_int(o.own, "top_k");
+  c.mutual_information_weight = o.own.at("mutual_information_weight").get<double>();
   if (c.width != 0) return c;
   // Matched to MAPS as the study runs it: one action per step (MAPS's budget does not grow with the chunk).
   const PolicyShape step_shape{shape.observation_size, shape.action_size / c.horizon, shape.num_tasks};
@@ -271,15 +307,18 @@ PolicyMethod diffusion_policy_method() {
       "Diffusion Policy (state-based): DDPM on chunks of the next actions given the last states and the task, "
       "DDIM sampling, receding-horizon execution";
   method.options = {
-      io::choice_option("denoiser", "unet", {"unet", "mlp", "maps"},
-                        "`unet`: Diffusion Policy's conditional 1-D U-Net (FiLM); `mlp`: chunk, step embedding and "
-                        "condition through an MLP; `maps`: MAPS's modules as denoisers, mixed by its selector on the "
-                        "state and task, with its selector losses (`maps.*`)"),
+      io::choice_option(
+          "denoiser", "unet", {"unet", "mlp", "maps", "moe"},
+          "`unet`: Diffusion Policy's conditional 1-D U-Net (FiLM); `mlp`: chunk, step embedding and "
+          "condition through an MLP; `maps`: MAPS's modules as denoisers, mixed by its selector on the "
+          "state and task, with its selector losses (`maps.*`); `moe`: top-k expert denoisers with a router per task "
+          "(after Sparse Diffusion Policy)"),
       io::integer_option("width", 0, 0, 65536,
                          "U-Net: down_dims [w, 2w, 4w] and step embedding w (the paper's low-dimensional U-Net: "
-                         "256); MLP and MAPS: hidden width (MAPS: every module layer's); 0: matched to MAPS's "
+                         "256); MLP, MAPS and MoE: hidden width (MAPS: every module layer's, MoE: every expert "
+                         "layer's); 0: matched to MAPS's "
                          "parameter count"),
-      io::integer_option("layers", 3, 1, 64, "MLP denoiser: hidden layers (Mish)"),
+      io::integer_option("layers", 3, 1, 64, "the MLP denoiser's and each `moe` expert's hidden layers (Mish)"),
       io::integer_option("horizon", 16, 1, 1000, "actions per chunk (the paper: 16; a multiple of 4 for the U-Net)"),
       io::integer_option("execute", 8, 1, 1000, "actions executed per chunk before sampling again (the paper: 8)"),
       io::integer_option("observations", 2, 1, 2,
@@ -288,11 +327,18 @@ PolicyMethod diffusion_policy_method() {
       io::integer_option("training_steps", 100, 2, 10000, "DDPM's diffusion steps (the paper: 100)"),
       io::integer_option("inference_steps", 8, 1, 10000, "DDIM's sampling steps (the paper's DDIM variant: 8)"),
       io::boolean_option("clip", true, "clip the predicted clean chunk to the action box [-1, 1] at each step"),
+      io::integer_option("experts", 8, 2, 64, "`moe`: expert denoisers (Sparse Diffusion Policy: 8)"),
+      io::integer_option("top_k", 2, 1, 64, "`moe`: experts each row keeps (SDP: 2; at most `experts`)"),
+      io::number_option("mutual_information_weight", 5e-4, 0.0, 1e6,
+                        "`moe`: weight of the negative task-expert mutual information in the loss (SDP: 5e-4)"),
   };
   method.check = [](const nlohmann::json& own) {
     if (option_int(own, "execute") > option_int(own, "horizon"))
       throw std::invalid_argument("config diffusion_policy.execute: expected at most diffusion_policy.horizon (" +
                                   own.at("horizon").dump() + "), got " + own.at("execute").dump());
+    if (option_int(own, "top_k") > option_int(own, "experts"))
+      throw std::invalid_argument("config diffusion_policy.top_k: expected at most diffusion_policy.experts (" +
+                                  own.at("experts").dump() + "), got " + own.at("top_k").dump());
     if (option_int(own, "inference_steps") > option_int(own, "training_steps"))
       throw std::invalid_argument(
           "config diffusion_policy.inference_steps: expected at most diffusion_policy.training_steps (" +

@@ -21,7 +21,8 @@ namespace maps::core {
 
 struct DiffusionPolicyConfig {
   // "unet": the conditional 1-D U-Net; "mlp": MlpDenoiser; "maps": ModularDenoiser, MAPS's modules and selector
-  // (issue 46, item 3) with maps.* settings (modules, selector, activation, selector losses and the two weights).
+  // (issue 46, item 3) with maps.* settings (modules, selector, activation, selector losses and the two weights);
+  // "moe": SparseMoeDenoiser, top-k experts after Sparse Diffusion Policy.
   std::string denoiser = "unet";
   // U-Net: down_dims [w, 2w, 4w] with step embedding w (Diffusion Policy's low-dimensional U-Net is w = 256); MLP:
   // `layers` hidden layers of width w, step embedding 2 max(8, floor(w / 8)); MAPS: each module's layers (as many as
@@ -35,6 +36,11 @@ struct DiffusionPolicyConfig {
   int inference_steps = 8;  // DDIM's
   bool clip = true;         // clip the predicted clean chunk to [-1, 1] at each step
   MAPSConfig maps;          // the "maps" denoiser's modules, selector and losses
+  // The "moe" denoiser: experts (each `layers` hidden layers of width w), kept per row, and the weight of the
+  // negative task-expert mutual information in the loss (SDP: 8, 2, 5e-4).
+  std::int64_t experts = 8;
+  std::int64_t top_k = 2;
+  double mutual_information_weight = 5e-4;
 };
 
 class DiffusionPolicy : public Policy {
@@ -50,7 +56,8 @@ class DiffusionPolicy : public Policy {
   // noise seed; with the "maps" denoiser also its selector losses, total = maps.bc_weight x denoise +
   // maps.selector_weight x sum_j lambda_j L_j (MAPS's weighting, the denoising loss in the BC loss's place).
   LossTerms loss(const Batch& batch) override;
-  // The "maps" denoiser's selector scores (undefined for the others).
+  // The "maps" denoiser's selector scores; the "moe" denoiser's gates of each row's top k, scaled to sum 1 (the
+  // experts' shares in the row's estimate); undefined for the others.
   ag::Tensor routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
   std::int64_t routed_modules() const override;
   // The denoising loss on the validation rows at steps and noise from a fixed seed (the same at every

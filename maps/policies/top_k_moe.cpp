@@ -94,25 +94,29 @@ TopKMoE::Gate TopKMoE::gate(const ag::Tensor& inputs, const std::uint64_t* noise
   return g;
 }
 
-ag::Tensor TopKMoE::mixture(const ag::Tensor& inputs, const Gate& g) {
-  const std::int64_t n = inputs.size(0), E = config_.experts, k = config_.top_k;
-  const ag::Tensor flat_gates = ag::reshape(g.gates, {n * E, 1});
-  const auto& experts = child_at<nn::ModuleList>(experts_);
+ag::Tensor gated_expert_sum(const nn::ModuleList& experts, const ag::Tensor& inputs,
+                            const std::vector<std::int64_t>& chosen, const ag::Tensor& gates, std::int64_t k) {
+  const std::int64_t n = inputs.size(0), E = gates.size(1);
+  const ag::Tensor flat_gates = ag::reshape(gates, {n * E, 1});
   ag::Tensor out;
   for (std::int64_t i = 0; i < E; ++i) {
     std::vector<std::int64_t> rows, gate_at;
     for (std::int64_t r = 0; r < n; ++r)
       for (std::int64_t j = 0; j < k; ++j)
-        if (g.chosen[static_cast<std::size_t>(r * k + j)] == i) {
+        if (chosen[static_cast<std::size_t>(r * k + j)] == i) {
           rows.push_back(r);
           gate_at.push_back(r * E + i);
         }
-    if (rows.empty()) continue;  // an expert no row chose does not run
-    const ag::Tensor actions = experts.at<nn::MLP>(static_cast<std::size_t>(i)).forward(ag::index_select(inputs, rows));
-    const ag::Tensor part = ag::index_add(actions * ag::index_select(flat_gates, gate_at), rows, n);
+    if (rows.empty()) continue;
+    const ag::Tensor values = experts.at<nn::MLP>(static_cast<std::size_t>(i)).forward(ag::index_select(inputs, rows));
+    const ag::Tensor part = ag::index_add(values * ag::index_select(flat_gates, gate_at), rows, n);
     out = out.defined() ? out + part : part;
   }
   return out;
+}
+
+ag::Tensor TopKMoE::mixture(const ag::Tensor& inputs, const Gate& g) {
+  return gated_expert_sum(child_at<nn::ModuleList>(experts_), inputs, g.chosen, g.gates, config_.top_k);
 }
 
 ag::Tensor TopKMoE::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {

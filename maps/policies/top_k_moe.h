@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "maps/policies/policy.h"
+#include "nn/module_list.h"
 
 // A sparsely-gated mixture of experts (Shazeer et al., ICLR 2017; docs/zoo.md) as a behaviour-cloning policy. On
 // x = [s, one_hot(k)], the gate's logits H(x) = x W_g + eps * (softplus(x W_noise) + 0.01), eps ~ N(0, 1) in training
@@ -60,5 +61,11 @@ class TopKMoE : public Policy {
 };
 
 double top_k_moe_parameter_count(const PolicyShape& shape, const TopKMoEConfig& config);
+
+// sum over each row's k chosen experts (`chosen` [n k], row-major) of its gate ([n, E]) times the expert (an nn::MLP
+// of `experts`) on the row: each expert runs once, on the rows that chose it (index_select in, index_add out); an
+// expert no row chose does not run. [n, out].
+ag::Tensor gated_expert_sum(const nn::ModuleList& experts, const ag::Tensor& inputs,
+                            const std::vector<std::int64_t>& chosen, const ag::Tensor& gates, std::int64_t k);
 
 }  // namespace maps::core

@@ -134,14 +134,16 @@ TEST(DiffusionPolicy, ParameterCountIsTheRegistrysEstimateAndTheDefaultIsMatched
   for (const nlohmann::json& own :
        {nlohmann::json{{"width", 16}}, nlohmann::json{{"width", 24}, {"observations", 1}, {"horizon", 8}},
         nlohmann::json{{"denoiser", "mlp"}, {"width", 40}, {"layers", 2}, {"horizon", 5}, {"execute", 5}},
-        nlohmann::json{{"denoiser", "maps"}, {"width", 20}, {"horizon", 6}, {"execute", 3}}}) {
+        nlohmann::json{{"denoiser", "maps"}, {"width", 20}, {"horizon", 6}, {"execute", 3}},
+        nlohmann::json{{"denoiser", "moe"}, {"width", 20}, {"experts", 3}, {"top_k", 2}, {"layers", 2}}}) {
     const auto config = config_of({{"method", "diffusion_policy"}, {"diffusion_policy", own}});
     const auto policy = core::make_policy(config, step_shape);
     EXPECT_EQ(static_cast<double>(policy->parameter_count()), core::policy_parameter_count(config, step_shape))
         << own.dump();
   }
-  // Width 0: the multiple of 8 (U-Net) or the width (MLP, MAPS) whose count is nearest MAPS's at one action per step.
-  for (const std::string denoiser : {"unet", "mlp", "maps"}) {
+  // Width 0: the multiple of 8 (U-Net) or the width (MLP, MAPS, MoE) whose count is nearest MAPS's at one action per
+  // step.
+  for (const std::string denoiser : {"unet", "mlp", "maps", "moe"}) {
     const auto config = config_of({{"method", "diffusion_policy"}, {"diffusion_policy", {{"denoiser", denoiser}}}});
     const double maps_count = core::maps_parameter_count(config_of({{"method", "maps"}}), step_shape);
     const auto policy = core::make_policy(config, step_shape);
@@ -219,16 +221,45 @@ TEST(DiffusionPolicy, TheMAPSDenoiserAddsMAPSsSelectorLossesAndRoutes) {
               HasSubstr("config maps.selector: the \"maps\" denoiser has a learned selector"));
 }
 
-// MAPS's denoiser too (issue 46, item 3), with MAPS's selector losses at their weights.
+// MAPS's denoiser and the top-k MoE too (issue 46, item 3), with their routing losses at their weights.
+// The "moe" denoiser: the denoising loss less the weighted mutual information; routing the kept gates scaled to 1.
+TEST(DiffusionPolicy, TheMoEDenoiserRewardsTaskExpertInformationAndRoutesTopK) {
+  const auto config =
+      config_of({{"method", "diffusion_policy"},
+                 {"diffusion_policy",
+                  {{"denoiser", "moe"}, {"width", 12}, {"horizon", 4}, {"execute", 2}, {"experts", 3}, {"top_k", 2}}}});
+  const auto policy = core::make_policy(config, {3, 2, 2});
+  policy->to(ag::Dtype::Float64);
+  ASSERT_EQ(policy->routed_modules(), 3);
+  const core::Batch batch = chunk_batch(4, 5, 7);
+  const core::LossTerms terms = policy->loss(batch);
+  ASSERT_EQ(terms.terms.size(), 2u);
+  EXPECT_EQ(terms.terms[1].first, "mutual_information");
+  EXPECT_NEAR(terms.total.item(), terms.terms[0].second.item() - 5e-4 * terms.terms[1].second.item(), 1e-12);
+  const auto values = policy->routing(batch.observations, batch.tasks).to_vector();
+  ASSERT_EQ(values.size(), 30u);
+  for (std::size_t r = 0; r < 10; ++r) {
+    int kept = 0;
+    for (std::size_t e = 0; e < 3; ++e) kept += values[3 * r + e] > 0.0;
+    EXPECT_EQ(kept, 2) << "row " << r;
+    EXPECT_NEAR(values[3 * r] + values[3 * r + 1] + values[3 * r + 2], 1.0, 1e-12);
+  }
+  EXPECT_THAT(error_of([] {
+                config_of({{"method", "diffusion_policy"}, {"diffusion_policy", {{"experts", 2}, {"top_k", 3}}}});
+              }),
+              HasSubstr("config diffusion_policy.top_k: expected at most diffusion_policy.experts (2), got 3"));
+}
+
 TEST(DiffusionPolicy, LearnsToSampleEachTasksChunk) {
   if (std::getenv("MAPS_TEST_QUICK")) GTEST_SKIP() << "a learning check, run in the Release pass";
-  for (const std::string denoiser : {"mlp", "maps"}) {
+  for (const std::string denoiser : {"mlp", "maps", "moe"}) {
     const auto config = config_of({{"method", "diffusion_policy"},
                                    {"seed", 3},
                                    {"maps", {{"modules", 3}, {"selector_hidden", {16}}}},
                                    {"diffusion_policy",
                                     {{"denoiser", denoiser},
-                                     {"width", denoiser == "mlp" ? 64 : 32},
+                                     {"width", denoiser == "maps" ? 32 : 64},
+                                     {"experts", 4},
                                      {"horizon", 4},
                                      {"execute", 2},
                                      {"training_steps", 50},
