@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "autograd/autograd.h"
+#include "experiments/bench/bench_request.h"
 #include "experiments/process/cpu_model.h"
 #include "experiments/process/host.h"
 #include "experiments/process/plugins.h"
@@ -164,14 +165,7 @@ int run_bench_step(const BenchStepOptions& options) {
 
   // The method at its defaults (MAPS: the paper's model, M = 10, modules 3x128, selector 2x128, four losses; the
   // baselines 3x128; the zoo's methods at MAPS's parameter count), as `maps train` would build it.
-  nlohmann::json request{{"method", options.method}, {"data", {{"file", "unused by bench step"}}}};
-  if (!options.config_path.empty()) {
-    const std::string where = "--config '" + options.config_path + "'";
-    nlohmann::json given =
-        load_config_plugins(read_json_file(options.config_path), folder_of(options.config_path), where);
-    given.merge_patch(request);  // --method and the unused data file over the config's
-    request = std::move(given);
-  }
+  nlohmann::json request = bench_request(options.method, options.config_path, "bench step");
   if (!options.precision.empty()) request["train"]["precision"] = options.precision;
   const core::RunConfig run_config = parse_run_config_from(request, "bench step");
   const std::string& precision_name = run_config.train.precision;

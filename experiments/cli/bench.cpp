@@ -42,9 +42,15 @@ void add_bench_step(CLI::App* bench, Commands& commands) {
 
 void add_bench_eval(CLI::App* bench, Commands& commands) {
   auto options = std::make_shared<BenchEvalOptions>();
-  CLI::App* command =
-      bench->add_subcommand("eval", "Time an evaluation of a MAPS policy on a task set and show where the time goes");
+  CLI::App* command = bench->add_subcommand(
+      "eval", "Time an evaluation of a method's policy (fresh weights) on a task set and show where the time goes");
   add_task_set(command, options->set)->capture_default_str();
+  command
+      ->add_option("--method", options->method,
+                   "The method whose policy is evaluated, at its defaults (maps train --help)")
+      ->capture_default_str();
+  command->add_option("--config", options->config_path, "A partial run config over the method's defaults")
+      ->check(CLI::ExistingFile);
   add_positive(command, "--episodes", options->episodes, "Episodes per task");
   add_threads(command, options->threads, "Evaluator threads (0: one per core)");
   add_positive(command, "--max-envs", options->max_envs, "Envs alive per task");

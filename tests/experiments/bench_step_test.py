@@ -120,6 +120,24 @@ class BenchEval(unittest.TestCase):
         self.assertGreater(result["policy_seconds"], 0)
         self.assertLessEqual(parts, result["wall_seconds"] * 1.05)  # one evaluator thread: the parts fit the wall time
 
+    def test_any_method_at_its_defaults_or_a_config(self):
+        # A method predicting chunks (Diffusion Policy, small) and one that routes (top-k MoE): both run, named.
+        with tempfile.TemporaryDirectory() as folder:
+            config = pathlib.Path(folder) / "small.json"
+            config.write_text(json.dumps({"diffusion_policy": {"denoiser": "mlp", "width": 16, "inference_steps": 2}}))
+            done = run("bench", "eval", "--set", "mt10", "--episodes", "1", "--method", "diffusion_policy",
+                       "--config", str(config), "--json")
+            self.assertEqual(done.returncode, 0, done.stderr)
+            result = json.loads(done.stdout.strip().splitlines()[-1])
+            self.assertEqual((result["method"], result["tasks"]), ("diffusion_policy", 10))
+            self.assertGreater(result["policy_seconds"], 0)
+        done = run("bench", "eval", "--set", "mt10", "--episodes", "1", "--method", "top_k_moe", "--json")
+        self.assertEqual(done.returncode, 0, done.stderr)
+        self.assertEqual(json.loads(done.stdout.strip().splitlines()[-1])["method"], "top_k_moe")
+        done = run("bench", "eval", "--method", "no_such_method")
+        self.assertNotEqual(done.returncode, 0)
+        self.assertIn("no_such_method", done.stderr)
+
     def test_bad_set_is_named(self):
         done = run("bench", "eval", "--set", "cheetah")
         self.assertNotEqual(done.returncode, 0)
