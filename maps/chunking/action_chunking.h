@@ -28,6 +28,7 @@ struct ActionChunking {
   bool previous_observation = false;
 
   bool chunked() const { return horizon > 1; }
+  bool operator==(const ActionChunking&) const = default;
 };
 
 // {"ensemble", "open_loop"}.

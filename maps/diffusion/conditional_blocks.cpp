@@ -57,6 +57,20 @@ ag::Tensor ConditionalResidualBlock1d::forward(const ag::Tensor& x, const ag::Te
   return child_at<ConvBlock1d>(second_).forward(scale * h + bias) + shortcut;
 }
 
+double step_embedding_parameter_count(std::int64_t dim) {
+  const double d = static_cast<double>(dim);
+  return d * 4 * d + 4 * d + 4 * d * d + d;
+}
+
+std::vector<std::int64_t> flat_denoiser_layer_sizes(std::int64_t horizon, std::int64_t action_dim,
+                                                    std::int64_t step_embed_dim, std::int64_t cond_dim,
+                                                    const std::vector<std::int64_t>& hidden) {
+  std::vector<std::int64_t> sizes{horizon * action_dim + step_embed_dim + cond_dim};
+  sizes.insert(sizes.end(), hidden.begin(), hidden.end());
+  sizes.push_back(horizon * action_dim);
+  return sizes;
+}
+
 ag::Tensor flat_denoiser_input(const std::string& who, const ag::Tensor& noisy, const std::vector<int>& steps,
                                const ag::Tensor& cond, std::int64_t horizon, std::int64_t action_dim,
                                std::int64_t cond_dim, StepEmbedding& embedding) {

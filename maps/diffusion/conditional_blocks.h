@@ -27,6 +27,15 @@ class StepEmbedding : public nn::Module {
   std::size_t first_ = 0, second_ = 0;
 };
 
+// Its parameters: sinusoidal(dim) -> Linear 4 dim -> Mish -> Linear dim.
+double step_embedding_parameter_count(std::int64_t dim);
+
+// A flat denoiser's layer sizes: [H A + step embedding + cond, hidden..., H A] (the MLP denoiser, each top-k MoE
+// expert; MAPS's modules stop at their last hidden layer, the head being MAPS's).
+std::vector<std::int64_t> flat_denoiser_layer_sizes(std::int64_t horizon, std::int64_t action_dim,
+                                                    std::int64_t step_embed_dim, std::int64_t cond_dim,
+                                                    const std::vector<std::int64_t>& hidden);
+
 // The input of the flat denoisers (MLP, MAPS's, the top-k MoE): [noisy chunk flattened, the steps' embedding, cond]
 // [B, H A + E + C], after checking noisy [B, horizon, action_dim], one step per row and cond [B, cond_dim]; a
 // mismatch is an error naming `who` and both shapes.

@@ -11,13 +11,11 @@ MlpDenoiser::MlpDenoiser(const MlpDenoiserConfig& config, ag::Generator& gen)
     throw std::invalid_argument(
         "MlpDenoiser: horizon and action_dim must be positive, cond_dim >= 0, hidden not empty");
   step_embedding_ = register_module("step_embedding", std::make_shared<StepEmbedding>(config.step_embed_dim, gen));
-  std::int64_t in = config.horizon * config.action_dim + config.step_embed_dim + config.cond_dim;
-  std::vector<std::int64_t> sizes = config.hidden;
-  sizes.push_back(config.horizon * config.action_dim);
-  for (std::size_t i = 0; i < sizes.size(); ++i) {
-    layers_.push_back(register_module("layer" + std::to_string(i), std::make_shared<nn::Linear>(in, sizes[i], gen)));
-    in = sizes[i];
-  }
+  const std::vector<std::int64_t> sizes = flat_denoiser_layer_sizes(
+      config.horizon, config.action_dim, config.step_embed_dim, config.cond_dim, config.hidden);
+  for (std::size_t i = 0; i + 1 < sizes.size(); ++i)
+    layers_.push_back(
+        register_module("layer" + std::to_string(i), std::make_shared<nn::Linear>(sizes[i], sizes[i + 1], gen)));
 }
 
 ag::Tensor MlpDenoiser::forward(const ag::Tensor& noisy, const std::vector<int>& steps, const ag::Tensor& cond) {

@@ -12,8 +12,12 @@
 namespace maps::diffusion {
 namespace {
 
-std::int64_t module_input(const ModularDenoiserConfig& c) {
-  return c.horizon * c.action_dim + c.step_embed_dim + c.cond_dim;
+// The modules' layer sizes: a flat denoiser's without its output layer (MAPS's head mixes their features).
+std::vector<std::int64_t> module_sizes(const ModularDenoiserConfig& c) {
+  std::vector<std::int64_t> sizes =
+      flat_denoiser_layer_sizes(c.horizon, c.action_dim, c.step_embed_dim, c.cond_dim, c.module_hidden);
+  sizes.pop_back();
+  return sizes;
 }
 
 }  // namespace
@@ -27,12 +31,11 @@ ModularDenoiser::ModularDenoiser(const ModularDenoiserConfig& config, ag::Genera
         "ModularDenoiser: horizon, action size, state size, tasks and modules must be >= 1, "
         "module_hidden not empty, and the condition must hold a state and the task");
   step_embedding_ = register_module("step_embedding", std::make_shared<StepEmbedding>(config.step_embed_dim, gen));
-  std::int64_t in = module_input(config);
-  for (std::size_t i = 0; i < config.module_hidden.size(); ++i) {
-    module_layers_.push_back(register_module(
-        "modules" + std::to_string(i), std::make_shared<nn::ParallelLinear>(M, in, config.module_hidden[i], gen)));
-    in = config.module_hidden[i];
-  }
+  const std::vector<std::int64_t> sizes = module_sizes(config);
+  for (std::size_t i = 0; i + 1 < sizes.size(); ++i)
+    module_layers_.push_back(register_module("modules" + std::to_string(i),
+                                             std::make_shared<nn::ParallelLinear>(M, sizes[i], sizes[i + 1], gen)));
+  const std::int64_t in = sizes.back();
   std::vector<std::int64_t> selector_sizes{config.state_size + config.num_tasks};
   selector_sizes.insert(selector_sizes.end(), config.selector_hidden.begin(), config.selector_hidden.end());
   selector_sizes.push_back(M);
@@ -98,14 +101,12 @@ core::LossTerms ModularDenoiser::selector_terms(const ag::Tensor& states, const 
 }
 
 double modular_denoiser_parameter_count(const ModularDenoiserConfig& c) {
-  const double e = static_cast<double>(c.step_embed_dim);
-  std::vector<std::int64_t> module_sizes{module_input(c)};
-  module_sizes.insert(module_sizes.end(), c.module_hidden.begin(), c.module_hidden.end());
   std::vector<std::int64_t> selector_sizes{c.state_size + c.num_tasks};
   selector_sizes.insert(selector_sizes.end(), c.selector_hidden.begin(), c.selector_hidden.end());
   selector_sizes.push_back(c.modules);
   const double out = static_cast<double>(c.horizon * c.action_dim);
-  return e * 4 * e + 4 * e + 4 * e * e + e + static_cast<double>(c.modules) * core::mlp_parameter_count(module_sizes) +
+  return step_embedding_parameter_count(c.step_embed_dim) +
+         static_cast<double>(c.modules) * core::mlp_parameter_count(module_sizes(c)) +
          core::mlp_parameter_count(selector_sizes) + static_cast<double>(c.modules * c.module_hidden.back()) * out +
          out;
 }

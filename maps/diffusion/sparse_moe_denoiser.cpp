@@ -19,10 +19,7 @@ namespace {
 constexpr double kGateFloor = 1e-4;  // SDP's TaskMoE adds it to every softmax gate
 
 std::vector<std::int64_t> expert_sizes(const SparseMoeDenoiserConfig& c) {
-  std::vector<std::int64_t> sizes{c.horizon * c.action_dim + c.step_embed_dim + c.cond_dim};
-  sizes.insert(sizes.end(), c.hidden.begin(), c.hidden.end());
-  sizes.push_back(c.horizon * c.action_dim);
-  return sizes;
+  return flat_denoiser_layer_sizes(c.horizon, c.action_dim, c.step_embed_dim, c.cond_dim, c.hidden);
 }
 
 }  // namespace
@@ -116,11 +113,10 @@ ag::Tensor SparseMoeDenoiser::mutual_information(const ag::Tensor& probabilities
 }
 
 double sparse_moe_denoiser_parameter_count(const SparseMoeDenoiserConfig& c) {
-  const double e = static_cast<double>(c.step_embed_dim);
   const double K = static_cast<double>(c.num_tasks), r = static_cast<double>(c.router_hidden),
                E = static_cast<double>(c.experts), S = static_cast<double>(c.state_size);
-  return e * 4 * e + 4 * e + 4 * e * e + e + E * core::mlp_parameter_count(expert_sizes(c)) + K * (S * r + r) +
-         K * (r * E + E);
+  return step_embedding_parameter_count(c.step_embed_dim) + E * core::mlp_parameter_count(expert_sizes(c)) +
+         K * (S * r + r) + K * (r * E + E);
 }
 
 }  // namespace maps::diffusion

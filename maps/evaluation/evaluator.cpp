@@ -225,31 +225,24 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
       // Thread-local: every worker needs its own guard.
       ag::NoGradGuard no_grad;
       const ag::Tensor x = standardizer.apply(obs, config.dtype);
+      const ag::Tensor before = with_history ? standardizer.apply(prev, config.dtype) : x;
       if (!by_chunks) {
-        const ag::Tensor a =
-            with_history ? policy.act_with_history(x, standardizer.apply(prev, config.dtype), ids) : policy.act(x, ids);
+        const ag::Tensor a = with_history ? policy.act_with_history(x, before, ids) : policy.act(x, ids);
         check_actions(a, n);
         actions = ag::to_eigen_double(a);
       } else {
         // Only the episodes whose executor asks for a chunk query the policy (all of them when ensembling).
-        std::vector<Eigen::Index> asking;
+        std::vector<std::int64_t> asking;
         for (std::size_t j = 0; j < running.size(); ++j)
-          if (executors[running[j].env].needs_chunk()) asking.push_back(static_cast<Eigen::Index>(j));
+          if (executors[running[j].env].needs_chunk()) asking.push_back(static_cast<std::int64_t>(j));
         if (!asking.empty()) {
-          const auto q = static_cast<Eigen::Index>(asking.size());
-          Eigen::MatrixXd asked_obs(q, obs_size), asked_prev(q, obs_size);
-          for (Eigen::Index i = 0; i < q; ++i) {
-            asked_obs.row(i) = obs.row(asking[static_cast<std::size_t>(i)]);
-            asked_prev.row(i) = (with_history ? prev : obs).row(asking[static_cast<std::size_t>(i)]);
-          }
-          const std::vector<std::int64_t> asked_ids(asking.size(), task_id);
-          const ag::Tensor a = policy.act_with_history(standardizer.apply(asked_obs, config.dtype),
-                                                       standardizer.apply(asked_prev, config.dtype), asked_ids);
-          check_actions(a, q);
+          const ag::Tensor a = policy.act_with_history(ag::index_select(x, asking), ag::index_select(before, asking),
+                                                       std::vector<std::int64_t>(asking.size(), task_id));
+          check_actions(a, static_cast<std::int64_t>(asking.size()));
           const ag::RowMatrixD chunks = ag::to_eigen_double(a);
-          for (Eigen::Index i = 0; i < q; ++i)
-            executors[running[static_cast<std::size_t>(asking[static_cast<std::size_t>(i)])].env].add(
-                chunks.row(i).transpose());
+          for (std::size_t i = 0; i < asking.size(); ++i)
+            executors[running[static_cast<std::size_t>(asking[i])].env].add(
+                chunks.row(static_cast<Eigen::Index>(i)).transpose());
         }
         actions.resize(n, action_size);
         for (std::size_t j = 0; j < running.size(); ++j)

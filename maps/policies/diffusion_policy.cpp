@@ -77,8 +77,6 @@ diffusion::SparseMoeDenoiserConfig moe_config(const PolicyShape& shape, const Di
   return m;
 }
 
-double step_embedding_count(double e) { return e * 4 * e + 4 * e + 4 * e * e + e; }
-
 double unet_count(const diffusion::Unet1dConfig& u) {
   const double k = static_cast<double>(u.kernel);
   const double cond = static_cast<double>(u.step_embed_dim + u.cond_dim);
@@ -87,7 +85,7 @@ double unet_count(const diffusion::Unet1dConfig& u) {
     return conv_block(in, out) + conv_block(out, out) + cond * 2 * out + 2 * out + (in != out ? in * out + out : 0.0);
   };
   std::vector<double> d(u.down_dims.begin(), u.down_dims.end());
-  double total = step_embedding_count(static_cast<double>(u.step_embed_dim));
+  double total = diffusion::step_embedding_parameter_count(u.step_embed_dim);
   for (std::size_t i = 0; i < d.size(); ++i) {
     total += residual_block(i == 0 ? static_cast<double>(u.action_dim) : d[i - 1], d[i]) + residual_block(d[i], d[i]);
     if (i + 1 < d.size()) total += d[i] * d[i] * 3 + d[i];
@@ -101,10 +99,50 @@ double unet_count(const diffusion::Unet1dConfig& u) {
 }
 
 double mlp_count(const diffusion::MlpDenoiserConfig& m) {
-  std::vector<std::int64_t> sizes{m.horizon * m.action_dim + m.step_embed_dim + m.cond_dim};
-  sizes.insert(sizes.end(), m.hidden.begin(), m.hidden.end());
-  sizes.push_back(m.horizon * m.action_dim);
-  return step_embedding_count(static_cast<double>(m.step_embed_dim)) + mlp_parameter_count(sizes);
+  return diffusion::step_embedding_parameter_count(m.step_embed_dim) +
+         mlp_parameter_count(
+             diffusion::flat_denoiser_layer_sizes(m.horizon, m.action_dim, m.step_embed_dim, m.cond_dim, m.hidden));
+}
+
+// The section's keys as a config (width as given: 0 until matched; maps.* not read).
+DiffusionPolicyConfig section_config(const nlohmann::json& own) {
+  DiffusionPolicyConfig c;
+  c.denoiser = own.at("denoiser").get<std::string>();
+  c.width = option_int(own, "width");
+  c.layers = option_int(own, "layers");
+  c.horizon = option_int(own, "horizon");
+  c.execute = option_int(own, "execute");
+  c.observations = option_int(own, "observations");
+  c.training_steps = static_cast<int>(option_int(own, "training_steps"));
+  c.inference_steps = static_cast<int>(option_int(own, "inference_steps"));
+  c.clip = own.at("clip").get<bool>();
+  c.experts = option_int(own, "experts");
+  c.top_k = option_int(own, "top_k");
+  c.mutual_information_weight = own.at("mutual_information_weight").get<double>();
+  return c;
+}
+
+// The checks across keys, the same when the config is read (PolicyMethod::check) and when a policy is built.
+void check_relations(const DiffusionPolicyConfig& c) {
+  if (c.execute > c.horizon)
+    throw std::invalid_argument("config diffusion_policy.execute: expected at most diffusion_policy.horizon (" +
+                                std::to_string(c.horizon) + "), got " + std::to_string(c.execute));
+  if (c.top_k > c.experts)
+    throw std::invalid_argument("config diffusion_policy.top_k: expected at most diffusion_policy.experts (" +
+                                std::to_string(c.experts) + "), got " + std::to_string(c.top_k));
+  if (c.inference_steps > c.training_steps)
+    throw std::invalid_argument(
+        "config diffusion_policy.inference_steps: expected at most diffusion_policy.training_steps (" +
+        std::to_string(c.training_steps) + "), got " + std::to_string(c.inference_steps));
+  if (c.denoiser == "unet" && c.horizon % 4 != 0)
+    throw std::invalid_argument(
+        "config diffusion_policy.horizon: the U-Net halves the chunk twice, so it must be a multiple of 4, got " +
+        std::to_string(c.horizon));
+  if (c.denoiser == "unet" && c.width % kUnetGroups != 0)
+    throw std::invalid_argument(
+        "config diffusion_policy.width: the U-Net's group norms take 8 groups, so it must be a multiple of 8 (or "
+        "0), got " +
+        std::to_string(c.width));
 }
 
 void check_config(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
@@ -121,24 +159,10 @@ void check_config(const PolicyShape& shape, const DiffusionPolicyConfig& c) {
   if (c.horizon < 1 || shape.action_size % c.horizon != 0)
     throw std::invalid_argument("diffusion_policy: an output of " + std::to_string(shape.action_size) +
                                 " is not a chunk of " + std::to_string(c.horizon) + " actions");
-  if (c.denoiser == "unet" && c.horizon % 4 != 0)
-    throw std::invalid_argument(
-        "config diffusion_policy.horizon: the U-Net halves the chunk twice, so it must be a "
-        "multiple of 4, got " +
-        std::to_string(c.horizon));
-  if (c.denoiser == "unet" && c.width % kUnetGroups != 0)
-    throw std::invalid_argument(
-        "config diffusion_policy.width: the U-Net's group norms take 8 groups, so it must be a "
-        "multiple of 8, got " +
-        std::to_string(c.width));
-  if (c.execute < 1 || c.execute > c.horizon)
-    throw std::invalid_argument("config diffusion_policy.execute: expected 1 to diffusion_policy.horizon (" +
-                                std::to_string(c.horizon) + "), got " + std::to_string(c.execute));
-  if (c.inference_steps < 1 || c.inference_steps > c.training_steps)
-    throw std::invalid_argument(
-        "config diffusion_policy.inference_steps: expected 1 to diffusion_policy."
-        "training_steps (" +
-        std::to_string(c.training_steps) + "), got " + std::to_string(c.inference_steps));
+  if (c.execute < 1 || c.inference_steps < 1)
+    throw std::invalid_argument("diffusion_policy: execute and inference_steps must be >= 1, got " +
+                                std::to_string(c.execute) + " and " + std::to_string(c.inference_steps));
+  check_relations(c);
 }
 
 // A row's own noise stream, seeded by the float32 bits of its condition (standardised observations and task): what
@@ -271,20 +295,8 @@ double diffusion_policy_parameter_count(const PolicyShape& shape, const Diffusio
 namespace {
 
 DiffusionPolicyConfig diffusion_policy_config(const PolicyShape& shape, const MethodOptions& o) {
-  DiffusionPolicyConfig c;
-  c.denoiser = o.own.at("denoiser").get<std::string>();
-  c.width = option_int(o.own, "width");
-  c.layers = option_int(o.own, "layers");
-  c.horizon = option_int(o.own, "horizon");
-  c.execute = option_int(o.own, "execute");
-  c.observations = option_int(o.own, "observations");
-  c.training_steps = static_cast<int>(option_int(o.own, "training_steps"));
-  c.inference_steps = static_cast<int>(option_int(o.own, "inference_steps"));
-  c.clip = o.own.at("clip").get<bool>();
+  DiffusionPolicyConfig c = section_config(o.own);
   c.maps = o.maps;
-  c.experts = option_int(o.own, "experts");
-  c.top_k = option_int(o.own, "top_k");
-  c.mutual_information_weight = o.own.at("mutual_information_weight").get<double>();
   if (c.width != 0) return c;
   // Matched to MAPS as the study runs it: one action per step (MAPS's budget does not grow with the chunk).
   const PolicyShape step_shape{shape.observation_size, shape.action_size / c.horizon, shape.num_tasks};
@@ -332,28 +344,7 @@ PolicyMethod diffusion_policy_method() {
       io::number_option("mutual_information_weight", 5e-4, 0.0, 1e6,
                         "`moe`: weight of the negative task-expert mutual information in the loss (SDP: 5e-4)"),
   };
-  method.check = [](const nlohmann::json& own) {
-    if (option_int(own, "execute") > option_int(own, "horizon"))
-      throw std::invalid_argument("config diffusion_policy.execute: expected at most diffusion_policy.horizon (" +
-                                  own.at("horizon").dump() + "), got " + own.at("execute").dump());
-    if (option_int(own, "top_k") > option_int(own, "experts"))
-      throw std::invalid_argument("config diffusion_policy.top_k: expected at most diffusion_policy.experts (" +
-                                  own.at("experts").dump() + "), got " + own.at("top_k").dump());
-    if (option_int(own, "inference_steps") > option_int(own, "training_steps"))
-      throw std::invalid_argument(
-          "config diffusion_policy.inference_steps: expected at most diffusion_policy.training_steps (" +
-          own.at("training_steps").dump() + "), got " + own.at("inference_steps").dump());
-    if (own.at("denoiser") == "unet" && option_int(own, "horizon") % 4 != 0)
-      throw std::invalid_argument(
-          "config diffusion_policy.horizon: the U-Net halves the chunk twice, so it must be "
-          "a multiple of 4, got " +
-          own.at("horizon").dump());
-    if (own.at("denoiser") == "unet" && option_int(own, "width") % kUnetGroups != 0)
-      throw std::invalid_argument(
-          "config diffusion_policy.width: the U-Net's group norms take 8 groups, so it must "
-          "be a multiple of 8 (or 0), got " +
-          own.at("width").dump());
-  };
+  method.check = [](const nlohmann::json& own) { check_relations(section_config(own)); };
   method.own_chunking = [](const nlohmann::json& own) {
     chunking::ActionChunking c;
     c.horizon = option_int(own, "horizon");

@@ -172,8 +172,7 @@ RunConfig parse_run_config(const Json& json) {
                                   "'; known: " + selector_loss_names());
   }
   chunking::check_action_chunking(c.chunking, "chunking");
-  if (chosen.own_chunking && !(c.chunking.horizon == 1 && c.chunking.execution == "ensemble" &&
-                               c.chunking.execute == 1 && c.chunking.ensemble_decay == 0.01))
+  if (chosen.own_chunking && c.chunking != chunking::ActionChunking{})
     throw std::invalid_argument("config chunking: " + c.method +
                                 " predicts chunks of its own; set them in its "
                                 "section (\"" +
