@@ -3,6 +3,7 @@
 a range over rows, one number, a sign, a filter on the sub-heading, a section of another report file); a stale
 number, a missing section, column or row fails naming the page's line; and every quote in docs/ holds. Run by ctest
 as: check_quotes_test.py."""
+import itertools
 import pathlib
 import sys
 import tempfile
@@ -34,9 +35,17 @@ PAGE = """# Results
 """
 
 
+# One folder for the module's pages, removed when the tests end (a folder a page leaked into /tmp).
+PAGES = tempfile.TemporaryDirectory(prefix="check-quotes-")
+PAGE_NUMBERS = itertools.count()
+
+
+def tearDownModule():
+    PAGES.cleanup()
+
+
 def page_with(prose):
-    folder = tempfile.mkdtemp(prefix="check-quotes-")
-    path = pathlib.Path(folder) / "page.md"
+    path = pathlib.Path(PAGES.name) / f"page{next(PAGE_NUMBERS)}.md"
     path.write_text(PAGE + prose + "\n")
     return path
 

@@ -14,6 +14,7 @@
 #include "maps/training/run_config.h"
 #include "maps/training/trainer.h"
 #include "tests/common/error_of.h"
+#include "tests/common/scratch_path.h"
 #include "tests/maps/data/synthetic_demos.h"
 #include "tests/maps/policies/baseline_test_util.h"
 
@@ -121,11 +122,7 @@ TEST(SampledBCLoss, TrainingLowersTheLogStdAndAResumedRunDrawsTheSameNoise) {
   config.checkpoint_every = 20;
   config.learning_rate = 1e-2;
   config.seed = 3;
-  const auto dir = [](const std::string& name) {
-    const auto path = std::filesystem::temp_directory_path() / ("maps_sampled_bc_test_" + name);
-    std::filesystem::remove_all(path);
-    return path.string();
-  };
+  const auto dir = [](const std::string& name) { return scratch_path("maps_sampled_bc_test_" + name).string(); };
   auto straight = make(1);
   train_policy(*straight, data, config, dir("straight"), nullptr);
   const auto last_log_std = [](const Policy& p) {

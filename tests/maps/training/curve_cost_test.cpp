@@ -5,13 +5,15 @@
 #include <filesystem>
 #include <fstream>
 
+#include "tests/common/scratch_path.h"
+
 namespace maps::core {
 namespace {
 
 namespace fs = std::filesystem;
 
 fs::path curve_file(const std::string& name, const std::string& text) {
-  const fs::path path = fs::temp_directory_path() / ("maps_curve_cost_test_" + name + ".csv");
+  const fs::path path = scratch_path("maps_curve_cost_test_" + name);
   std::ofstream(path, std::ios::trunc) << text;
   return path;
 }

@@ -17,6 +17,7 @@
 #include "maps/training/run_config.h"
 #include "nn/serialize.h"
 #include "tests/common/error_of.h"
+#include "tests/common/scratch_path.h"
 #include "tests/maps/data/synthetic_demos.h"
 
 namespace maps::core {
@@ -25,11 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-fs::path fresh_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("maps_trainer_test_" + name);
-  fs::remove_all(dir);
-  return dir;
-}
+fs::path fresh_dir(const std::string& name) { return scratch_path("maps_trainer_test_" + name); }
 
 TrainConfig small_config() {
   TrainConfig c;
