@@ -43,9 +43,11 @@ Tensor sigmoid(const Tensor& x);
 Tensor square(const Tensor& x);
 Tensor softplus(const Tensor& x);  // log(1 + exp(x)), computed stably; gradient sigmoid(x), also at 0
 Tensor erf(const Tensor& x);       // gradient 2/sqrt(pi) exp(-x^2); the normal CDF is 0.5 (1 + erf(x / sqrt(2)))
-// Mish (Misra, 2019; Diffusion Policy's activation): x tanh(softplus(x)), one pass; its gradient is built from ops, so
-// it has a second order too.
+// Mish (Misra, 2019; Diffusion Policy's activation): x tanh(softplus(x)), one pass.
 Tensor mish(const Tensor& x);
+// grad * mish'(x): mish's backward as one pass over memory (composed of ops it took a tenth of a U-Net step);
+// differentiable in both, its second derivative written in ops.
+Tensor mish_backward(const Tensor& grad, const Tensor& x);
 
 // ----- linear algebra -----
 // [n,k]@[k,m] -> [n,m]; [b,n,k]@[b,k,m] -> [b,n,m]; [b,n,k]@[k,m] -> [b,n,m].
@@ -105,6 +107,23 @@ Tensor mlp(const Tensor& x, const std::vector<Tensor>& weights, const std::vecto
 // task's row, for every state under every task). Gradients scatter back with index_add.
 Tensor gather_add(const Tensor& a, const std::vector<std::int64_t>& a_rows, const Tensor& b,
                   const std::vector<std::int64_t>& b_rows, Fused activation = Fused::None);
+
+// ----- 1-D convolution (ops_conv.cpp) -----
+// torch.nn.functional.conv1d with stride 1: x [batch, in, length], weight [out, in, kernel], bias [out] or undefined,
+// `padding` zeros at both ends -> [batch, out, length + 2 padding - kernel + 1]; out[b, o, t] = bias[o] +
+// sum_{c, k} weight[o, c, k] x[b, c, t + k - padding]. One GEMM over every window of the batch.
+Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::int64_t padding);
+// Its adjoints, ops in their own right so that each rule is written in the others (second order): the gradient at x
+// of conv1d's output gradient [batch, out, out_length] for an input of `length` -> [batch, in, length], and the
+// gradient at the weight, summed over the batch -> [out, in, kernel].
+Tensor conv1d_input_grad(const Tensor& grad_output, const Tensor& weight, std::int64_t length, std::int64_t padding);
+Tensor conv1d_weight_grad(const Tensor& x, const Tensor& grad_output, std::int64_t kernel, std::int64_t padding);
+
+// ----- normalisation (ops_norm.cpp) -----
+// torch.nn.functional.group_norm without the affine part: x [batch, channels, ...] with channels split into `groups`
+// contiguous groups, each (row, group) standardised over its channels and positions, variance biased, eps inside the
+// square root. One pass forward and one back; under create_graph the rule is ops (second order).
+Tensor group_norm(const Tensor& x, std::int64_t groups, double eps = 1e-5);
 
 // ----- shape -----
 Tensor reshape(const Tensor& x, const Shape& shape);  // one dim may be -1

@@ -31,43 +31,10 @@ ag::Tensor layer_norm(const ag::Tensor& x, std::int64_t normalized_dims, double 
   return centred / ag::sqrt(variance + eps);
 }
 
-ag::Tensor group_norm(const ag::Tensor& x, std::int64_t groups, double eps) {
-  if (x.dim() < 2)
-    throw std::invalid_argument("group_norm: expected x of shape [batch, channels, ...], got " + shape_text(x));
-  const std::int64_t channels = x.shape()[1];
-  if (groups < 1 || channels % groups != 0)
-    throw std::invalid_argument("group_norm: " + std::to_string(channels) + " channels do not split into " +
-                                std::to_string(groups) + " groups");
-  const ag::Tensor grouped = ag::reshape(x, {x.shape()[0], groups, -1});
-  return ag::reshape(layer_norm(grouped, 1, eps), x.shape());
-}
+ag::Tensor group_norm(const ag::Tensor& x, std::int64_t groups, double eps) { return ag::group_norm(x, groups, eps); }
 
 ag::Tensor conv1d(const ag::Tensor& x, const ag::Tensor& weight, const ag::Tensor& bias, std::int64_t padding) {
-  require_1d_layout(x, "conv1d");
-  if (weight.dim() != 3 || weight.shape()[1] != x.shape()[1])
-    throw std::invalid_argument("conv1d: expected weight of shape [out, " + std::to_string(x.shape()[1]) +
-                                ", kernel] for x of shape " + shape_text(x) + ", got " + shape_text(weight));
-  if (padding < 0) throw std::invalid_argument("conv1d: padding must be >= 0, got " + std::to_string(padding));
-  const std::int64_t batch = x.shape()[0], in = x.shape()[1], length = x.shape()[2];
-  const std::int64_t out = weight.shape()[0], kernel = weight.shape()[2];
-  const std::int64_t out_length = length + 2 * padding - kernel + 1;
-  if (out_length < 1)
-    throw std::invalid_argument("conv1d: a kernel of " + std::to_string(kernel) + " is longer than the padded length " +
-                                std::to_string(length + 2 * padding));
-  ag::Tensor padded = x;
-  if (padding > 0) {
-    const ag::Tensor zeros = ag::zeros({batch, in, padding}, x.dtype());
-    padded = ag::concat({zeros, x, zeros}, 2);
-  }
-  // The K shifted windows side by side ([B, C_in, K, L_out]), then one product with the weight as [C_out, C_in K].
-  std::vector<ag::Tensor> windows;
-  windows.reserve(static_cast<std::size_t>(kernel));
-  for (std::int64_t k = 0; k < kernel; ++k) windows.push_back(ag::narrow(padded, 2, k, out_length));
-  const ag::Tensor columns =
-      ag::reshape(ag::transpose(ag::reshape(ag::stack(windows, 2), {batch, in * kernel, out_length}), 1, 2),
-                  {batch * out_length, in * kernel});
-  const ag::Tensor product = ag::linear(columns, ag::reshape(weight, {out, in * kernel}), bias);
-  return ag::transpose(ag::reshape(product, {batch, out_length, out}), 1, 2);
+  return ag::conv1d(x, weight, bias, padding);
 }
 
 ag::Tensor downsample2(const ag::Tensor& x) {

@@ -15,11 +15,11 @@ namespace maps::nn::functional {
 ag::Tensor layer_norm(const ag::Tensor& x, std::int64_t normalized_dims = 1, double eps = 1e-5);
 
 // x [B, C, ...]: each of `groups` groups of C / groups channels normalised over its channels and positions together
-// (torch.nn.functional.group_norm without the affine part). C must divide by groups.
+// (torch.nn.functional.group_norm without the affine part). C must divide by groups. One op: ag::group_norm.
 ag::Tensor group_norm(const ag::Tensor& x, std::int64_t groups, double eps = 1e-5);
 
 // x [B, C_in, L] convolved with weight [C_out, C_in, K] (cross-correlation, as PyTorch), `padding` zeros on each side,
-// stride 1: [B, C_out, L + 2 padding - K + 1]; bias [C_out] or an undefined tensor.
+// stride 1: [B, C_out, L + 2 padding - K + 1]; bias [C_out] or an undefined tensor. One op: ag::conv1d.
 ag::Tensor conv1d(const ag::Tensor& x, const ag::Tensor& weight, const ag::Tensor& bias, std::int64_t padding);
 
 // Positions 0, 2, 4, ... of x [B, C, L], L even: a stride-2 convolution is conv1d then this.

@@ -33,27 +33,6 @@ void expect_gradients(const char* name, const ag::SingleFunction& f, const std::
   EXPECT_TRUE(second.ok) << second.message;
 }
 
-// conv1d by its definition: out[b, o, t] = bias[o] + sum_{c, k} w[o, c, k] x[b, c, t + k - padding] (0 outside).
-std::vector<double> conv1d_loop(const Tensor& x, const Tensor& w, const Tensor& bias, std::int64_t padding) {
-  const std::int64_t batch = x.shape()[0], in = x.shape()[1], length = x.shape()[2];
-  const std::int64_t out = w.shape()[0], kernel = w.shape()[2];
-  const std::int64_t out_length = length + 2 * padding - kernel + 1;
-  const auto xv = x.to_vector(), wv = w.to_vector(), bv = bias.to_vector();
-  std::vector<double> result;
-  for (std::int64_t b = 0; b < batch; ++b)
-    for (std::int64_t o = 0; o < out; ++o)
-      for (std::int64_t t = 0; t < out_length; ++t) {
-        double sum = bv[o];
-        for (std::int64_t c = 0; c < in; ++c)
-          for (std::int64_t k = 0; k < kernel; ++k) {
-            const std::int64_t at = t + k - padding;
-            if (at >= 0 && at < length) sum += wv[(o * in + c) * kernel + k] * xv[(b * in + c) * length + at];
-          }
-        result.push_back(sum);
-      }
-  return result;
-}
-
 void expect_near_all(const Tensor& actual, const std::vector<double>& expected, double tolerance) {
   const auto values = actual.to_vector();
   ASSERT_EQ(values.size(), expected.size());
@@ -100,48 +79,17 @@ TEST(Functional, GroupNormIsLayerNormOverEachGroupOfChannels) {
   EXPECT_THAT(nntest::error_of([&] { F::group_norm(x, 4); }), HasSubstr("6 channels do not split into 4 groups"));
 }
 
-TEST(Functional, Conv1dMatchesItsDefinition) {
-  for (const auto& [kernel, padding] :
-       std::vector<std::pair<std::int64_t, std::int64_t>>{{1, 0}, {3, 1}, {5, 2}, {4, 0}}) {
-    SCOPED_TRACE("kernel " + std::to_string(kernel) + ", padding " + std::to_string(padding));
-    const Tensor x = randn64({2, 3, 7}, 5).detach();
-    const Tensor w = randn64({4, 3, kernel}, 6).detach();
-    const Tensor b = randn64({4}, 7).detach();
-    const Tensor y = F::conv1d(x, w, b, padding);
-    EXPECT_EQ(y.shape(), (Shape{2, 4, 7 + 2 * padding - kernel + 1}));
-    expect_near_all(y, conv1d_loop(x, w, b, padding), 1e-12);
-  }
-  // Without a bias, and in float32.
-  const Tensor x = randn64({1, 2, 6}, 8).detach().to(Dtype::Float32);
-  const Tensor w = randn64({3, 2, 3}, 9).detach().to(Dtype::Float32);
-  const Tensor y = F::conv1d(x, w, Tensor(), 1);
-  EXPECT_EQ(y.dtype(), Dtype::Float32);
-  expect_near_all(y, conv1d_loop(x, w, ag::zeros({3}, Dtype::Float32), 1), 1e-5);
-}
-
-TEST(Functional, Conv1dGradients) {
-  expect_gradients("conv1d", [](const std::vector<Tensor>& in) { return F::conv1d(in[0], in[1], in[2], 2); },
-                   {randn64({2, 3, 6}, 10), randn64({2, 3, 5}, 11), randn64({2}, 12)});
-}
-
-TEST(Functional, Conv1dRefusesShapesThatCannotBeMeant) {
-  const Tensor x = ag::zeros({2, 3, 4}, Dtype::Float64);
+// The functional form is the autograd op (tests/autograd/conv_ops_test.cpp checks it against its definition, its
+// gradients and its refusals).
+TEST(Functional, Conv1dIsTheAutogradOp) {
+  const Tensor x = randn64({2, 3, 7}, 5), w = randn64({4, 3, 5}, 6), b = randn64({4}, 7);
+  const Tensor y = F::conv1d(x, w, b, 2);
+  expect_near_all(y, ag::conv1d(x, w, b, 2).to_vector(), 0.0);
+  ASSERT_TRUE(y.requires_grad());
   EXPECT_THAT(nntest::error_of([&] {
                 F::conv1d(x, ag::zeros({4, 2, 3}, Dtype::Float64), Tensor(), 1);
               }),
               HasSubstr("expected weight of shape [out, 3, kernel]"));
-  EXPECT_THAT(nntest::error_of([&] {
-                F::conv1d(ag::zeros({3, 4}, Dtype::Float64), ag::zeros({4, 3, 3}), Tensor(), 1);
-              }),
-              HasSubstr("expected x of shape [batch, channels, length]"));
-  EXPECT_THAT(nntest::error_of([&] {
-                F::conv1d(x, ag::zeros({4, 3, 7}, Dtype::Float64), Tensor(), 1);
-              }),
-              HasSubstr("longer than the padded length 6"));
-  EXPECT_THAT(nntest::error_of([&] {
-                F::conv1d(x, ag::zeros({4, 3, 3}, Dtype::Float64), Tensor(), -1);
-              }),
-              HasSubstr("padding must be >= 0"));
 }
 
 TEST(Functional, DownsampleAndUpsampleByTwo) {
