@@ -10,12 +10,13 @@ means a Holm-adjusted p below 0.05 within the family the claim names."""
 import math
 from dataclasses import dataclass
 
-from suite_results import ablation_groups, groups, module_sweep_cells
+from suite_results import METHOD_NAMES, ablation_groups, groups, module_sweep_cells
 from suite_stats import USED_FACTOR, division, holm, mean, paired, paired_p, usage_distances, vs_single_bc
 
 BASELINES = ["single_bc", "mt_bc", "mt_mh_bc", "maml"]
 COMPARED = ["maps"] + BASELINES
-NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML"}
+# The paper's methods, by the report's names.
+NAMES = {method: METHOD_NAMES[method] for method in ("maps", "single_bc", "mt_bc", "mt_mh_bc", "maml")}
 ALPHA = 0.05
 # The paper's example (Fig. 6): window-open and drawer-close share their modules; drawer-open shares one of them
 # and has a task-specific one.

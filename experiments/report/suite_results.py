@@ -38,7 +38,7 @@ METHOD_ORDER = ["maps", "single_bc", "mt_bc", "mt_mh_bc", "maml", "transfer", "m
 # Each method's name in the report's text and figures.
 METHOD_NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_mh_bc": "MT-MH-BC", "maml": "MAML",
          "transfer": "MAPS transfer", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style",
-         "top_k_moe": "top-k MoE", "soft_modularization": "Soft Modularization"}
+         "top_k_moe": "top-k MoE", "soft_modularization": "Soft Modularization", "diffusion_policy": "Diffusion Policy"}
 SELECTOR_TERMS = ["share", "explore", "sparse", "smooth"]
 
 GroupKey = namedtuple("GroupKey", "set label demos subsample")

@@ -3,8 +3,8 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import (ablation_groups, control_cells, groups, maps_partner, module_sweep_cells, score_name,
-                           short_task, task_names, task_score)
+from suite_results import (METHOD_NAMES, ablation_groups, control_cells, groups, maps_partner, module_sweep_cells,
+                           score_name, short_task, task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
                          paired_p, routing, span, span_fixed, top_share, usage_distances)
 
@@ -173,8 +173,8 @@ def pooling_table(cells):
             + table(["method", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
 # Display names of the methods that route (their usage is a share per module, summing to 1 over a task's states).
-ROUTED_NAMES = {"maps": "MAPS", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style", "top_k_moe": "top-k MoE",
-                "soft_modularization": "Soft Modularization"}
+ROUTED_NAMES = {method: METHOD_NAMES[method]
+                for method in ("maps", "moore", "paco", "care", "top_k_moe", "soft_modularization")}
 USAGE_MEANING = {"maps": "mean selector score", "moore": "share |w_k,i| / sum |w_k|", "paco": "share |w_k,p| / sum |w_k|",
                  "care": "mean attention", "top_k_moe": "mean gate", "soft_modularization": "mean use per layer / L"}
 # Where a method's routing measures cannot reach what another's can.
