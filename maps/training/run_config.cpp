@@ -77,9 +77,13 @@ void check_imitation_keys(const RunConfig& c) {
   if (!c.train.lr_scale.empty()) refuse("lr_scale", "not available");
   if (c.train.keep_every != defaults.keep_every)
     refuse("keep_every", "not available (gail.checkpoint chooses best.ckpt)");
+  if (c.train.ema_power != defaults.ema_power) refuse("ema_power", "not available (PPO's policy keeps no average)");
 }
 
 void check_across_keys(const RunConfig& c, const PolicyMethod& chosen) {
+  if (c.train.ema_power == 0.0 && c.train.ema_max_decay != TrainConfig{}.ema_max_decay)
+    throw std::invalid_argument(
+        "config train.ema_max_decay: set, but train.ema_power is 0 (no average), so it would do nothing");
   for (const auto& [name, count] : c.data.task_demos) {
     const bool held_out = std::find(c.data.holdout.begin(), c.data.holdout.end(), name) != c.data.holdout.end();
     const bool left_out =

@@ -297,6 +297,14 @@ std::vector<RunConfigField> make_fields() {
       "Adam's epsilon (torch's default; the paper's code 1e-5); added in float32, where a smaller value rounds to 0 "
       "and a step divides by zero");
   add(
+      "train.ema_power", [](RunConfig & c) -> auto& { return c.train.ema_power; }, range(0, 10),
+      "an exponential moving average of the parameters, as Diffusion Policy evaluates (0.75 there): after update n "
+      "the average moves by decay 1 - (n - 1)^-power (0 for the first two updates), capped at `train.ema_max_decay`; "
+      "validation judges the average, and best.ckpt and step_<N>.ckpt keep it. 0: no average (the default)");
+  add(
+      "train.ema_max_decay", [](RunConfig & c) -> auto& { return c.train.ema_max_decay; }, range(0, 0.999999),
+      "the cap on the average's decay (Diffusion Policy's 0.9999)");
+  add(
       "maps.modules", [](RunConfig & c) -> auto& { return c.maps.modules; }, range(1, kMaxModules),
       "M, the proto-policy modules");
   add(

@@ -21,6 +21,7 @@
 #include "maps/training/checkpoint_record.h"
 #include "maps/training/curve_file.h"
 #include "maps/training/run_files.h"
+#include "maps/training/weight_average.h"
 #include "nn/optim/adam.h"
 #include "nn/serialize.h"
 
@@ -32,6 +33,7 @@ using Json = nlohmann::json;
 
 constexpr const char* kPolicyPrefix = "policy.";
 constexpr const char* kAdamPrefix = "adam.";
+constexpr const char* kAveragePrefix = "ema.";
 
 struct Progress {
   std::int64_t step = 0;
@@ -39,11 +41,12 @@ struct Progress {
   double best_validation = INFINITY;
 };
 
-void save_last(const std::string& path, const Policy& policy, const optim::Adam& adam, const Progress& progress,
-               const std::mt19937_64& rng) {
+void save_last(const std::string& path, const Policy& policy, const optim::Adam& adam, const WeightAverage* average,
+               const Progress& progress, const std::mt19937_64& rng) {
   nn::NamedTensors tensors;
   nn::append_with_prefix(tensors, policy.state_dict(), kPolicyPrefix);
   nn::append_with_prefix(tensors, adam.state(), kAdamPrefix);
+  if (average != nullptr) nn::append_with_prefix(tensors, average->values(), kAveragePrefix);
   std::ostringstream rng_text;
   rng_text << rng;
   TrainingState state;
@@ -54,12 +57,20 @@ void save_last(const std::string& path, const Policy& policy, const optim::Adam&
   nn::save_tensors(path, tensors, to_json(state).dump());
 }
 
-Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, std::mt19937_64& rng) {
+Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, WeightAverage* average,
+                   std::mt19937_64& rng) {
   const nn::Checkpoint checkpoint = nn::load_tensors(path);
   const TrainingState state = read_training_state(checkpoint.config, "training checkpoint " + path);
+  const nn::NamedTensors averaged = nn::strip_prefix(checkpoint.tensors, kAveragePrefix);
+  if (averaged.empty() != (average == nullptr))
+    throw std::runtime_error("training checkpoint " + path + (average == nullptr ? " holds" : " holds no") +
+                             " average of the parameters, and this run has train.ema_power " +
+                             (average == nullptr ? "0" : "above 0") +
+                             ": a run resumes with the train.ema_power it began with");
   try {
     policy.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPolicyPrefix));
     adam.load_state(nn::strip_prefix(checkpoint.tensors, kAdamPrefix));
+    if (average != nullptr) average->load(averaged, "training checkpoint " + path);
   } catch (const std::exception& e) {
     throw std::runtime_error("training checkpoint " + path + " does not fit this policy: " + e.what());
   }
@@ -230,10 +241,13 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
   std::mt19937_64 rng(envs::splitmix64(config.seed ^ 0x6261746368657321ULL));  // "batches!"
   // A function of the seed and the step, so a resumed run draws the same noise without saving a generator.
   const std::uint64_t noise_stream = envs::splitmix64(config.seed ^ 0x6e6f697365ULL);  // "noise"
+  std::optional<WeightAverage> average;
+  if (config.ema_power != 0.0) average.emplace(policy.named_parameters(), config.ema_power, config.ema_max_decay);
+  WeightAverage* const averaged = average ? &*average : nullptr;
   Progress progress;
   TrainSummary summary;
   if (fs::exists(last_path)) {
-    progress = load_last(last_path, policy, adam, rng);
+    progress = load_last(last_path, policy, adam, averaged, rng);
     if (progress.step > config.steps)
       throw std::invalid_argument(last_path + " has trained " + std::to_string(progress.step) +
                                   " steps, more than train.steps " + std::to_string(config.steps) +
@@ -254,6 +268,8 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();
   };
   const auto validate_and_keep_best = [&] {
+    std::optional<WeightAverage::Applied> judged;  // with train.ema_power, the average is judged and kept
+    if (average) judged.emplace(*average);
     const auto validation_start = std::chrono::steady_clock::now();
     const double valid = policy.validation_loss(validation, data);
     policy.train();
@@ -302,6 +318,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     }
     policy.after_step();
     ++progress.step;
+    if (average) average->update(progress.step);
     if (term_names.empty()) {
       for (const auto& [name, value] : terms.terms) term_names.push_back(name);
       term_names.push_back("total");
@@ -356,10 +373,12 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     if (keep || save) {
       const auto save_start = std::chrono::steady_clock::now();
       if (keep) {
+        std::optional<WeightAverage::Applied> kept_average;
+        if (average) kept_average.emplace(*average);
         const std::string kept = (fs::path(run_dir) / run_files::kept_checkpoint(progress.step)).string();
         nn::save(policy, kept, policy_record(data, progress.step, std::nullopt).dump());
       }
-      if (save) save_last(last_path, policy, adam, progress, rng);
+      if (save) save_last(last_path, policy, adam, averaged, progress, rng);
       summary.checkpoint_seconds += seconds_since(save_start);
       summary.checkpoints_written += (keep ? 1 : 0) + (save ? 1 : 0);
     }

@@ -58,6 +58,11 @@ struct TrainConfig {
   // policy that training on a few demonstrations can make worse; without this, best.ckpt could only hold a trained
   // step. Step 0 gets no curve.csv row (it has no training losses); the log has its validation loss.
   bool validate_start = false;
+  // An exponential moving average of the parameters (weight_average.h; Diffusion Policy evaluates one: power 0.75,
+  // max decay 0.9999): with a power above 0 the average is what validation judges and best.ckpt and step_<N>.ckpt
+  // keep; last.ckpt holds it beside the trained parameters. 0: no average (every method's default).
+  double ema_power = 0.0;
+  double ema_max_decay = 0.9999;
 };
 
 struct TrainSummary {

@@ -1,0 +1,49 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "nn/module.h"
+
+// An exponential moving average of a policy's parameters, as Diffusion Policy keeps and evaluates (its EMAModel):
+// after optimiser update n (n = 1, 2, ...) average = decay(n) average + (1 - decay(n)) parameter, with
+// decay(n) = 1 - (n - 1)^-power capped at max_decay (0 for the first two updates, which copy the parameters). The
+// trainer judges, keeps and evaluates the averaged parameters when train.ema_power is above 0 (issue 46; docs/zoo.md).
+namespace maps::core {
+
+class WeightAverage {
+ public:
+  // Starts as a copy of `parameters` (the policy's named parameters, shared storage).
+  WeightAverage(nn::NamedTensors parameters, double power, double max_decay);
+
+  // decay(n) for update n >= 1 (see above).
+  static double decay(std::int64_t update, double power, double max_decay);
+
+  // After optimiser update `update` (1 for the first).
+  void update(std::int64_t update);
+
+  // The average's values under the parameters' names (float32 copies, not shared with the policy).
+  const nn::NamedTensors& values() const { return average_; }
+  // Replaces the values (a resumed run's); throws naming `source` unless the names, shapes and dtypes match.
+  void load(const nn::NamedTensors& values, const std::string& source);
+
+  // Swaps the average into the parameters for the scope (validation, best.ckpt), and the trained values back after.
+  class Applied {
+   public:
+    explicit Applied(WeightAverage& average);
+    ~Applied();
+    Applied(const Applied&) = delete;
+    Applied& operator=(const Applied&) = delete;
+
+   private:
+    WeightAverage& average_;
+    nn::NamedTensors trained_;
+  };
+
+ private:
+  nn::NamedTensors parameters_;  // the policy's
+  nn::NamedTensors average_;
+  double power_, max_decay_;
+};
+
+}  // namespace maps::core
