@@ -37,7 +37,9 @@ std::pair<std::int64_t, std::int64_t> inner_positions(const ConvShape& s) {
 // cols [batch * out_length, in * kernel]: row (b, t) holds x[b, c, t + k - padding] at column c * kernel + k.
 template <typename T>
 void im2col(const T* x, const ConvShape& s, T* cols) {
-  const auto [first, last] = inner_positions(s);
+  // Plain variables, not structured bindings: clang 14 cannot capture those in the lambdas below.
+  const std::pair<std::int64_t, std::int64_t> inner = inner_positions(s);
+  const std::int64_t first = inner.first, last = inner.second;
   parallel_for(s.batch, 1, [&](std::int64_t b0, std::int64_t b1) {
     for (std::int64_t b = b0; b < b1; ++b)
       for (std::int64_t t = 0; t < s.out_length; ++t) {
@@ -63,7 +65,9 @@ void im2col(const T* x, const ConvShape& s, T* cols) {
 // The adjoint of im2col: every window value added back to its place in x [batch, in, length] (x is overwritten).
 template <typename T>
 void col2im(const T* cols, const ConvShape& s, T* x) {
-  const auto [first, last] = inner_positions(s);
+  // Plain variables, not structured bindings: clang 14 cannot capture those in the lambdas below.
+  const std::pair<std::int64_t, std::int64_t> inner = inner_positions(s);
+  const std::int64_t first = inner.first, last = inner.second;
   parallel_for(s.batch, 1, [&](std::int64_t b0, std::int64_t b1) {
     for (std::int64_t b = b0; b < b1; ++b) {
       std::fill(x + b * s.in * s.length, x + (b + 1) * s.in * s.length, T(0));

@@ -124,7 +124,9 @@ TEST(WeightAverage, TheTrainerKeepsTheAverageAndResumesItExactly) {
   ASSERT_FALSE(averaged.empty());
   // best.ckpt holds the average, not the trained parameters.
   bool differs = false;
-  for (const auto& [name, tensor] : averaged) {
+  for (const auto& average : averaged) {
+    const std::string& name = average.name;  // not a structured binding: clang 14 cannot capture one
+    const ag::Tensor& tensor = average.tensor;
     const auto kept =
         std::find_if(best.tensors.begin(), best.tensors.end(), [&](const auto& t) { return t.name == name; });
     ASSERT_NE(kept, best.tensors.end()) << name;
