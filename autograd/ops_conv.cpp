@@ -74,11 +74,11 @@ void col2im(const T* cols, const ConvShape& s, T* x) {
       for (std::int64_t t = 0; t < s.out_length; ++t) {
         const T* row = cols + (b * s.out_length + t) * s.taps();
         T* sample = x + b * s.in * s.length;
-        const bool inner = t >= first && t < last;
+        const bool whole_window = t >= first && t < last;
         for (std::int64_t c = 0; c < s.in; ++c)
           for (std::int64_t k = 0; k < s.kernel; ++k) {
             const std::int64_t at = t + k - s.padding;
-            if (inner || (at >= 0 && at < s.length)) sample[c * s.length + at] += row[c * s.kernel + k];
+            if (whole_window || (at >= 0 && at < s.length)) sample[c * s.length + at] += row[c * s.kernel + k];
           }
       }
     }
