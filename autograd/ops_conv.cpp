@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "autograd/gemm_kernel.h"
+#include "autograd/grad_mode.h"
 #include "autograd/kernels.h"
 #include "autograd/node.h"
 #include "autograd/ops.h"
@@ -117,6 +118,26 @@ std::int64_t output_length(std::int64_t length, std::int64_t kernel, std::int64_
   return out_length;
 }
 
+// conv1d_weight_grad's values: [out, in * kernel] = rows^T cols, summed over every window of the batch; `cols` is
+// x's windows when the caller has them (conv1d's own backward), else undefined and made here.
+Tensor weight_gradient(const Tensor& x, const Tensor& grad_output, const ConvShape& s, Tensor cols) {
+  Tensor out = empty({s.out, s.in, s.kernel}, x.dtype());
+  dispatch_dtype(x.dtype(), [&](auto tag) {
+    using T = typename decltype(tag)::type;
+    using detail::MatrixRef;
+    Tensor rows = empty({s.rows(), s.out}, x.dtype());
+    transpose_each(grad_output.data<T>(), s.batch, s.out, s.out_length, rows.data<T>());
+    if (!cols.defined()) {
+      cols = empty({s.rows(), s.taps()}, x.dtype());
+      im2col(x.data<T>(), s, cols.data<T>());
+    }
+    detail::gemm_parallel(MatrixRef<const T>{rows.data<T>(), s.rows(), s.out, s.out}, true,
+                          MatrixRef<const T>{cols.data<T>(), s.rows(), s.taps(), s.taps()}, false,
+                          MatrixRef<T>{out.data<T>(), s.out, s.taps(), s.taps()}, false);
+  });
+  return out;
+}
+
 }  // namespace
 
 Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::int64_t padding) {
@@ -142,10 +163,10 @@ Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::in
                     padding,
                     output_length(x.size(2), weight.size(2), padding, "conv1d")};
   Tensor out = empty({s.batch, s.out, s.out_length}, x.dtype());
+  Tensor cols = empty({s.rows(), s.taps()}, x.dtype());
   dispatch_dtype(x.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
     using detail::MatrixRef;
-    Tensor cols = empty({s.rows(), s.taps()}, x.dtype());
     Tensor rows = empty({s.rows(), s.out}, x.dtype());
     im2col(x.data<T>(), s, cols.data<T>());
     // rows = cols W^T, the weight read in place as [out, in * kernel].
@@ -162,14 +183,17 @@ Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::in
   });
   std::vector<Tensor> inputs{x, weight};
   if (bias.defined()) inputs.push_back(bias);
-  return record("conv1d", out, inputs,
-                [x, weight, padding, length = s.length, kernel = s.kernel](const Tensor& g, const Needs& need, Node&) {
-                  Grads grads(need.size());
-                  if (need[0]) grads[0] = conv1d_input_grad(g, weight, length, padding);
-                  if (need[1]) grads[1] = conv1d_weight_grad(x, g, kernel, padding);
-                  if (need.size() > 2 && need[2]) grads[2] = sum(g, {0, 2});
-                  return grads;
-                });
+  // The backward keeps the forward's windows for the weight's gradient (a third of the window copies saved); under
+  // create_graph that gradient is the recorded op instead, made from x.
+  return record("conv1d", out, inputs, [x, weight, s, cols](const Tensor& g, const Needs& need, Node&) {
+    Grads grads(need.size());
+    if (need[0]) grads[0] = conv1d_input_grad(g, weight, s.length, s.padding);
+    if (need[1])
+      grads[1] =
+          GradMode::is_enabled() ? conv1d_weight_grad(x, g, s.kernel, s.padding) : weight_gradient(x, g, s, cols);
+    if (need.size() > 2 && need[2]) grads[2] = sum(g, {0, 2});
+    return grads;
+  });
 }
 
 Tensor conv1d_input_grad(const Tensor& grad_output, const Tensor& weight, std::int64_t length, std::int64_t padding) {
@@ -218,19 +242,7 @@ Tensor conv1d_weight_grad(const Tensor& x, const Tensor& grad_output, std::int64
                                 " is not the output of a kernel of " + std::to_string(kernel) + " on x " +
                                 to_string(x.shape()) + " with padding " + std::to_string(padding));
   const ConvShape s{x.size(0), x.size(1), x.size(2), grad_output.size(1), kernel, padding, grad_output.size(2)};
-  Tensor out = empty({s.out, s.in, s.kernel}, x.dtype());
-  dispatch_dtype(x.dtype(), [&](auto tag) {
-    using T = typename decltype(tag)::type;
-    using detail::MatrixRef;
-    Tensor rows = empty({s.rows(), s.out}, x.dtype());
-    Tensor cols = empty({s.rows(), s.taps()}, x.dtype());
-    transpose_each(grad_output.data<T>(), s.batch, s.out, s.out_length, rows.data<T>());
-    im2col(x.data<T>(), s, cols.data<T>());
-    // [out, in * kernel] = rows^T cols, summed over every window of the batch.
-    detail::gemm_parallel(MatrixRef<const T>{rows.data<T>(), s.rows(), s.out, s.out}, true,
-                          MatrixRef<const T>{cols.data<T>(), s.rows(), s.taps(), s.taps()}, false,
-                          MatrixRef<T>{out.data<T>(), s.out, s.taps(), s.taps()}, false);
-  });
+  const Tensor out = weight_gradient(x, grad_output, s, Tensor());
   return record(op, out, {x, grad_output}, [x, grad_output, padding](const Tensor& h, const Needs& need, Node&) {
     Grads grads(2);
     if (need[0]) grads[0] = conv1d_input_grad(grad_output, h, x.size(2), padding);
