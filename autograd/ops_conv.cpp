@@ -49,7 +49,7 @@ void im2col(const T* x, const ConvShape& s, T* cols) {
         if (t >= first && t < last) {
           // A loop, not std::copy_n: a kernel's few values are not worth a call to memmove.
           for (std::int64_t c = 0; c < s.in; ++c) {
-            const T* from = sample + c * s.length + t - s.padding;
+            const T* from = sample + c * s.length + (t - s.padding);  // t >= padding here: never before x
             for (std::int64_t k = 0; k < s.kernel; ++k) row[c * s.kernel + k] = from[k];
           }
           continue;
@@ -105,6 +105,13 @@ void check_layout(const Tensor& t, const char* op, const char* name) {
                                 to_string(t.shape()));
 }
 
+// Refuses `t` of another dtype than `like`, naming both inputs.
+void check_dtype(const Tensor& t, const char* name, const Tensor& like, const char* like_name, const char* op) {
+  if (t.dtype() != like.dtype())
+    throw std::invalid_argument(std::string(op) + ": " + name + " is " + to_string(t.dtype()) + " but " + like_name +
+                                " is " + to_string(like.dtype()));
+}
+
 void check_padding(std::int64_t padding, const char* op) {
   if (padding < 0)
     throw std::invalid_argument(std::string(op) + ": padding must be >= 0, got " + std::to_string(padding));
@@ -147,12 +154,12 @@ Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::in
     throw std::invalid_argument("conv1d: expected weight of shape [out, " + std::to_string(x.size(1)) +
                                 ", kernel] for x of shape " + to_string(x.shape()) + ", got " +
                                 to_string(weight.shape()));
-  detail::check_same_dtype(x, weight, "conv1d");
+  check_dtype(weight, "weight", x, "x", "conv1d");
   if (bias.defined()) {
     if (bias.shape() != Shape{weight.size(0)})
       throw std::invalid_argument("conv1d: expected bias of shape [" + std::to_string(weight.size(0)) + "], got " +
                                   to_string(bias.shape()));
-    detail::check_same_dtype(x, bias, "conv1d");
+    check_dtype(bias, "bias", x, "x", "conv1d");
   }
   check_padding(padding, "conv1d");
   const ConvShape s{x.size(0),
@@ -183,8 +190,9 @@ Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::in
   });
   std::vector<Tensor> inputs{x, weight};
   if (bias.defined()) inputs.push_back(bias);
-  // The backward keeps the forward's windows for the weight's gradient (a third of the window copies saved); under
-  // create_graph that gradient is the recorded op instead, made from x.
+  // The backward keeps the forward's windows for the weight's gradient (a third of the window copies saved), when the
+  // weight wants one; under create_graph that gradient is the recorded op instead, made from x.
+  if (!weight.requires_grad()) cols = Tensor();
   return record("conv1d", out, inputs, [x, weight, s, cols](const Tensor& g, const Needs& need, Node&) {
     Grads grads(need.size());
     if (need[0]) grads[0] = conv1d_input_grad(g, weight, s.length, s.padding);
@@ -200,7 +208,7 @@ Tensor conv1d_input_grad(const Tensor& grad_output, const Tensor& weight, std::i
   const char* op = "conv1d_input_grad";
   check_layout(grad_output, op, "grad_output");
   detail::check_defined(weight, op, "weight");
-  detail::check_same_dtype(grad_output, weight, op);
+  check_dtype(weight, "weight", grad_output, "grad_output", op);
   check_padding(padding, op);
   if (weight.dim() != 3 || weight.size(0) != grad_output.size(1) || weight.size(2) < 1 || length < 1 ||
       output_length(length, weight.size(2), padding, op) != grad_output.size(2))
@@ -234,10 +242,13 @@ Tensor conv1d_weight_grad(const Tensor& x, const Tensor& grad_output, std::int64
   const char* op = "conv1d_weight_grad";
   check_layout(x, op, "x");
   check_layout(grad_output, op, "grad_output");
-  detail::check_same_dtype(x, grad_output, op);
+  check_dtype(grad_output, "grad_output", x, "x", op);
   check_padding(padding, op);
-  if (kernel < 1 || grad_output.size(0) != x.size(0) ||
-      output_length(x.size(2), kernel, padding, op) != grad_output.size(2))
+  if (grad_output.size(0) != x.size(0))
+    throw std::invalid_argument(std::string(op) + ": grad_output " + to_string(grad_output.shape()) + " has " +
+                                std::to_string(grad_output.size(0)) + " rows, x " + to_string(x.shape()) + " " +
+                                std::to_string(x.size(0)));
+  if (kernel < 1 || output_length(x.size(2), kernel, padding, op) != grad_output.size(2))
     throw std::invalid_argument(std::string(op) + ": grad_output " + to_string(grad_output.shape()) +
                                 " is not the output of a kernel of " + std::to_string(kernel) + " on x " +
                                 to_string(x.shape()) + " with padding " + std::to_string(padding));

@@ -47,8 +47,10 @@ def main(argv=None):
         sys.exit(f"gail_speed.py: --maps {args.maps} is not a file (build it: cmake --build build)")
     if not pathlib.Path(args.data).is_file():
         sys.exit(f"gail_speed.py: --data {args.data} is not a file (maps collect --set gravity --out {args.data})")
-    if args.env_steps < 2000 or any(t < 1 for t in args.threads):
-        sys.exit("gail_speed.py: --env-steps must be at least 2000 (one iteration) and --threads positive")
+    if args.env_steps < 2000:
+        sys.exit(f"gail_speed.py: --env-steps must be at least 2000 (one iteration), got {args.env_steps}")
+    if any(t < 1 for t in args.threads):
+        sys.exit(f"gail_speed.py: --threads must be positive, got {' '.join(map(str, args.threads))}")
     work = pathlib.Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     records = []

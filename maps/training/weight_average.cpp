@@ -1,5 +1,6 @@
 #include "maps/training/weight_average.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -55,8 +56,9 @@ void WeightAverage::load(const nn::NamedTensors& values, const std::string& sour
     if (name != average_[i].name || tensor.shape() != average_[i].tensor.shape() ||
         tensor.dtype() != average_[i].tensor.dtype())
       throw std::runtime_error(source + ": averaged parameter " + std::to_string(i) + " is " + name + " " +
-                               ag::to_string(tensor.shape()) + ", the policy's " + average_[i].name + " " +
-                               ag::to_string(average_[i].tensor.shape()));
+                               ag::to_string(tensor.shape()) + " " + ag::to_string(tensor.dtype()) + ", the policy's " +
+                               average_[i].name + " " + ag::to_string(average_[i].tensor.shape()) + " " +
+                               ag::to_string(average_[i].tensor.dtype()));
   }
   average_ = copies_of(values);
 }

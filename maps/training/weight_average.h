@@ -22,7 +22,7 @@ class WeightAverage {
   // After optimiser update `update` (1 for the first).
   void update(std::int64_t update);
 
-  // The average's values under the parameters' names (float32 copies, not shared with the policy).
+  // The average's values under the parameters' names (copies in the parameters' dtypes, not shared with the policy).
   const nn::NamedTensors& values() const { return average_; }
   // Replaces the values (a resumed run's); throws naming `source` unless the names, shapes and dtypes match.
   void load(const nn::NamedTensors& values, const std::string& source);

@@ -48,10 +48,10 @@ std::vector<double> conv1d_by_definition(const Tensor& x, const Tensor& w, const
 }
 
 // (kernel, padding): U-Net's 5/2 and 3/1, a pointwise 1/0, an even kernel, and padding past the kernel.
-const std::vector<std::pair<std::int64_t, std::int64_t>> kShapes{{1, 0}, {3, 1}, {5, 2}, {4, 0}, {2, 3}};
+const std::vector<std::pair<std::int64_t, std::int64_t>> kKernelPaddings{{1, 0}, {3, 1}, {5, 2}, {4, 0}, {2, 3}};
 
 TEST(Conv1d, MatchesItsDefinition) {
-  for (const auto& [kernel, padding] : kShapes) {
+  for (const auto& [kernel, padding] : kKernelPaddings) {
     SCOPED_TRACE("kernel " + std::to_string(kernel) + ", padding " + std::to_string(padding));
     const Tensor x = randn64({3, 4, 7}, 1, false), w = randn64({5, 4, kernel}, 2, false), b = randn64({5}, 3, false);
     for (const Tensor& bias : {b, Tensor()}) {
@@ -63,7 +63,7 @@ TEST(Conv1d, MatchesItsDefinition) {
 }
 
 TEST(Conv1d, AdjointsAreTheGradientsOfConv1d) {
-  for (const auto& [kernel, padding] : kShapes) {
+  for (const auto& [kernel, padding] : kKernelPaddings) {
     SCOPED_TRACE("kernel " + std::to_string(kernel) + ", padding " + std::to_string(padding));
     const Tensor x = randn64({2, 3, 6}, 4), w = randn64({4, 3, kernel}, 5);
     const Tensor y = ag::conv1d(x, w, Tensor(), padding);
@@ -75,7 +75,7 @@ TEST(Conv1d, AdjointsAreTheGradientsOfConv1d) {
 }
 
 TEST(Conv1d, GradcheckAndGradgradcheck) {
-  for (const auto& [kernel, padding] : kShapes) {
+  for (const auto& [kernel, padding] : kKernelPaddings) {
     const std::string shape = "(kernel " + std::to_string(kernel) + ", padding " + std::to_string(padding) + ")";
     const std::int64_t p = padding, k = kernel, out_length = 5 + 2 * padding - kernel + 1;
     expect_grad_and_gradgrad("conv1d " + shape, [p](const Inputs& in) { return ag::conv1d(in[0], in[1], in[2], p); },
@@ -89,17 +89,23 @@ TEST(Conv1d, GradcheckAndGradgradcheck) {
   }
 }
 
-TEST(Conv1d, Float32AgreesWithFloat64AndThreadsWithOne) {
+TEST(Conv1d, Float32AgreesWithFloat64AndTwoThreadsWithOne) {
   const Tensor x = randn64({16, 24, 16}, 14, false), w = randn64({48, 24, 5}, 15, false), b = randn64({48}, 16, false);
   const Tensor expected = ag::conv1d(x, w, b, 2);
-  const Tensor single = ag::conv1d(x.to(kF32), w.to(kF32), b.to(kF32), 2);
-  EXPECT_EQ(single.dtype(), kF32);
-  expect_close(single.to(kF64), expected, 1e-4);
-  const int threads = ag::num_threads();
-  ag::set_num_threads(2);
-  const Tensor two = ag::conv1d(x.to(kF32), w.to(kF32), b.to(kF32), 2);
-  ag::set_num_threads(threads);
-  expect_close(two, single, 0.0);
+  // The forward and both gradients (col2im, the weight's GEMM, the transposes) on `threads` threads, in float32.
+  const auto run = [&](int threads) {
+    const int before = ag::num_threads();
+    ag::set_num_threads(threads);
+    const Tensor x32 = x.to(kF32).requires_grad_(), w32 = w.to(kF32).requires_grad_();
+    const Tensor y = ag::conv1d(x32, w32, b.to(kF32), 2);
+    const auto grads = ag::grad({ag::sum(ag::square(y))}, {x32, w32});
+    ag::set_num_threads(before);
+    return std::vector<Tensor>{y.detach(), grads[0], grads[1]};
+  };
+  const std::vector<Tensor> one = run(1), two = run(2);
+  EXPECT_EQ(one[0].dtype(), kF32);
+  expect_close(one[0].to(kF64), expected, 1e-4);
+  for (std::size_t i = 0; i < one.size(); ++i) expect_close(two[i], one[i], 0.0);
 }
 
 TEST(Conv1d, RefusesShapesThatCannotBeMeant) {
@@ -125,7 +131,16 @@ TEST(Conv1d, RefusesShapesThatCannotBeMeant) {
         ag::conv1d(x, ag::zeros({4, 3, 3}, kF64), ag::zeros({3}, kF64), 1);
       },
       {"expected bias of shape [4]"});
-  expect_throw_with([&] { ag::conv1d(x, ag::zeros({4, 3, 3}, kF32), Tensor(), 1); }, {"conv1d"});
+  expect_throw_with(
+      [&] {
+        ag::conv1d(x, ag::zeros({4, 3, 3}, kF32), Tensor(), 1);
+      },
+      {"conv1d: weight is float32 but x is float64"});
+  expect_throw_with(
+      [&] {
+        ag::conv1d(x, ag::zeros({4, 3, 3}, kF64), ag::zeros({4}, kF32), 1);
+      },
+      {"conv1d: bias is float32 but x is float64"});
   expect_throw_with(
       [&] {
         ag::conv1d_input_grad(ag::zeros({2, 4, 5}, kF64), ag::zeros({4, 3, 3}, kF64), 4, 1);
@@ -136,7 +151,11 @@ TEST(Conv1d, RefusesShapesThatCannotBeMeant) {
         ag::conv1d_weight_grad(x, ag::zeros({2, 4, 3}, kF64), 3, 1);
       },
       {"conv1d_weight_grad", "is not the output of a kernel of 3"});
-  expect_throw_with([&] { ag::conv1d_weight_grad(x, ag::zeros({1, 4, 4}, kF64), 3, 1); }, {"conv1d_weight_grad"});
+  expect_throw_with(
+      [&] {
+        ag::conv1d_weight_grad(x, ag::zeros({1, 4, 4}, kF64), 3, 1);
+      },
+      {"conv1d_weight_grad: grad_output [1, 4, 4] has 1 rows, x [2, 3, 4] 2"});
 }
 
 }  // namespace

@@ -59,8 +59,12 @@ class GailSpeedTest(unittest.TestCase):
         self.assertIn("--maps", self.refusal("--maps", str(self.root / "missing")))
         self.assertIn("is not a file", self.refusal("--maps", str(self.root / "missing")))
         self.assertIn("maps collect --set gravity", self.refusal("--data", str(self.root / "missing.h5")))
-        self.assertIn("at least 2000", self.refusal("--env-steps", "1999"))
-        self.assertIn("--threads positive", self.refusal("--threads", "0"))
+        steps = self.refusal("--env-steps", "1999")
+        self.assertIn("--env-steps must be at least 2000", steps)
+        self.assertNotIn("--threads", steps)
+        threads = self.refusal("--threads", "1", "0")
+        self.assertIn("--threads must be positive, got 1 0", threads)
+        self.assertNotIn("--env-steps", threads)
 
     def test_rows_and_records_come_from_each_runs_train_json(self):
         code, printed = self.run_script("--methods", "mt_bc", "--threads", "1", "2", "--env-steps", "4000")
