@@ -62,6 +62,16 @@ TEST(Conv1d, MatchesItsDefinition) {
   }
 }
 
+// A kernel longer than x: no window lies inside x, every position reads padding (the ends' path alone).
+TEST(Conv1d, AKernelLongerThanTheInputReadsPaddingEverywhere) {
+  const Tensor x = randn64({2, 3, 3}, 17), w = randn64({2, 3, 5}, 18), b = randn64({2}, 19);
+  const Tensor y = ag::conv1d(x.detach(), w.detach(), b.detach(), 2);
+  EXPECT_EQ(y.shape(), (Shape{2, 2, 3}));
+  agtest::expect_values(y, y.shape(), conv1d_by_definition(x, w, b, 2), 1e-12);
+  expect_grad_and_gradgrad("conv1d (length 3, kernel 5)",
+                           [](const Inputs& in) { return ag::conv1d(in[0], in[1], in[2], 2); }, {x, w, b});
+}
+
 TEST(Conv1d, AdjointsAreTheGradientsOfConv1d) {
   for (const auto& [kernel, padding] : kKernelPaddings) {
     SCOPED_TRACE("kernel " + std::to_string(kernel) + ", padding " + std::to_string(padding));

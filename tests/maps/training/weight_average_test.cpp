@@ -146,6 +146,21 @@ TEST(WeightAverage, TheTrainerKeepsTheAverageAndResumesItExactly) {
   for (std::size_t i = 0; i < last.tensors.size(); ++i)
     EXPECT_EQ(again.tensors[i].tensor.to_vector(), last.tensors[i].tensor.to_vector()) << last.tensors[i].name;
 
+  // With keep_every, step_<N>.ckpt holds the average at step N too: the last kept step is the last step, whose
+  // average last.ckpt holds.
+  const fs::path kept = scratch_path("maps_weight_average_kept");
+  TrainConfig keeping = averaging_config();
+  keeping.keep_every = 30;
+  train_policy(*averaging_mt_bc(1), data, keeping, kept.string(), nullptr);
+  const auto step_60 = nn::load_tensors((kept / "step_60.ckpt").string());
+  for (const auto& average : averaged) {
+    const std::string& name = average.name;
+    const auto at =
+        std::find_if(step_60.tensors.begin(), step_60.tensors.end(), [&](const auto& t) { return t.name == name; });
+    ASSERT_NE(at, step_60.tensors.end()) << name;
+    EXPECT_EQ(at->tensor.to_vector(), average.tensor.to_vector()) << name;
+  }
+
   // A run resumes only with the setting it began with.
   TrainConfig without = averaging_config();
   without.ema_power = 0.0;
