@@ -8,12 +8,21 @@ void check_defined(const Tensor& t, const char* op, const char* name) {
   if (!t.defined()) throw std::invalid_argument(std::string(op) + ": the " + name + " is an undefined tensor");
 }
 
+namespace {
+[[noreturn]] void dtypes_differ(const Tensor& a, const std::string& a_name, const Tensor& b, const std::string& b_name,
+                                const char* op) {
+  throw std::invalid_argument(std::string(op) + ": dtypes differ: " + a_name + to_string(a.shape()) + " " +
+                              to_string(a.dtype()) + " and " + b_name + to_string(b.shape()) + " " +
+                              to_string(b.dtype()) + " (convert one with .to())");
+}
+}  // namespace
+
 void check_same_dtype(const Tensor& a, const Tensor& b, const char* op) {
-  if (a.dtype() != b.dtype()) {
-    throw std::invalid_argument(std::string(op) + ": dtypes differ: " + to_string(a.shape()) + " " +
-                                to_string(a.dtype()) + " and " + to_string(b.shape()) + " " + to_string(b.dtype()) +
-                                " (convert one with .to())");
-  }
+  if (a.dtype() != b.dtype()) dtypes_differ(a, "", b, "", op);
+}
+
+void check_same_dtype(const Tensor& a, const char* a_name, const Tensor& b, const char* b_name, const char* op) {
+  if (a.dtype() != b.dtype()) dtypes_differ(a, std::string(a_name) + " ", b, std::string(b_name) + " ", op);
 }
 
 BroadcastPlan plan_broadcast(const Shape& out, const Shape& a, const Shape& b) {

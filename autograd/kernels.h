@@ -34,6 +34,8 @@ using scalar_of = typename std::decay_t<Expr>::Scalar;
 
 void check_defined(const Tensor& t, const char* op, const char* name);
 void check_same_dtype(const Tensor& a, const Tensor& b, const char* op);
+// The same, naming the two inputs in the message (for ops whose inputs have roles: x, weight, bias).
+void check_same_dtype(const Tensor& a, const char* a_name, const Tensor& b, const char* b_name, const char* op);
 
 // Offsets of one row (the last output dim) of a broadcast: element j of the row reads
 // a[a_offset + j * a_step] and b[b_offset + j * b_step] (a step is 0 where that operand broadcasts).

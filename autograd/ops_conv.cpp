@@ -105,13 +105,6 @@ void check_layout(const Tensor& t, const char* op, const char* name) {
                                 to_string(t.shape()));
 }
 
-// Refuses `t` of another dtype than `like`, naming both inputs.
-void check_dtype(const Tensor& t, const char* name, const Tensor& like, const char* like_name, const char* op) {
-  if (t.dtype() != like.dtype())
-    throw std::invalid_argument(std::string(op) + ": " + name + " is " + to_string(t.dtype()) + " but " + like_name +
-                                " is " + to_string(like.dtype()));
-}
-
 void check_padding(std::int64_t padding, const char* op) {
   if (padding < 0)
     throw std::invalid_argument(std::string(op) + ": padding must be >= 0, got " + std::to_string(padding));
@@ -154,12 +147,12 @@ Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::in
     throw std::invalid_argument("conv1d: expected weight of shape [out, " + std::to_string(x.size(1)) +
                                 ", kernel] for x of shape " + to_string(x.shape()) + ", got " +
                                 to_string(weight.shape()));
-  check_dtype(weight, "weight", x, "x", "conv1d");
+  detail::check_same_dtype(weight, "weight", x, "x", "conv1d");
   if (bias.defined()) {
     if (bias.shape() != Shape{weight.size(0)})
       throw std::invalid_argument("conv1d: expected bias of shape [" + std::to_string(weight.size(0)) + "], got " +
                                   to_string(bias.shape()));
-    check_dtype(bias, "bias", x, "x", "conv1d");
+    detail::check_same_dtype(bias, "bias", x, "x", "conv1d");
   }
   check_padding(padding, "conv1d");
   const ConvShape s{x.size(0),
@@ -208,7 +201,7 @@ Tensor conv1d_input_grad(const Tensor& grad_output, const Tensor& weight, std::i
   const char* op = "conv1d_input_grad";
   check_layout(grad_output, op, "grad_output");
   detail::check_defined(weight, op, "weight");
-  check_dtype(weight, "weight", grad_output, "grad_output", op);
+  detail::check_same_dtype(weight, "weight", grad_output, "grad_output", op);
   check_padding(padding, op);
   if (weight.dim() != 3 || weight.size(0) != grad_output.size(1) || weight.size(2) < 1 || length < 1 ||
       output_length(length, weight.size(2), padding, op) != grad_output.size(2))
@@ -242,7 +235,7 @@ Tensor conv1d_weight_grad(const Tensor& x, const Tensor& grad_output, std::int64
   const char* op = "conv1d_weight_grad";
   check_layout(x, op, "x");
   check_layout(grad_output, op, "grad_output");
-  check_dtype(grad_output, "grad_output", x, "x", op);
+  detail::check_same_dtype(grad_output, "grad_output", x, "x", op);
   check_padding(padding, op);
   if (grad_output.size(0) != x.size(0))
     throw std::invalid_argument(std::string(op) + ": grad_output " + to_string(grad_output.shape()) + " has " +

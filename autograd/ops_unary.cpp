@@ -102,13 +102,21 @@ Tensor tanh(const Tensor& x) {
       Reads::none());
 }
 
+namespace {
+// An elementwise backward op's operands: the gradient and the tensor the rule reads (`name`), defined, of one dtype
+// and one shape.
+void check_backward_operands(const Tensor& grad, const Tensor& other, const char* name, const char* op) {
+  detail::check_defined(grad, op, "gradient");
+  detail::check_defined(other, op, name);
+  detail::check_same_dtype(grad, other, op);
+  if (grad.shape() != other.shape())
+    throw std::invalid_argument(std::string(op) + ": gradient " + to_string(grad.shape()) + " and " + name + " " +
+                                to_string(other.shape()) + " must have the same shape");
+}
+}  // namespace
+
 Tensor tanh_backward(const Tensor& grad, const Tensor& output) {
-  detail::check_defined(grad, "tanh_backward", "gradient");
-  detail::check_defined(output, "tanh_backward", "output");
-  detail::check_same_dtype(grad, output, "tanh_backward");
-  if (grad.shape() != output.shape())
-    throw std::invalid_argument("tanh_backward: gradient " + to_string(grad.shape()) + " and output " +
-                                to_string(output.shape()) + " must have the same shape");
+  check_backward_operands(grad, output, "output", "tanh_backward");
   Tensor out = empty(grad.shape(), grad.dtype());
   dispatch_dtype(grad.dtype(), [&](auto tag) {
     using T = typename decltype(tag)::type;
@@ -151,12 +159,7 @@ Tensor mish(const Tensor& x) {
 }
 
 Tensor mish_backward(const Tensor& grad, const Tensor& x) {
-  detail::check_defined(grad, "mish_backward", "gradient");
-  detail::check_defined(x, "mish_backward", "input");
-  detail::check_same_dtype(grad, x, "mish_backward");
-  if (grad.shape() != x.shape())
-    throw std::invalid_argument("mish_backward: gradient " + to_string(grad.shape()) + " and input " +
-                                to_string(x.shape()) + " must have the same shape");
+  check_backward_operands(grad, x, "input", "mish_backward");
   // d/dx x tanh(sp(x)) = t + x (1 - t^2) sigmoid(x), t = tanh(sp(x)); sp and sigmoid from one exp(-|x|), in Eigen's
   // vectorised functions (scalar std::tanh and std::exp made this pass slower than the ops it replaces).
   Tensor out = empty(x.shape(), x.dtype());

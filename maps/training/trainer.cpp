@@ -268,8 +268,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - from).count();
   };
   const auto validate_and_keep_best = [&] {
-    std::optional<WeightAverage::Applied> judged;  // with train.ema_power, the average is judged and kept
-    if (average) judged.emplace(*average);
+    const WeightAverage::Applied judged(averaged);  // with train.ema_power, the average is judged and kept
     const auto validation_start = std::chrono::steady_clock::now();
     const double valid = policy.validation_loss(validation, data);
     policy.train();
@@ -318,7 +317,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     }
     policy.after_step();
     ++progress.step;
-    if (average) average->update(progress.step);
+    if (averaged != nullptr) averaged->update(progress.step);
     if (term_names.empty()) {
       for (const auto& [name, value] : terms.terms) term_names.push_back(name);
       term_names.push_back("total");
@@ -373,8 +372,7 @@ TrainSummary train_policy(Policy& policy, const DemoDataset& data, const TrainCo
     if (keep || save) {
       const auto save_start = std::chrono::steady_clock::now();
       if (keep) {
-        std::optional<WeightAverage::Applied> kept_average;
-        if (average) kept_average.emplace(*average);
+        const WeightAverage::Applied kept_average(averaged);
         const std::string kept = (fs::path(run_dir) / run_files::kept_checkpoint(progress.step)).string();
         nn::save(policy, kept, policy_record(data, progress.step, std::nullopt).dump());
       }

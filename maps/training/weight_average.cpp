@@ -63,14 +63,17 @@ void WeightAverage::load(const nn::NamedTensors& values, const std::string& sour
   average_ = copies_of(values);
 }
 
-WeightAverage::Applied::Applied(WeightAverage& average) : average_(average), trained_(copies_of(average.parameters_)) {
+WeightAverage::Applied::Applied(WeightAverage* average) : average_(average) {
+  if (average_ == nullptr) return;
+  trained_ = copies_of(average_->parameters_);
   ag::NoGradGuard no_grad;
-  for (std::size_t i = 0; i < trained_.size(); ++i) average_.parameters_[i].tensor.copy_(average_.average_[i].tensor);
+  for (std::size_t i = 0; i < trained_.size(); ++i) average_->parameters_[i].tensor.copy_(average_->average_[i].tensor);
 }
 
 WeightAverage::Applied::~Applied() {
+  if (average_ == nullptr) return;
   ag::NoGradGuard no_grad;
-  for (std::size_t i = 0; i < trained_.size(); ++i) average_.parameters_[i].tensor.copy_(trained_[i].tensor);
+  for (std::size_t i = 0; i < trained_.size(); ++i) average_->parameters_[i].tensor.copy_(trained_[i].tensor);
 }
 
 }  // namespace maps::core

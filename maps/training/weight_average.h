@@ -27,16 +27,17 @@ class WeightAverage {
   // Replaces the values (a resumed run's); throws naming `source` unless the names, shapes and dtypes match.
   void load(const nn::NamedTensors& values, const std::string& source);
 
-  // Swaps the average into the parameters for the scope (validation, best.ckpt), and the trained values back after.
+  // Swaps the average into the parameters for the scope (validation, best.ckpt), and the trained values back after;
+  // a null average (a run keeping none) leaves the parameters alone.
   class Applied {
    public:
-    explicit Applied(WeightAverage& average);
+    explicit Applied(WeightAverage* average);
     ~Applied();
     Applied(const Applied&) = delete;
     Applied& operator=(const Applied&) = delete;
 
    private:
-    WeightAverage& average_;
+    WeightAverage* average_;
     nn::NamedTensors trained_;
   };
 

@@ -145,12 +145,12 @@ TEST(Conv1d, RefusesShapesThatCannotBeMeant) {
       [&] {
         ag::conv1d(x, ag::zeros({4, 3, 3}, kF32), Tensor(), 1);
       },
-      {"conv1d: weight is float32 but x is float64"});
+      {"conv1d: dtypes differ: weight [4, 3, 3] float32 and x [2, 3, 4] float64"});
   expect_throw_with(
       [&] {
         ag::conv1d(x, ag::zeros({4, 3, 3}, kF64), ag::zeros({4}, kF32), 1);
       },
-      {"conv1d: bias is float32 but x is float64"});
+      {"conv1d: dtypes differ: bias [4] float32 and x [2, 3, 4] float64"});
   expect_throw_with(
       [&] {
         ag::conv1d_input_grad(ag::zeros({2, 4, 5}, kF64), ag::zeros({4, 3, 3}, kF64), 4, 1);

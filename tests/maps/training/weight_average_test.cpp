@@ -54,7 +54,7 @@ TEST(WeightAverage, UpdatesByHandAndSwapsIntoTheParametersAndBack) {
   EXPECT_NE(averaged, w.to_vector());
   const std::vector<double> trained = w.to_vector();
   {
-    const WeightAverage::Applied applied(average);
+    const WeightAverage::Applied applied(&average);
     EXPECT_EQ(w.to_vector(), averaged);
   }
   EXPECT_EQ(w.to_vector(), trained);
