@@ -227,6 +227,12 @@ def section(title, body, empty):
     return ["", f"## {title}", ""] + (body if body else [empty])
 
 
+def holm_families(suite):
+    """The suite config's report.holm ("variant" when it says none; `maps suite` has checked the value)."""
+    report = suite.config.get("report") or {}
+    return report.get("holm", "variant") if isinstance(report, dict) else "variant"
+
+
 def per_set(suite, make, intro):
     """Each set's table from make(cells) under a heading, after the intro lines (or intro(set name)'s); [] when no set
     has one."""
@@ -283,6 +289,7 @@ def imitation_section(cells, draw):
 def report_lines(suite, draw, beside=None):
     cells = suite.cells
     beside = beside or Beside()
+    holm = holm_families(suite)
     lines = [f"# Suite report: {suite.root.name}", ""]
     if beside.quick:
         lines += [warning_line(beside), ""]
@@ -323,7 +330,7 @@ def report_lines(suite, draw, beside=None):
     if {c.method for c in cells} - set(claims.COMPARED):
         # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
         caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
-        lines += section("Against MAPS, every set", per_set(suite, tables.paired_table, caveat),
+        lines += section("Against MAPS, every set", per_set(suite, lambda c: tables.paired_table(c, holm), caveat),
                          "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds).")
 
     lines += section("Aggregate statistics: IQM and probability of improvement",
@@ -338,7 +345,7 @@ def report_lines(suite, draw, beside=None):
         if success_scored(set_name, mine):
             rules = tables.success_rules_table(mine)
             lines += [""] + rules if rules else []
-        paired = tables.paired_table(mine)
+        paired = tables.paired_table(mine, holm)
         paired = adaptive_seeds_caveat(suite, set_name) + paired if paired else paired
         lines += ["", "### Paired differences from MAPS", ""] + (paired or [
             "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds)."])

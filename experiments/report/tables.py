@@ -121,10 +121,14 @@ def score_table(cells):
                                                                                                 "best step"], rows)
 
 
-def paired_table(cells):
+def paired_table(cells, holm="variant"):
     """Every method other than MAPS against MAPS, paired by seed. A variant ("mt_bc (paper_protocol)") is paired with
     MAPS under the same variant when that ran, else with base MAPS (a control such as the wide MT-BC); MAPS's own
-    variants are in variant_table. Holm adjusts within a family: the comparisons made under one variant."""
+    variants are in variant_table. Holm adjusts within a family: with holm "variant" (the default) the comparisons
+    made under one variant, with "set" every comparison of the cells (one set's), for a suite whose variants are
+    methods of their own (the suite config's report.holm)."""
+    if holm not in ("variant", "set"):
+        raise ValueError(f"holm: expected 'variant' or 'set', got {holm!r}")
     by_key = groups(cells)
     rows, families = [], []
     for key, runs in by_key.items():
@@ -138,15 +142,19 @@ def paired_table(cells):
         if diffs:
             rows.append([key.label, against, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True),
                          paired_p(diffs)])
-            families.append(variant)
+            families.append(variant if holm == "variant" else "set")
     if not rows:
         return []
     rows, sizes = holm_columns(rows, families)
-    family_text = "; ".join(f"{'the base methods' if not f else f}: {n}" for f, n in sizes.items() if n) or "none"
+    if holm == "set":
+        family_text = f"Holm: p adjusted over all {sizes['set']} comparisons of the set (one family: the suite's" \
+                      " report.holm \"set\")"
+    else:
+        family_text = "Holm: p adjusted within the comparisons of one variant (" + ("; ".join(
+            f"{'the base methods' if not f else f}: {n}" for f, n in sizes.items() if n) or "none") + ")"
     return (["Paired difference of the mean score over tasks, method - MAPS, over the seeds both ran (mean +- 95% CI;"
              " p: paired t test; a variant is paired with MAPS under the same variant where that ran, else with base"
-             " MAPS; Holm: p adjusted within the comparisons of one variant (" + family_text + "); a difference"
-             " holds where the Holm p is below 0.05):", ""]
+             " MAPS; " + family_text + "; a difference holds where the Holm p is below 0.05):", ""]
             + table(["method", "against", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
 

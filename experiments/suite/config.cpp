@@ -169,10 +169,16 @@ Json merge_json(Json base, const Json& more) {
 }
 
 Suite parse_suite(const Json& json, const std::string& where) {
-  check_keys(json, where, {"description", "plugins", "defaults", "sets", "variants", "grids"});
+  check_keys(json, where, {"description", "plugins", "defaults", "sets", "variants", "grids", "report"});
   Suite suite;
   suite.source = json;
   if (json.contains("description")) checked(json["description"], "description", where + ".description");
+  // Read by `maps report` alone (experiments/report/tables.py); checked here so that a typo fails at plan time.
+  if (json.contains("report")) {
+    if (!json["report"].is_object()) throw std::invalid_argument(where + ".report: expected an object");
+    check_keys(json["report"], where + ".report", {"holm"});
+    if (json["report"].contains("holm")) checked(json["report"]["holm"], "report.holm", where + ".report.holm");
+  }
   // Loaded first: the grids may name their methods and the cells' configs their selector losses. load_suite has
   // made the paths absolute (relative to the config's folder); a JSON parsed on its own has them from the working
   // directory.

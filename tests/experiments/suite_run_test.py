@@ -163,6 +163,9 @@ class SuiteTest(unittest.TestCase):
             (lambda c: c["grids"].append(dict(c["grids"][1])), "names two grids"),
             (lambda c: c["variants"].update(base={}), "is not a variant name"),
             (lambda c: c["grids"][0].update(demos={"gravity": [2], "mt11": [1]}), "'mt11' is not a task set"),
+            (lambda c: c.update(report=["set"]), ".report: expected an object"),
+            (lambda c: c.update(report={"holm_family": "set"}), "unknown key 'holm_family'"),
+            (lambda c: c.update(report={"holm": "method"}), 'report.holm: expected "variant" or "set", got "method"'),
         ]
         for mutate, message in cases:
             config = copy.deepcopy(base)

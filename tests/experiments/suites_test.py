@@ -233,6 +233,22 @@ class Report(unittest.TestCase):
         self.assertEqual(rows_of(paired, ["maps (paper_protocol)"]), [])
         self.assertIn("the base methods: 3; w430: 1", gravity)
 
+    def test_holm_over_the_set_joins_every_comparison_in_one_family(self):
+        """report.holm "set" (a suite whose variants are methods, zoo-modern.json): the same pairs as above, Holm over
+        the set's four comparisons with a p: MT-BC's 0.2047 x 4 = 0.819, then 0.374 x 3 and 0.500 x 2 capped at 1."""
+        import report
+        suite = suite_results.load_suite(FIXTURE)
+        gravity = "\n".join(tables.paired_table(suite.cells_of("gravity"), "set"))
+        self.assertEqual(row_of(gravity, ["mt_bc", "maps", "5"])[4:], ["2", "-0.15 +- 0.64", "0.205", "0.819"])
+        self.assertEqual(row_of(gravity, ["single_bc", "maps", "5"])[6:], ["0.500", "1.000"])
+        self.assertEqual(row_of(gravity, ["mt_bc (w430)", "maps", "5"])[6:], ["0.500", "1.000"])
+        self.assertIn("Holm: p adjusted over all 4 comparisons of the set", gravity)
+        self.assertEqual(report.holm_families(suite), "variant")  # the fixture's suite config says none
+        suite.config["report"] = {"holm": "set"}
+        self.assertEqual(report.holm_families(suite), "set")
+        with self.assertRaisesRegex(ValueError, "holm: expected 'variant' or 'set', got 'family'"):
+            tables.paired_table(suite.cells_of("gravity"), "family")
+
     def test_pooling_is_paired_with_single_bc_and_holm_corrected(self):
         gravity = between(self.md, "## Set gravity", "## Set mt10")
         pooling = between(gravity, "### Paired differences from Single BC", "###")
