@@ -46,7 +46,11 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   // to the registry since) is estimated as MAPS, whose parameter budget the zoo's methods match by default.
   std::string method = cell.method == "transfer" ? "maps" : cell.method;
   const Json empty = Json::object();
-  if (!json.value("sets", empty).value(cell.set, empty).value("methods", empty).contains(method)) method = "maps";
+  std::string estimated_as;
+  if (!json.value("sets", empty).value(cell.set, empty).value("methods", empty).contains(method)) {
+    if (cell.method != "transfer") estimated_as = "maps";
+    method = "maps";
+  }
   try {
     entry = &json.at("sets").at(cell.set).at("methods").at(method);
   } catch (const Json::exception&) {
@@ -114,7 +118,8 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
             .training = training,
             .evaluation = r["eval"]["episodes"].get<double>() * evaluated_tasks * cost("episode_seconds", true),
             .validation = 0.0,
-            .checkpointing = 0.0};
+            .checkpointing = 0.0,
+            .estimated_as = estimated_as};
   }
   // A bf16 cell's steps at their own measured cost (validation and evaluation run float32 in both).
   const bool bf16 = r["train"].value("precision", std::string("float32")) == "bf16";
@@ -144,7 +149,8 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
       .training = steps * step + validation + checkpointing,
       .evaluation = evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks * cost("episode_seconds", true),
       .validation = validation,
-      .checkpointing = checkpointing};
+      .checkpointing = checkpointing,
+      .estimated_as = estimated_as};
 }
 
 double CostTable::collect_seconds(const std::string& set) const {

@@ -35,6 +35,8 @@ struct CostTable {
     // Of training: scoring the validation states, and writing checkpoints (best.ckpt counted at every
     // validation: an upper bound, as it is written only when the validation loss improves).
     double validation = 0.0, checkpointing = 0.0;
+    // Empty, or the method whose measured cost stood in for the cell's unmeasured one ("maps").
+    std::string estimated_as;
     double total() const { return overhead + training + evaluation; }
   };
   // Throws naming the set and method when the table lacks them.

@@ -203,6 +203,23 @@ class SuiteTest(unittest.TestCase):
         text = maps("suite", "plan", TINY, "--costs", self.dir / "costs.json").stdout
         self.assertRegex(text, r"of which training steps [0-9.]+%, validation [0-9.]+%, checkpoints [0-9.]+% \(at most\)")
 
+    def test_a_method_the_table_has_not_measured_is_estimated_as_maps_and_named(self):
+        costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        config = json.loads(TINY.read_text())
+        config["grids"] = [{"name": "two", "sets": ["gravity"], "methods": ["maps", "mt_bc"], "seeds": [0]}]
+        suite = write_config(self.dir, config, "two_methods.json")
+        measured = plan(suite, "--costs", write_config(self.dir, costs, "all_costs.json"))
+        self.assertEqual(measured["unmeasured"], [])
+        del costs["sets"]["gravity"]["methods"]["mt_bc"]
+        table = write_config(self.dir, costs, "no_mt_bc.json")
+        estimated = plan(suite, "--costs", table)
+        self.assertEqual(estimated["unmeasured"], ["mt_bc on gravity"])
+        seconds = {c["method"]: c["estimated_seconds"] for c in estimated["cells"]}
+        self.assertAlmostEqual(seconds["mt_bc"], seconds["maps"], places=6)  # the same request but for the method
+        text = maps("suite", "plan", suite, "--costs", table).stdout
+        self.assertIn("not measured, estimated at MAPS's cost per step and episode", text)
+        self.assertIn("mt_bc on gravity", text)
+
     def test_gail_cells_are_priced_by_their_env_steps_or_refused_without_a_gail_cost(self):
         costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
         for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
