@@ -16,6 +16,7 @@
 #ifdef MAPS_HAVE_GIF
 #include "envs/render/gif_file.h"
 #endif
+#include "maps/evaluation/step_actions.h"
 #include "maps/policies/maps_policy.h"
 
 namespace maps::experiments {
@@ -78,20 +79,13 @@ int run_render_policy(const RenderOptions& options) {
   };
   auto act = [&](const Eigen::VectorXd& observation) {
     ag::NoGradGuard no_grad;
-    auto predict = [&] {
-      const ag::Tensor x = data.standardizer().apply(Eigen::MatrixXd(observation.transpose()), dtype);
-      const ag::Tensor before = data.standardizer().apply(Eigen::MatrixXd(previous.transpose()), dtype);
-      return Eigen::VectorXd(ag::to_eigen_double(run.policy->act_with_history(x, before, {task})).row(0).transpose());
-    };
-    Eigen::VectorXd action;
-    if (!executor) {
-      action = predict();
-    } else {
-      if (executor->needs_chunk()) executor->add(predict());
-      action = executor->action();
-    }
+    const ag::Tensor x = data.standardizer().apply(Eigen::MatrixXd(observation.transpose()), dtype);
+    const ag::Tensor before = data.standardizer().apply(Eigen::MatrixXd(previous.transpose()), dtype);
+    std::vector<chunking::ChunkExecutor*> executors;
+    if (executor) executors.push_back(&*executor);
     previous = observation;
-    return action;
+    return Eigen::VectorXd(
+        core::step_actions(*run.policy, x, before, task, executors, options.task).row(0).transpose());
   };
   const std::uint64_t seed = options.seed_given ? options.seed : envs::kEvalSeedBegin;
 

@@ -17,6 +17,7 @@
 
 #include "envs/env.h"
 #include "envs/task_sets.h"
+#include "maps/evaluation/step_actions.h"
 
 namespace maps::core {
 
@@ -180,17 +181,9 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
   const chunking::ActionChunking& chunking = policy.chunking();
   const bool by_chunks = chunking.chunked();
   const bool with_history = chunking.previous_observation;
-  const std::int64_t predicted_size = by_chunks ? chunking.horizon * action_size : action_size;
   std::vector<chunking::ChunkExecutor> executors;
   if (by_chunks) executors.assign(envs.size(), chunking::ChunkExecutor(chunking, action_size));
   Eigen::MatrixXd prev(with_history ? env_count : 0, obs_size);
-  auto check_actions = [&](const ag::Tensor& a, std::int64_t rows) {
-    if (!a.defined() || a.dim() != 2 || a.size(0) != rows || a.size(1) != predicted_size)
-      throw std::runtime_error("evaluate: task '" + task + "': the policy returned actions of shape " +
-                               shape_string(a) + ", expected [" + std::to_string(rows) + ", " +
-                               std::to_string(predicted_size) + "] (one row per " +
-                               (by_chunks ? "episode asking for a chunk" : "running episode") + ")");
-  };
   std::size_t next_episode = 0;
   auto start_episode = [&](std::size_t env, Eigen::Index row) {
     const Eigen::VectorXd first = envs[env]->reset(config.first_seed + next_episode);
@@ -226,28 +219,10 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
       ag::NoGradGuard no_grad;
       const ag::Tensor x = standardizer.apply(obs, config.dtype);
       const ag::Tensor before = with_history ? standardizer.apply(prev, config.dtype) : x;
-      if (!by_chunks) {
-        const ag::Tensor a = with_history ? policy.act_with_history(x, before, ids) : policy.act(x, ids);
-        check_actions(a, n);
-        actions = ag::to_eigen_double(a);
-      } else {
-        // Only the episodes whose executor asks for a chunk query the policy (all of them when ensembling).
-        std::vector<std::int64_t> asking;
-        for (std::size_t j = 0; j < running.size(); ++j)
-          if (executors[running[j].env].needs_chunk()) asking.push_back(static_cast<std::int64_t>(j));
-        if (!asking.empty()) {
-          const ag::Tensor a = policy.act_with_history(ag::index_select(x, asking), ag::index_select(before, asking),
-                                                       std::vector<std::int64_t>(asking.size(), task_id));
-          check_actions(a, static_cast<std::int64_t>(asking.size()));
-          const ag::RowMatrixD chunks = ag::to_eigen_double(a);
-          for (std::size_t i = 0; i < asking.size(); ++i)
-            executors[running[static_cast<std::size_t>(asking[i])].env].add(
-                chunks.row(static_cast<Eigen::Index>(i)).transpose());
-        }
-        actions.resize(n, action_size);
-        for (std::size_t j = 0; j < running.size(); ++j)
-          actions.row(static_cast<Eigen::Index>(j)) = executors[running[j].env].action().transpose();
-      }
+      std::vector<chunking::ChunkExecutor*> row_executors;
+      if (by_chunks)
+        for (const Running& r : running) row_executors.push_back(&executors[r.env]);
+      actions = step_actions(policy, x, before, task_id, row_executors, task);
       if (usage != nullptr) {
         const ag::Tensor u = (*usage)(x, ids);
         const bool width_ok = usage_sum.size() == 0 || (u.defined() && u.dim() == 2 && u.size(1) == usage_sum.size());

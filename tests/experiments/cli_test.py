@@ -22,6 +22,36 @@ def dotted_keys(value, prefix=""):
         yield prefix
 
 
+class ChunkedRender(unittest.TestCase):
+    def test_render_acts_as_the_evaluator_for_a_policy_predicting_chunks(self):
+        """`maps render` and `maps eval` share one step (maps/evaluation/step_actions.h): the rendered episode of a
+        policy predicting chunks returns what the evaluator's first episode (the same seed) returns. On the cheetah,
+        whose reward is dense, so the returns tell the action sequences apart."""
+        if "--every" not in run("render", "--help").stdout:
+            self.skipTest("built without the renderer")
+        run("collect", "--set", "gravity", "--demos", "2", "--out", "gravity.h5", "--threads", "1")
+        config = work() / "chunked.json"
+        config.write_text(json.dumps({"method": "mt_bc", "data": {"file": "gravity.h5"},
+                                      "train": {"steps": 50, "validate_every": 50, "checkpoint_every": 50,
+                                                "validation_states_per_task": 50},
+                                      "chunking": {"horizon": 4, "execution": "open_loop", "execute": 2},
+                                      "eval": {"episodes": 1, "threads": 1, "tasks": ["gravity/1.0"]}}))
+        out = work() / "chunked"
+        run("train", "--config", config, "--out", out)
+        run("eval", "--run", out)
+        evaluated = json.loads((out / "eval.json").read_text())["tasks"][0]
+        self.assertEqual(evaluated["task"], "gravity/1.0")
+        strip = work() / "cheetah.png"
+        proc = run("render", "--run", out, "--task", "gravity/1.0", "--out", strip, "--width", "64", "--height",
+                   "48", "--frames", "2", check=False)
+        if proc.returncode != 0 and "PNG" in proc.stderr:
+            self.skipTest("built without libpng")
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        rendered = float(re.search(r"return (-?[0-9.]+)", proc.stdout).group(1))
+        self.assertGreater(abs(evaluated["returns"][0]), 1.0)
+        self.assertAlmostEqual(rendered, evaluated["returns"][0], delta=0.051)  # render prints one decimal
+
+
 class Tool(unittest.TestCase):
     @classmethod
     def setUpClass(cls):

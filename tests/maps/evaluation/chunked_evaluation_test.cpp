@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "maps/evaluation/evaluator.h"
+#include "maps/evaluation/step_actions.h"
 #include "tests/common/error_of.h"
 
 namespace maps::core {
@@ -101,11 +102,16 @@ EvaluationResult run(RecordingChunkPolicy& policy, int episodes, int envs_per_ta
 
 int length_of(int seed) { return 3 + seed % 5; }
 
-TEST(ChunkedEvaluation, OpenLoopQueriesEveryExecuteStepsAndTakesTheChunksActionsInOrder) {
+chunking::ActionChunking open_loop(std::int64_t horizon, std::int64_t execute) {
   chunking::ActionChunking c;
-  c.horizon = 4;
+  c.horizon = horizon;
   c.execution = "open_loop";
-  c.execute = 3;
+  c.execute = execute;
+  return c;
+}
+
+TEST(ChunkedEvaluation, OpenLoopQueriesEveryExecuteStepsAndTakesTheChunksActionsInOrder) {
+  const chunking::ActionChunking c = open_loop(4, 3);
   RecordingChunkPolicy policy(c);
   const EvaluationResult result = run(policy, 6, 4);
   std::size_t expected_queries = 0;
@@ -176,6 +182,30 @@ TEST(ChunkedEvaluation, AChunkOfTheWrongWidthIsNamed) {
   bad.execution = "closed";
   EXPECT_THAT(error_of([&] { chunking::check_action_chunking(bad, "chunking"); }),
               HasSubstr("config chunking.execution: expected \"ensemble\" or \"open_loop\""));
+}
+
+// The step that the evaluator and `maps render` share: only the rows whose executor asks are queried, in one call,
+// and each row acts by its own executor.
+TEST(ChunkedEvaluation, StepActionsQueriesOnlyTheAskingRowsAndActsByEachRowsExecutor) {
+  const chunking::ActionChunking c = open_loop(2, 2);
+  RecordingChunkPolicy policy(c);
+  chunking::ChunkExecutor first(c, 2), second(c, 2);
+  const ag::Tensor step0 = ag::from_eigen(ag::RowMatrixD{{0.0, 7.0, 0.0}, {10.0, 8.0, 0.0}});
+  ag::RowMatrixD a = step_actions(policy, step0, step0, 0, {&first, &second}, "toy/a");
+  ASSERT_EQ(policy.asked.size(), 2u);
+  EXPECT_DOUBLE_EQ(a(0, 0), 0.0);
+  EXPECT_DOUBLE_EQ(a(1, 0), 1.0);
+  // Next step: both executors still hold their chunk's second action; a third, new episode asks alone.
+  chunking::ChunkExecutor third(c, 2);
+  const ag::Tensor step1 = ag::from_eigen(ag::RowMatrixD{{1.0, 7.0, 0.0}, {11.0, 8.0, 0.0}, {20.0, 9.0, 0.0}});
+  a = step_actions(policy, step1, step1, 0, {&first, &second, &third}, "toy/a");
+  ASSERT_EQ(policy.asked.size(), 3u);
+  EXPECT_DOUBLE_EQ(policy.asked.back().seed, 9.0);
+  EXPECT_DOUBLE_EQ(a(0, 0), 0.001);
+  EXPECT_DOUBLE_EQ(a(1, 0), 1.001);
+  EXPECT_DOUBLE_EQ(a(2, 0), 2.0);
+  EXPECT_THAT(error_of([&] { step_actions(policy, step1, step1, 0, {&first}, "toy/a"); }),
+              HasSubstr("step_actions: task 'toy/a': 1 executors for 3 running episodes"));
 }
 
 }  // namespace
