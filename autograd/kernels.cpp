@@ -8,6 +8,13 @@ void check_defined(const Tensor& t, const char* op, const char* name) {
   if (!t.defined()) throw std::invalid_argument(std::string(op) + ": the " + name + " is an undefined tensor");
 }
 
+void check_1d_layout(const Tensor& t, const char* op, const char* name) {
+  check_defined(t, op, name);
+  if (t.dim() != 3)
+    throw std::invalid_argument(std::string(op) + ": expected " + name + " of shape [batch, channels, length], got " +
+                                to_string(t.shape()));
+}
+
 namespace {
 [[noreturn]] void dtypes_differ(const Tensor& a, const std::string& a_name, const Tensor& b, const std::string& b_name,
                                 const char* op) {

@@ -33,6 +33,9 @@ template <typename Expr>
 using scalar_of = typename std::decay_t<Expr>::Scalar;
 
 void check_defined(const Tensor& t, const char* op, const char* name);
+// A defined tensor of the 1-D convolutions' layout [batch, channels, length] (conv1d and its adjoints, the U-Net's
+// resampling in nn::functional).
+void check_1d_layout(const Tensor& t, const char* op, const char* name);
 void check_same_dtype(const Tensor& a, const Tensor& b, const char* op);
 // The same, naming the two inputs in the message (for ops whose inputs have roles: x, weight, bias).
 void check_same_dtype(const Tensor& a, const char* a_name, const Tensor& b, const char* b_name, const char* op);

@@ -98,13 +98,6 @@ void transpose_each(const T* src, std::int64_t batch, std::int64_t rows, std::in
   });
 }
 
-void check_layout(const Tensor& t, const char* op, const char* name) {
-  detail::check_defined(t, op, name);
-  if (t.dim() != 3)
-    throw std::invalid_argument(std::string(op) + ": expected " + name + " of shape [batch, channels, length], got " +
-                                to_string(t.shape()));
-}
-
 void check_padding(std::int64_t padding, const char* op) {
   if (padding < 0)
     throw std::invalid_argument(std::string(op) + ": padding must be >= 0, got " + std::to_string(padding));
@@ -141,7 +134,7 @@ Tensor weight_gradient(const Tensor& x, const Tensor& grad_output, const ConvSha
 }  // namespace
 
 Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::int64_t padding) {
-  check_layout(x, "conv1d", "x");
+  detail::check_1d_layout(x, "conv1d", "x");
   detail::check_defined(weight, "conv1d", "weight");
   if (weight.dim() != 3 || weight.size(1) != x.size(1) || weight.size(2) < 1)
     throw std::invalid_argument("conv1d: expected weight of shape [out, " + std::to_string(x.size(1)) +
@@ -199,7 +192,7 @@ Tensor conv1d(const Tensor& x, const Tensor& weight, const Tensor& bias, std::in
 
 Tensor conv1d_input_grad(const Tensor& grad_output, const Tensor& weight, std::int64_t length, std::int64_t padding) {
   const char* op = "conv1d_input_grad";
-  check_layout(grad_output, op, "grad_output");
+  detail::check_1d_layout(grad_output, op, "grad_output");
   detail::check_defined(weight, op, "weight");
   detail::check_same_dtype(weight, "weight", grad_output, "grad_output", op);
   check_padding(padding, op);
@@ -233,8 +226,8 @@ Tensor conv1d_input_grad(const Tensor& grad_output, const Tensor& weight, std::i
 
 Tensor conv1d_weight_grad(const Tensor& x, const Tensor& grad_output, std::int64_t kernel, std::int64_t padding) {
   const char* op = "conv1d_weight_grad";
-  check_layout(x, op, "x");
-  check_layout(grad_output, op, "grad_output");
+  detail::check_1d_layout(x, op, "x");
+  detail::check_1d_layout(grad_output, op, "grad_output");
   detail::check_same_dtype(grad_output, "grad_output", x, "x", op);
   check_padding(padding, op);
   if (grad_output.size(0) != x.size(0))

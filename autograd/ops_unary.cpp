@@ -27,6 +27,13 @@ Tensor mask_of(const Tensor& x, Pred pred) {
     return a.unaryExpr([pred](T v) { return pred(v) ? T(1) : T(0); });
   });
 }
+// softplus(a) = max(a, 0) + log1p(e) with e = exp(-|a|): no overflow for large a, no loss of precision for very
+// negative a. softplus, mish and mish's rule each evaluate it (mish's rule reuses e for the sigmoid).
+template <typename A, typename E>
+auto stable_softplus(const A& a, const E& e) {
+  return a.max(scalar_of<A>(0)) + e.log1p();
+}
+
 }  // namespace
 
 Tensor neg(const Tensor& x) {
@@ -136,25 +143,14 @@ Tensor tanh_backward(const Tensor& grad, const Tensor& output) {
 }
 
 Tensor softplus(const Tensor& x) {
-  // max(x, 0) + log1p(exp(-|x|)): no overflow for large x, no loss of precision for very negative x.
   Tensor out = unary_kernel(
-      x, "softplus",
-      [](const auto& a) {
-        using T = scalar_of<decltype(a)>;
-        return a.max(T(0)) + (-a.abs()).exp().log1p();
-      },
-      kTranscendentalGrain);
+      x, "softplus", [](const auto& a) { return stable_softplus(a, (-a.abs()).exp()); }, kTranscendentalGrain);
   return record("softplus", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{mul(g, sigmoid(x))}; });
 }
 
 Tensor mish(const Tensor& x) {
   Tensor out = unary_kernel(
-      x, "mish",
-      [](const auto& a) {
-        using T = scalar_of<decltype(a)>;
-        return a * (a.max(T(0)) + (-a.abs()).exp().log1p()).tanh();
-      },
-      kTranscendentalGrain);
+      x, "mish", [](const auto& a) { return a * stable_softplus(a, (-a.abs()).exp()).tanh(); }, kTranscendentalGrain);
   return record("mish", out, {x}, [x](const Tensor& g, const Needs&, Node&) { return Grads{mish_backward(g, x)}; });
 }
 
@@ -174,7 +170,7 @@ Tensor mish_backward(const Tensor& grad, const Tensor& x) {
         [&](std::int64_t begin, std::int64_t end) {
           const Eigen::Map<const Array> a(v + begin, end - begin), ga(g + begin, end - begin);
           const Array e = (-a.abs()).exp();
-          const Array t = (a.max(T(0)) + e.log1p()).tanh();
+          const Array t = stable_softplus(a, e).tanh();
           const Array s = (a >= T(0)).select(T(1) / (T(1) + e), e / (T(1) + e));
           Eigen::Map<Array>(o + begin, end - begin) = ga * (t + a * (T(1) - t * t) * s);
         },

@@ -5,17 +5,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "autograd/kernels.h"
+
 namespace maps::nn::functional {
 
 namespace {
 
 std::string shape_text(const ag::Tensor& x) { return ag::to_string(x.shape()); }
-
-void require_1d_layout(const ag::Tensor& x, const char* op) {
-  if (x.dim() != 3)
-    throw std::invalid_argument(std::string(op) + ": expected x of shape [batch, channels, length], got " +
-                                shape_text(x));
-}
 
 }  // namespace
 
@@ -38,7 +34,7 @@ ag::Tensor conv1d(const ag::Tensor& x, const ag::Tensor& weight, const ag::Tenso
 }
 
 ag::Tensor downsample2(const ag::Tensor& x) {
-  require_1d_layout(x, "downsample2");
+  ag::detail::check_1d_layout(x, "downsample2", "x");
   const std::int64_t length = x.shape()[2];
   if (length % 2 != 0)
     throw std::invalid_argument("downsample2: the length must be even, got x of shape " + shape_text(x));
@@ -47,7 +43,7 @@ ag::Tensor downsample2(const ag::Tensor& x) {
 }
 
 ag::Tensor upsample2(const ag::Tensor& x) {
-  require_1d_layout(x, "upsample2");
+  ag::detail::check_1d_layout(x, "upsample2", "x");
   const ag::Shape& s = x.shape();
   return ag::reshape(ag::expand(ag::reshape(x, {s[0], s[1], s[2], 1}), {s[0], s[1], s[2], 2}), {s[0], s[1], 2 * s[2]});
 }
