@@ -99,7 +99,11 @@ const std::vector<io::Field>& training_state_schema() {
     io::Field rng = field("rng", io::ValueKind::kString, "string", -kInf, kInf, "the batch generator's state");
     rng.required = true;
     rng.non_empty = true;
-    return std::vector<io::Field>{format, step, best_step, best_validation, rng};
+    io::Field ema_power = field("ema_power", io::ValueKind::kNumber, "float", 0, 10,
+                                "train.ema_power of the average the run keeps (absent: none, or not recorded)");
+    io::Field ema_max_decay =
+        field("ema_max_decay", io::ValueKind::kNumber, "float", 0, 0.999999, "train.ema_max_decay of that average");
+    return std::vector<io::Field>{format, step, best_step, best_validation, rng, ema_power, ema_max_decay};
   }();
   return schema;
 }
@@ -116,11 +120,14 @@ Json to_json(const PolicyRecord& r) {
 }
 
 Json to_json(const TrainingState& s) {
-  return {{"format", kTrainingStateFormat},
-          {"step", s.step},
-          {"best_step", s.best_step},
-          {"best_validation", std::isfinite(s.best_validation) ? Json(s.best_validation) : Json(nullptr)},
-          {"rng", s.rng}};
+  Json record{{"format", kTrainingStateFormat},
+              {"step", s.step},
+              {"best_step", s.best_step},
+              {"best_validation", std::isfinite(s.best_validation) ? Json(s.best_validation) : Json(nullptr)},
+              {"rng", s.rng}};
+  if (s.ema_power) record["ema_power"] = *s.ema_power;
+  if (s.ema_max_decay) record["ema_max_decay"] = *s.ema_max_decay;
+  return record;
 }
 
 std::string record_format(const std::string& text) {
@@ -171,6 +178,8 @@ TrainingState read_training_state(const std::string& text, const std::string& wh
                              std::to_string(s.step));
   if (const Json& best = record.at("best_validation"); !best.is_null()) s.best_validation = best.get<double>();
   s.rng = record.at("rng").get<std::string>();
+  if (record.contains("ema_power")) s.ema_power = record.at("ema_power").get<double>();
+  if (record.contains("ema_max_decay")) s.ema_max_decay = record.at("ema_max_decay").get<double>();
   return s;
 }
 

@@ -28,6 +28,9 @@ struct TrainingState {
   std::int64_t best_step = -1;        // -1: no validation yet
   double best_validation = INFINITY;  // null in the record
   std::string rng;                    // std::mt19937_64's state as its operator<< writes it
+  // The average of the weights the run keeps (train.ema_power, train.ema_max_decay), recorded since 2026-12-03 by
+  // runs keeping one, so that a resumed run can be held to the average it began with; absent: none, or not recorded.
+  std::optional<double> ema_power, ema_max_decay;
 };
 
 inline constexpr const char* kPolicyRecordFormat = "maps-policy 1";

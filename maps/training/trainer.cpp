@@ -54,6 +54,10 @@ void save_last(const std::string& path, const Policy& policy, const optim::Adam&
   state.best_step = progress.best_step;
   state.best_validation = progress.best_validation;
   state.rng = rng_text.str();
+  if (average != nullptr) {
+    state.ema_power = average->power();
+    state.ema_max_decay = average->max_decay();
+  }
   nn::save_tensors(path, tensors, to_json(state).dump());
 }
 
@@ -67,6 +71,13 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, W
                              " average of the parameters, and this run has train.ema_power " +
                              (average == nullptr ? "0" : "above 0") +
                              ": a run resumes with the train.ema_power it began with");
+  if (average != nullptr && ((state.ema_power && *state.ema_power != average->power()) ||
+                             (state.ema_max_decay && *state.ema_max_decay != average->max_decay())))
+    throw std::runtime_error("training checkpoint " + path + " averages the parameters with train.ema_power " +
+                             Json(state.ema_power.value_or(average->power())).dump() + " and ema_max_decay " +
+                             Json(state.ema_max_decay.value_or(average->max_decay())).dump() + ", and this run has " +
+                             Json(average->power()).dump() + " and " + Json(average->max_decay()).dump() +
+                             ": a run resumes with the average it began with");
   try {
     policy.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPolicyPrefix));
     adam.load_state(nn::strip_prefix(checkpoint.tensors, kAdamPrefix));

@@ -22,6 +22,9 @@ class WeightAverage {
   // After optimiser update `update` (1 for the first).
   void update(std::int64_t update);
 
+  double power() const { return power_; }
+  double max_decay() const { return max_decay_; }
+
   // The average's values under the parameters' names (copies in the parameters' dtypes, not shared with the policy).
   const nn::NamedTensors& values() const { return average_; }
   // Replaces the values (a resumed run's); throws naming `source` unless the names, shapes and dtypes match.

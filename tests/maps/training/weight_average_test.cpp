@@ -15,6 +15,7 @@
 
 #include "autograd/autograd.h"
 #include "maps/policies/mt_bc.h"
+#include "maps/training/checkpoint_record.h"
 #include "maps/training/run_config.h"
 #include "maps/training/trainer.h"
 #include "nn/serialize.h"
@@ -167,6 +168,20 @@ TEST(WeightAverage, TheTrainerKeepsTheAverageAndResumesItExactly) {
   without.steps = 80;
   EXPECT_THAT(error_of([&] { train_policy(*averaging_mt_bc(1), data, without, straight.string(), nullptr); }),
               HasSubstr("a run resumes with the train.ema_power it began with"));
+  // ... and with the same average: last.ckpt records its power and cap.
+  EXPECT_EQ(read_training_state(last.config, "last.ckpt").ema_power, 0.75);
+  EXPECT_EQ(read_training_state(last.config, "last.ckpt").ema_max_decay, 0.9999);
+  TrainConfig other_power = averaging_config();
+  other_power.ema_power = 0.5;
+  other_power.steps = 80;
+  EXPECT_THAT(error_of([&] { train_policy(*averaging_mt_bc(1), data, other_power, straight.string(), nullptr); }),
+              HasSubstr("averages the parameters with train.ema_power 0.75 and ema_max_decay 0.9999, and this run "
+                        "has 0.5 and 0.9999: a run resumes with the average it began with"));
+  TrainConfig other_cap = averaging_config();
+  other_cap.ema_max_decay = 0.999;
+  other_cap.steps = 80;
+  EXPECT_THAT(error_of([&] { train_policy(*averaging_mt_bc(1), data, other_cap, straight.string(), nullptr); }),
+              HasSubstr("and this run has 0.75 and 0.999"));
 }
 
 }  // namespace
