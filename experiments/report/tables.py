@@ -414,14 +414,16 @@ def checkpoint_rule_table(cells):
 
 
 def checkpoint_rule_pairs(cells):
-    """Each method against MAPS under the same variant, at each checkpoint rule: does the comparison depend on it?"""
+    """Each method against its MAPS partner (MAPS under the same variant where that ran, else base MAPS, as
+    paired_table pairs it), at each checkpoint rule: does the comparison depend on it?"""
     by_key = groups(cells)
     rules = [("best validation", lambda c: c.mean_score), ("last checkpoint", lambda c: c.last_checkpoint),
              ("best over checkpoints", lambda c: c.best_over_checkpoints)]
     rows = []
     for key, runs in by_key.items():
         method, _, variant = key.label.partition(" ")
-        maps = by_key.get(key._replace(label=f"maps {variant}".strip()))
+        partner = maps_partner(key.label, lambda label: by_key.get(key._replace(label=label)))
+        maps = by_key.get(key._replace(label=partner))
         kept = [c for c in runs if c.best_over_checkpoints is not None]
         if method == "maps" or not maps or not kept:
             continue
@@ -433,8 +435,8 @@ def checkpoint_rule_pairs(cells):
         rows.append([key.label, key.demos, key.subsample] + cols)
     if not rows:
         return []
-    return (["", "Method - MAPS (under the same variant), paired over seeds, at each rule (mean +- 95% CI (pairs), p:"
-             " paired t test, uncorrected):", ""]
+    return (["", "Method - MAPS (under the same variant where that ran, else base MAPS), paired over seeds, at each"
+             " rule (mean +- 95% CI (pairs), p: paired t test, uncorrected):", ""]
             + table(["method", "demos", "k"] + [name for name, _ in rules], rows))
 
 

@@ -570,6 +570,16 @@ class CheckpointRule(unittest.TestCase):
             self.assertEqual(row_of(rule, ["maps", "5"]), ["maps", "5", "1", "2", "500", "0.65 +- 0.64",
                                                            "0.60 +- 1.27", "0.80 +- 0.00", "+0.15 +- 0.64"])
             self.assertEqual(rows_of(rule, ["maps", "10"]), [])
+            # A variant with no MAPS under it (a method of its own, as zoo-modern's Diffusion Policy) is paired with
+            # base MAPS at each rule, as the paired tables pair it: the same differences as Single BC's above.
+            cells = suite_results.load_suite(suite_dir).cells_of("mt10")
+            for c in cells:
+                if c.method == "single_bc":
+                    c.variant = "dp_like"
+            pairs = "\n".join(tables.checkpoint_rule_pairs(cells))
+            self.assertEqual(row_of(pairs, ["single_bc (dp_like)", "5"])[3:], ["-0.10 +- 1.27 (2), p 0.500",
+                                                                                "+0.00 +- 1.27 (2), p 1.000",
+                                                                                "-0.15 +- 0.64 (2), p 0.205"])
 
 
 class SweepCells(unittest.TestCase):
