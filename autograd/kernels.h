@@ -1,7 +1,8 @@
 #pragma once
 
 // Internal helpers shared by the op files: dtype checks and the loops that walk broadcast
-// operands. Not part of the public API.
+// operands. Not part of the public API; nn's functional ops (nn/functional.cpp) use the argument checks
+// (check_defined, check_1d_layout) too, so that their refusals read as the ops' do.
 
 #include <algorithm>
 #include <string>

@@ -85,7 +85,9 @@ int run_render_policy(const RenderOptions& options) {
     if (executor) executors.push_back(&*executor);
     previous = observation;
     return Eigen::VectorXd(
-        core::step_actions(*run.policy, x, before, task, executors, options.task).row(0).transpose());
+        core::step_actions(*run.policy, x, before, task, executors, "render: task '" + options.task + "'")
+            .row(0)
+            .transpose());
   };
   const std::uint64_t seed = options.seed_given ? options.seed : envs::kEvalSeedBegin;
 

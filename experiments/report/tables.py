@@ -121,14 +121,14 @@ def score_table(cells):
                                                                                                 "best step"], rows)
 
 
-def paired_table(cells, holm="variant"):
+def paired_table(cells, family="variant"):
     """Every method other than MAPS against MAPS, paired by seed. A variant ("mt_bc (paper_protocol)") is paired with
     MAPS under the same variant when that ran, else with base MAPS (a control such as the wide MT-BC); MAPS's own
-    variants are in variant_table. Holm adjusts within a family: with holm "variant" (the default) the comparisons
-    made under one variant, with "set" every comparison of the cells (one set's), for a suite whose variants are
-    methods of their own (the suite config's report.holm)."""
-    if holm not in ("variant", "set"):
-        raise ValueError(f"holm: expected 'variant' or 'set', got {holm!r}")
+    variants are in variant_table. Holm adjusts within a family: with family "variant" (the default) the comparisons
+    made under one variant, with "set" every comparison of this table (one set's; MAPS's own variants stay in
+    variant_table's families), for a suite whose variants are methods of their own (the suite config's report.holm)."""
+    if family not in ("variant", "set"):
+        raise ValueError(f"report.holm: expected 'variant' or 'set', got {family!r}")
     by_key = groups(cells)
     rows, families = [], []
     for key, runs in by_key.items():
@@ -142,12 +142,12 @@ def paired_table(cells, holm="variant"):
         if diffs:
             rows.append([key.label, against, key.demos, key.subsample, len(diffs), fmt(diffs, signed=True),
                          paired_p(diffs)])
-            families.append(variant if holm == "variant" else "set")
+            families.append(variant if family == "variant" else "set")
     if not rows:
         return []
     rows, sizes = holm_columns(rows, families)
-    if holm == "set":
-        family_text = f"Holm: p adjusted over all {sizes['set']} comparisons of the set (one family: the suite's" \
+    if family == "set":
+        family_text = f"Holm: p adjusted over all {sizes['set']} comparisons of this table (one family: the suite's" \
                       " report.holm \"set\")"
     else:
         family_text = "Holm: p adjusted within the comparisons of one variant (" + ("; ".join(
@@ -429,9 +429,14 @@ def checkpoint_rule_pairs(cells):
             continue
         maps_kept = [c for c in maps if c.best_over_checkpoints is not None]
         cols = []
-        for _, value in rules:
-            diffs = paired(kept, maps_kept, value)
+        for name, value in rules:
+            # The best-validation checkpoint needs no kept ones: a partner that kept none (the zoo's MAPS at MT10's
+            # 14, paired with zoo-modern's Diffusion Policy there) still pairs at it.
+            diffs = paired(runs if name == "best validation" else kept,
+                           maps if name == "best validation" else maps_kept, value)
             cols.append(f"{fmt(diffs, signed=True)} ({len(diffs)}), p {fmt_p(paired_p(diffs))}" if diffs else "-")
+        if all(col == "-" for col in cols):
+            continue
         rows.append([key.label, key.demos, key.subsample] + cols)
     if not rows:
         return []

@@ -77,9 +77,9 @@ std::vector<io::Field> make_schema() {
   s.push_back(io::choice_option(
       "report.holm", "variant", {"variant", "set"},
       "the families `maps report` adjusts the paired differences from MAPS within (Holm): `variant`, the comparisons "
-      "made under one variant (a variant that asks its own question, such as a control); `set`, every comparison "
-      "against MAPS of a set, for a suite whose variants are methods of their own (experiments/suites/"
-      "zoo-modern.json)"));
+      "made under one variant (a variant that asks its own question, such as a control); `set`, every row of a "
+      "set's paired differences from MAPS (MAPS's own variants stay in their table's families), for a suite whose "
+      "variants are methods of their own (experiments/suites/zoo-modern.json)"));
   s.push_back(make("grids[].name", ValueKind::kString, "string",
                    "the grid's name (lower-case letters, digits and _; unique in the suite)"));
   s.back().non_empty = true;

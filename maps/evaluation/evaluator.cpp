@@ -222,7 +222,7 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
       std::vector<chunking::ChunkExecutor*> row_executors;
       if (by_chunks)
         for (const Running& r : running) row_executors.push_back(&executors[r.env]);
-      actions = step_actions(policy, x, before, task_id, row_executors, task);
+      actions = step_actions(policy, x, before, task_id, row_executors, "evaluate: task '" + task + "'");
       if (usage != nullptr) {
         const ag::Tensor u = (*usage)(x, ids);
         const bool width_ok = usage_sum.size() == 0 || (u.defined() && u.dim() == 2 && u.size(1) == usage_sum.size());

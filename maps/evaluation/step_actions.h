@@ -15,9 +15,9 @@ namespace maps::core {
 
 // x, before: the rows' standardised current and previous states [n, S] (before is x itself for a policy that reads
 // no history). executors: one per row, each its episode's, when policy.chunking() is chunked; empty otherwise.
-// Returns the actions [n, A] (A: the env's action size). Throws naming `task` when the policy returns another shape,
-// or when the executors do not match the rows.
+// Returns the actions [n, A] (A: the env's action size). Throws, starting with `where` (the caller and the task:
+// "evaluate: task 'mt10/reach'"), when the policy returns another shape or the executors do not match the rows.
 ag::RowMatrixD step_actions(Policy& policy, const ag::Tensor& x, const ag::Tensor& before, std::int64_t task_id,
-                            const std::vector<chunking::ChunkExecutor*>& executors, const std::string& task);
+                            const std::vector<chunking::ChunkExecutor*>& executors, const std::string& where);
 
 }  // namespace maps::core

@@ -148,6 +148,20 @@ class SuiteTest(unittest.TestCase):
                 seen += part
             self.assertEqual(sorted(seen), everything, f"N = {shards}")
 
+    def test_issue_46s_suites_plan_the_cells_docs_zoo_md_counts(self):
+        """zoo-modern.json: 87 cells, of which the 36 of MAPS, MT-MH-BC and Soft Modularization are the zoo's (the same
+        names, copied); zoo-modern-every-state.json: 9 cells on every state (docs/zoo.md)."""
+        suites = ROOT / "experiments" / "suites"
+        modern = plan(suites / "zoo-modern.json")["cells"]
+        self.assertEqual(len(modern), 87)
+        zoo_names = {c["name"] for c in plan(suites / "zoo.json")["cells"]}
+        copied = [c for c in modern if c["method"] in ("maps", "mt_mh_bc", "soft_modularization")
+                  and c["variant"] in ("base", "keep2500")]
+        self.assertEqual(len(copied), 36)
+        self.assertLessEqual({c["name"] for c in copied}, zoo_names)
+        every = plan(suites / "zoo-modern-every-state.json")["cells"]
+        self.assertEqual((len(every), {c["subsample"] for c in every}), (9, {1}))
+
     def test_config_errors_name_what_is_wrong(self):
         base = json.loads(TINY.read_text())
         cases = [

@@ -242,11 +242,15 @@ class Report(unittest.TestCase):
         self.assertEqual(row_of(gravity, ["mt_bc", "maps", "5"])[4:], ["2", "-0.15 +- 0.64", "0.205", "0.819"])
         self.assertEqual(row_of(gravity, ["single_bc", "maps", "5"])[6:], ["0.500", "1.000"])
         self.assertEqual(row_of(gravity, ["mt_bc (w430)", "maps", "5"])[6:], ["0.500", "1.000"])
-        self.assertIn("Holm: p adjusted over all 4 comparisons of the set", gravity)
+        self.assertIn("Holm: p adjusted over all 4 comparisons of this table", gravity)
         self.assertEqual(report.holm_families(suite), "variant")  # the fixture's suite config says none
         suite.config["report"] = {"holm": "set"}
         self.assertEqual(report.holm_families(suite), "set")
-        with self.assertRaisesRegex(ValueError, "holm: expected 'variant' or 'set', got 'family'"):
+        no_figures = type("NoFigures", (), {"failed": [], "__call__": lambda self, name, **extra: []})()
+        whole = "\n".join(report.report_lines(suite, no_figures))
+        paired = between(between(whole, "## Set gravity", "## Set mt10"), "### Paired differences", "###")
+        self.assertEqual(row_of(paired, ["mt_bc", "maps", "5"])[7], "0.819")
+        with self.assertRaisesRegex(ValueError, "report.holm: expected 'variant' or 'set', got 'family'"):
             tables.paired_table(suite.cells_of("gravity"), "family")
 
     def test_pooling_is_paired_with_single_bc_and_holm_corrected(self):

@@ -101,6 +101,12 @@ TEST(Functional, DownsampleAndUpsampleByTwo) {
   expect_gradients("upsample2", [](const std::vector<Tensor>& in) { return F::upsample2(in[0]); },
                    {randn64({2, 3, 4}, 14)});
   EXPECT_THAT(nntest::error_of([&] { F::downsample2(ag::zeros({1, 2, 5})); }), HasSubstr("the length must be even"));
+  EXPECT_THAT(nntest::error_of([&] {
+                F::upsample2(ag::zeros({2, 4}));
+              }),
+              HasSubstr("upsample2: expected x of shape [batch, channels, length], got [2, 4]"));
+  EXPECT_THAT(nntest::error_of([&] { F::downsample2(Tensor()); }),
+              HasSubstr("downsample2: the x is an undefined tensor"));
 }
 
 TEST(Functional, SinusoidalEmbeddingByHand) {

@@ -191,21 +191,27 @@ TEST(ChunkedEvaluation, StepActionsQueriesOnlyTheAskingRowsAndActsByEachRowsExec
   RecordingChunkPolicy policy(c);
   chunking::ChunkExecutor first(c, 2), second(c, 2);
   const ag::Tensor step0 = ag::from_eigen(ag::RowMatrixD{{0.0, 7.0, 0.0}, {10.0, 8.0, 0.0}});
-  ag::RowMatrixD a = step_actions(policy, step0, step0, 0, {&first, &second}, "toy/a");
+  ag::RowMatrixD a = step_actions(policy, step0, step0, 0, {&first, &second}, "test");
   ASSERT_EQ(policy.asked.size(), 2u);
   EXPECT_DOUBLE_EQ(a(0, 0), 0.0);
   EXPECT_DOUBLE_EQ(a(1, 0), 1.0);
   // Next step: both executors still hold their chunk's second action; a third, new episode asks alone.
   chunking::ChunkExecutor third(c, 2);
   const ag::Tensor step1 = ag::from_eigen(ag::RowMatrixD{{1.0, 7.0, 0.0}, {11.0, 8.0, 0.0}, {20.0, 9.0, 0.0}});
-  a = step_actions(policy, step1, step1, 0, {&first, &second, &third}, "toy/a");
+  a = step_actions(policy, step1, step1, 0, {&first, &second, &third}, "test");
   ASSERT_EQ(policy.asked.size(), 3u);
   EXPECT_DOUBLE_EQ(policy.asked.back().seed, 9.0);
   EXPECT_DOUBLE_EQ(a(0, 0), 0.001);
   EXPECT_DOUBLE_EQ(a(1, 0), 1.001);
   EXPECT_DOUBLE_EQ(a(2, 0), 2.0);
-  EXPECT_THAT(error_of([&] { step_actions(policy, step1, step1, 0, {&first}, "toy/a"); }),
-              HasSubstr("step_actions: task 'toy/a': 1 executors for 3 running episodes"));
+  EXPECT_THAT(error_of([&] { step_actions(policy, step1, step1, 0, {&first}, "evaluate: task 'toy/a'"); }),
+              HasSubstr("evaluate: task 'toy/a': 1 executors for 3 running episodes"));
+  // A policy acting per step takes no executors.
+  RecordingChunkPolicy per_step(chunking::ActionChunking{});
+  EXPECT_THAT(error_of([&] {
+                step_actions(per_step, step1, step1, 0, {&first, &second, &third}, "render: task 'x'");
+              }),
+              HasSubstr("render: task 'x': executors given for a policy acting per step"));
 }
 
 }  // namespace
