@@ -279,6 +279,8 @@ std::string Tensor::to_string() const {
   return out.str();
 }
 
+std::string shape_text(const Tensor& t) { return t.defined() ? to_string(t.shape()) : "an undefined tensor"; }
+
 // ----- factories -----
 
 Tensor empty(const Shape& shape, Dtype dtype) { return Tensor(make_impl(shape, dtype)); }

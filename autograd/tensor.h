@@ -151,6 +151,8 @@ Tensor from_eigen(const Eigen::MatrixBase<Derived>& m);
 // Copy of a 1-d or 2-d tensor as an Eigen row-major matrix.
 RowMatrixF to_eigen_float(const Tensor& t);
 RowMatrixD to_eigen_double(const Tensor& t);
+// The shape as error messages name it: "[2, 3]", or "an undefined tensor".
+std::string shape_text(const Tensor& t);
 
 // ----- template definitions -----
 

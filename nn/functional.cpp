@@ -9,16 +9,10 @@
 
 namespace maps::nn::functional {
 
-namespace {
-
-std::string shape_text(const ag::Tensor& x) { return ag::to_string(x.shape()); }
-
-}  // namespace
-
 ag::Tensor layer_norm(const ag::Tensor& x, std::int64_t normalized_dims, double eps) {
   if (normalized_dims < 1 || normalized_dims > x.dim())
     throw std::invalid_argument("layer_norm: normalized_dims " + std::to_string(normalized_dims) + " is not in [1, " +
-                                std::to_string(x.dim()) + "] for x of shape " + shape_text(x));
+                                std::to_string(x.dim()) + "] for x of shape " + ag::shape_text(x));
   if (!(eps > 0.0)) throw std::invalid_argument("layer_norm: eps must be > 0, got " + std::to_string(eps));
   std::vector<std::int64_t> dims(static_cast<std::size_t>(normalized_dims));
   std::iota(dims.begin(), dims.end(), x.dim() - normalized_dims);
@@ -37,7 +31,7 @@ ag::Tensor downsample2(const ag::Tensor& x) {
   ag::detail::check_1d_layout(x, "downsample2", "x");
   const std::int64_t length = x.shape()[2];
   if (length % 2 != 0)
-    throw std::invalid_argument("downsample2: the length must be even, got x of shape " + shape_text(x));
+    throw std::invalid_argument("downsample2: the length must be even, got x of shape " + ag::shape_text(x));
   const ag::Tensor pairs = ag::reshape(x, {x.shape()[0], x.shape()[1], length / 2, 2});
   return ag::reshape(ag::narrow(pairs, 3, 0, 1), {x.shape()[0], x.shape()[1], length / 2});
 }

@@ -39,8 +39,7 @@ ag::Tensor Linear::forward_activated(const ag::Tensor& x, Activation activation)
   if (!x.defined() || (x.dim() != 2 && x.dim() != 3) || x.size(-1) != in_)
     throw std::invalid_argument("Linear(" + std::to_string(in_) + ", " + std::to_string(out_) +
                                 ")::forward: expected input [batch, " + std::to_string(in_) + "] or [b, n, " +
-                                std::to_string(in_) + "], got " +
-                                (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
+                                std::to_string(in_) + "], got " + ag::shape_text(x));
   const ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
   if (const auto fused = fused_activation(activation)) return ag::linear(x, weight(), b, *fused);
   return apply_activation(activation, ag::linear(x, weight(), b));

@@ -17,8 +17,7 @@ LayerNorm::LayerNorm(std::int64_t features, double eps) : UnaryModule("LayerNorm
 ag::Tensor LayerNorm::forward(const ag::Tensor& x) {
   if (!x.defined() || x.dim() < 1 || x.size(-1) != features_)
     throw std::invalid_argument("LayerNorm(" + std::to_string(features_) + ")::forward: expected input [..., " +
-                                std::to_string(features_) + "], got " +
-                                (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
+                                std::to_string(features_) + "], got " + ag::shape_text(x));
   return functional::layer_norm(x, 1, eps_) * parameter_at(weight_) + parameter_at(bias_);
 }
 
@@ -35,7 +34,7 @@ ag::Tensor GroupNorm::forward(const ag::Tensor& x) {
   if (!x.defined() || x.dim() != 3 || x.size(1) != channels_)
     throw std::invalid_argument("GroupNorm(" + std::to_string(groups_) + ", " + std::to_string(channels_) +
                                 ")::forward: expected input [batch, " + std::to_string(channels_) + ", length], got " +
-                                (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
+                                ag::shape_text(x));
   // Per channel: [channels] as [channels, 1], broadcast over the positions.
   return functional::group_norm(x, groups_, eps_) * ag::reshape(parameter_at(weight_), {channels_, 1}) +
          ag::reshape(parameter_at(bias_), {channels_, 1});

@@ -58,7 +58,7 @@ ag::Tensor ParallelLinear::forward_activated(const ag::Tensor& x, Activation act
     throw std::invalid_argument("ParallelLinear(" + std::to_string(members_) + ", " + std::to_string(in_) + ", " +
                                 std::to_string(out_) + ")::forward: expected input [" + std::to_string(members_) +
                                 ", batch, " + std::to_string(in_) + "] or [batch, " + std::to_string(in_) + "], got " +
-                                (x.defined() ? ag::to_string(x.shape()) : std::string("an undefined tensor")));
+                                ag::shape_text(x));
   const ag::Tensor b = has_bias_ ? bias() : ag::Tensor();
   if (const auto fused = fused_activation(activation)) return ag::parallel_linear(x, weight(), b, *fused);
   return apply_activation(activation, ag::parallel_linear(x, weight(), b));

@@ -89,8 +89,7 @@ class PythonRun {
     const core::DemoDataset& data = *run_.data;
     if (!raw.defined() || raw.dim() != 2 || raw.size(1) != data.observation_size())
       throw std::invalid_argument("forward: observations must be [n, " + std::to_string(data.observation_size()) +
-                                  "] for " + folder_ + " (" + data.task_set() + "), got " +
-                                  (raw.defined() ? ag::to_string(raw.shape()) : std::string("an undefined tensor")));
+                                  "] for " + folder_ + " (" + data.task_set() + "), got " + ag::shape_text(raw));
     check_tasks(tasks, raw.size(0), "forward");
     for (double v : raw.to_vector())
       if (!std::isfinite(v)) throw std::invalid_argument("forward: observations hold NaN or inf");

@@ -103,9 +103,16 @@ void add_calibrate(CLI::App* suite, Commands& commands) {
   add_positive(command, "--steps", options->steps, "Training steps per timed run");
   add_positive(command, "--episodes", options->episodes, "Evaluation episodes per task");
   command->add_option("--sets", options->sets, "Task sets to time")->check(task_set_name());
+  command->add_option("--methods", options->methods,
+                      "Methods to time (default: every registered one); the table keeps the others' entries");
+  command
+      ->add_option("--suite", options->suite,
+                   "Suite whose per-set settings are timed (default: experiments/suites/paper.json)")
+      ->check(CLI::ExistingFile);
   command
       ->add_option("--gail-env-steps", options->gail_env_steps,
-                   "Also time each method (but maml) trained by GAIL for this many env steps per task (0: not)")
+                   "Also time each method that trains by GAIL (not maml, not action chunks) for this many env steps "
+                   "per task (0: not)")
       ->check(CLI::Range(std::int64_t{0}, std::int64_t{100'000'000}));
   commands.push_back({command, [options] { return run_suite_calibrate(*options); }});
 }

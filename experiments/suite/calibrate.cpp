@@ -1,4 +1,5 @@
-// `maps suite calibrate`: the cost table measured from short runs of every method on every set.
+// `maps suite calibrate`: the cost table measured from short runs of every method (each choice of its cost option
+// apart) on every set.
 
 #include "experiments/suite/calibrate.h"
 
@@ -20,20 +21,74 @@
 #include "experiments/suite/costs.h"
 #include "experiments/suite/demo_files.h"
 #include "experiments/suite/folder.h"
+#include "io/config_schema.h"
 #include "maps/adversarial/gail_config.h"
 #include "maps/policies/policy_registry.h"
+#include "maps/training/run_config.h"
 
 namespace maps::experiments {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
+namespace {
+
+// One timed variant of a method: its cost table key ("maps", "diffusion_policy/mlp") and its cell.
+struct TimedCell {
+  std::string key;
+  SuiteCell cell;
+};
+
+// Every variant of the suite's cells the table prices apart: one per choice of the method's cost option.
+std::vector<TimedCell> timed_cells(const Suite& suite) {
+  std::vector<TimedCell> timed;
+  for (const auto& cell : suite.cells) {
+    const core::PolicyMethod& method = core::policy_method(cell.method);
+    if (method.cost_option.empty()) {
+      timed.push_back({cell.method, cell});
+      continue;
+    }
+    const auto option = std::find_if(method.options.begin(), method.options.end(),
+                                     [&](const io::Field& f) { return f.key == method.cost_option; });
+    if (option == method.options.end() || option->choices.empty())
+      throw std::logic_error("method " + method.name + ": cost_option '" + method.cost_option +
+                             "' is not one of its choice options");
+    for (const auto& choice : option->choices) {
+      SuiteCell variant = cell;
+      variant.request[cell.method][method.cost_option] = choice;
+      variant.name = cell.set + "/" + cell.method + "-" + choice + "_d" + std::to_string(cell.demos) + "_s" +
+                     std::to_string(cell.seed);
+      timed.push_back({cost_key(cell.method, choice), variant});
+    }
+  }
+  return timed;
+}
+
+// Why a method cannot train by GAIL ("" when it can): the run config's own refusal.
+std::string gail_refusal(const nlohmann::json& request) {
+  try {
+    core::parse_run_config(request);
+    return "";
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
+}  // namespace
+
 int run_suite_calibrate(const SuiteCalibrateOptions& options) {
   const std::string out = options.out.empty() ? default_costs_path().string() : options.out;
-  // The per-set settings of the paper's scale (batch, selector weights, MAML query) at a short budget.
-  const Suite paper = load_suite((default_costs_path().parent_path() / "paper.json").string());
+  // The per-set settings of the timed suite (by default the paper's scale: batch, selector weights, MAML query) at a
+  // short budget.
+  const std::string suite_path =
+      options.suite.empty() ? (default_costs_path().parent_path() / "paper.json").string() : options.suite;
+  const Suite base = load_suite(suite_path);
   Json calibrated_methods = Json::array();
-  for (const auto& method : core::policy_methods()) calibrated_methods.push_back(method.name);
+  for (const auto& name : options.methods.empty() ? core::policy_method_names() : options.methods) {
+    core::policy_method(name);  // an unknown name: the error lists the known ones
+    calibrated_methods.push_back(name);
+  }
+  const std::string cpu = cpu_model(), measured = utc_now();
   Json sets = Json::object();
   const bool bf16 = ag::matmul_precision_refusal(ag::MatmulPrecision::bf16).empty();
   if (!bf16)
@@ -41,13 +96,13 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
         "calibrate: this CPU has no AVX512-BF16: float32 steps only (a plan of bf16 cells needs a table "
         "calibrated on a CPU with it)\n");
   for (const auto& set_name : options.sets.empty() ? envs::task_set_names() : options.sets) {
-    if (!paper.sets.count(set_name))
-      throw std::invalid_argument("--sets: '" + set_name + "' is not a set of experiments/suites/paper.json");
-    Json config = paper.source;
+    if (!base.sets.count(set_name))
+      throw std::invalid_argument("--sets: '" + set_name + "' is not a set of " + suite_path);
+    Json config = base.source;
     config["grids"] = Json::array({{{"name", "calibrate"},
                                     {"sets", {set_name}},
                                     {"methods", calibrated_methods},
-                                    {"demos", {paper.sets.at(set_name).demos.front()}},
+                                    {"demos", {base.sets.at(set_name).demos.front()}},
                                     {"seeds", {0}}}});
     config["defaults"] = merge_json(config.value("defaults", Json::object()),
                                     {{"train",
@@ -64,15 +119,14 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
     Json entry{{"methods", Json::object()}};
     if (!had_file) entry["collect_seconds"] = seconds_since(collect_start);
     const fs::path work = fs::path(options.work) / set_name;
-    fs::remove_all(work);
-    fs::remove_all(fs::path(options.work) / (set_name + "_bf16"));
+    for (const char* suffix : {"", "_bf16", "_gail"}) fs::remove_all(fs::path(options.work) / (set_name + suffix));
     // A training step alone: train.json's time less its validations and checkpoint writes, over the steps.
     const auto step_seconds_of = [&options](const Json& train) {
       return (train["seconds_this_process"].get<double>() - train.value("validation_seconds", 0.0) -
               train.value("checkpoint_seconds", 0.0)) /
              options.steps;
     };
-    for (const auto& cell : suite.cells) {
+    for (const auto& [key, cell] : timed_cells(suite)) {
       const CellOutcome outcome = run_cell(work, cell, 1);
       if (outcome.status != CellOutcome::Status::kFinished)
         throw std::runtime_error("calibration cell " + cell.name + " did not finish: " + outcome.error);
@@ -95,7 +149,12 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
                   {"modules", cell.request["maps"]["modules"]},
                   {"query_per_task", cell.request["maml"]["query_per_task"]},
                   {"episode_seconds", eval_seconds / (options.episodes * tasks)},
-                  {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)}};
+                  {"overhead_seconds", std::max(0.0, outcome.seconds - train_seconds - eval_seconds)},
+                  {"cpu", cpu},
+                  {"measured", measured}};
+      const core::PolicyMethod& registered = core::policy_method(cell.method);
+      if (registered.evaluation_work)
+        method["evaluation_work"] = registered.evaluation_work(cell.request.value(cell.method, Json::object()));
       std::printf(
           "calibrate: %s: %.2f ms per step, %.1f ms per validation, %.1f ms per checkpoint, %.3f s per "
           "episode, %.1f s overhead\n",
@@ -116,49 +175,83 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
                     1e3 * method["step_seconds_bf16"].get<double>());
         std::fflush(stdout);
       }
-      // The same method trained by GAIL, where asked: its cost per env step (all tasks) with the warm-up off, and
-      // one discriminator step's, for the warm-up's extra ones.
-      if (options.gail_env_steps > 0 && cell.method != "maml") {
+      // The same method trained by GAIL, where asked and where the method trains by GAIL (not MAML's inner loop,
+      // not a policy of action chunks): its cost per env step (all tasks) with the warm-up off, and one
+      // discriminator step's, for the warm-up's extra ones.
+      if (options.gail_env_steps > 0) {
         SuiteCell gail_cell = cell;
         gail_cell.request["imitation"] = "gail";
         gail_cell.request["gail"] = {{"env_steps_per_task", options.gail_env_steps},
                                      {"discriminator_warmup_iterations", 0}};
         gail_cell.request["train"]["keep_every"] = 0;
-        const CellOutcome gail_outcome = run_cell(fs::path(options.work) / (set_name + "_gail"), gail_cell, 1);
-        if (gail_outcome.status != CellOutcome::Status::kFinished)
-          throw std::runtime_error("calibration cell " + cell.name + " (GAIL) did not finish: " + gail_outcome.error);
-        const Json& gail_train = gail_outcome.result["train"];
-        const double env_steps = gail_train["env_steps_per_task"].get<double>() * tasks;
-        const double updates =
-            std::max(1.0, gail_train["iterations"].get<double>() * adversarial::GailConfig().discriminator_updates);
-        method["gail_env_step_seconds"] = gail_train["seconds_this_process"].get<double>() / env_steps;
-        method["gail_discriminator_update_seconds"] = gail_train["discriminator_seconds"].get<double>() / updates;
-        std::printf("calibrate: %s: %.1f us per env step by GAIL\n", cell.name.c_str(),
-                    1e6 * method["gail_env_step_seconds"].get<double>());
-        std::fflush(stdout);
+        if (const std::string why = gail_refusal(gail_cell.request); !why.empty()) {
+          std::printf("calibrate: %s: no GAIL cost (it does not train by GAIL: %s)\n", cell.name.c_str(), why.c_str());
+          std::fflush(stdout);
+        } else {
+          const CellOutcome gail_outcome = run_cell(fs::path(options.work) / (set_name + "_gail"), gail_cell, 1);
+          if (gail_outcome.status != CellOutcome::Status::kFinished)
+            throw std::runtime_error("calibration cell " + cell.name + " (GAIL) did not finish: " + gail_outcome.error);
+          const Json& gail_train = gail_outcome.result["train"];
+          const double env_steps = gail_train["env_steps_per_task"].get<double>() * tasks;
+          const double updates =
+              std::max(1.0, gail_train["iterations"].get<double>() * adversarial::GailConfig().discriminator_updates);
+          method["gail_env_step_seconds"] = gail_train["seconds_this_process"].get<double>() / env_steps;
+          method["gail_discriminator_update_seconds"] = gail_train["discriminator_seconds"].get<double>() / updates;
+          std::printf("calibrate: %s: %.1f us per env step by GAIL\n", cell.name.c_str(),
+                      1e6 * method["gail_env_step_seconds"].get<double>());
+          std::fflush(stdout);
+        }
       }
-      entry["methods"][cell.method] = method;
+      entry["methods"][key] = method;
     }
     sets[set_name] = entry;
   }
-  // Sets not re-measured keep their old entries (collect times are kept when the file existed).
+  // Methods and sets not re-measured keep their old entries (collect times are kept when the file existed); entries
+  // of an older table that name no CPU get the table's, before the table's own CPU becomes this run's.
   Json table = Json::object();
   if (fs::exists(out)) table = read_json_file(out);
+  if (table.contains("sets") && table["sets"].is_object())
+    for (auto& [name, old] : table["sets"].items())
+      if (old.is_object() && old.contains("methods") && old["methods"].is_object())
+        for (auto& [key, method] : old["methods"].items())
+          if (method.is_object() && !method.contains("cpu")) {
+            method["cpu"] = table.value("cpu", std::string("an unnamed CPU"));
+            if (table.contains("measured")) method["measured"] = table["measured"];
+          }
   for (auto& [name, entry] : sets.items()) {
-    if (!entry.contains("collect_seconds") && table.contains("sets") && table["sets"].contains(name))
-      entry["collect_seconds"] = table["sets"][name].value("collect_seconds", 0.0);
-    table["sets"][name] = entry;
+    Json merged = table.contains("sets") && table["sets"].contains(name) && table["sets"][name].is_object()
+                      ? table["sets"][name]
+                      : Json::object();
+    if (!merged.contains("methods") || !merged["methods"].is_object()) merged["methods"] = Json::object();
+    for (auto& [key, method] : entry["methods"].items()) merged["methods"][key] = method;
+    if (entry.contains("collect_seconds")) merged["collect_seconds"] = entry["collect_seconds"];
+    if (!merged.contains("collect_seconds")) merged["collect_seconds"] = 0.0;
+    table["sets"][name] = merged;
   }
-  table["cpu"] = cpu_model();
-  table["measured"] = utc_now();
-  table["command"] = "maps suite calibrate --steps " + std::to_string(options.steps) + " --episodes " +
-                     std::to_string(options.episodes) +
-                     (options.gail_env_steps > 0 ? " --gail-env-steps " + std::to_string(options.gail_env_steps) : "");
+  table["cpu"] = cpu;
+  table["measured"] = measured;
+  std::string command =
+      "maps suite calibrate --steps " + std::to_string(options.steps) + " --episodes " +
+      std::to_string(options.episodes) +
+      (options.gail_env_steps > 0 ? " --gail-env-steps " + std::to_string(options.gail_env_steps) : "");
+  if (!options.suite.empty()) command += " --suite " + options.suite;
+  if (!options.methods.empty()) {
+    command += " --methods";
+    for (const auto& name : options.methods) command += " " + name;
+  }
+  if (!options.sets.empty()) {
+    command += " --sets";
+    for (const auto& name : options.sets) command += " " + name;
+  }
+  table["command"] = command;
   table["note"] =
       "one thread per cell, one cell at a time; step_seconds is a training step alone, validation_seconds one "
       "scoring of the validation states, checkpoint_seconds one checkpoint written; step_seconds_bf16 a step with "
       "train.precision bf16 (CPUs with AVX512-BF16); gail_env_step_seconds an env step of a GAIL run (all its parts, "
-      "at the default gail settings, warm-up off) and gail_discriminator_update_seconds one discriminator step";
+      "at the default gail settings, warm-up off) and gail_discriminator_update_seconds one discriminator step; "
+      "evaluation_work an evaluation step's policy calls relative to one (the method's own measure); a key "
+      "method/choice prices one choice of the method's cost option (diffusion_policy/mlp: the MLP denoiser); cpu and "
+      "measured say where and when each entry was timed, command the last calibration's";
   write_json_file(out, table);
   std::printf("calibrate: wrote %s\n", out.c_str());
   return 0;

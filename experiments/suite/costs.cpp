@@ -40,23 +40,50 @@ std::string format_duration(double seconds) {
   return text;
 }
 
+std::string cost_key(const std::string& method, const std::string& choice) {
+  return choice.empty() ? method : method + "/" + choice;
+}
+
 CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   const Json* entry = nullptr;
-  // A transfer cell trains MAPS (for one task, from a trained run). A method the table has not measured (one added
-  // to the registry since) is estimated as MAPS, whose parameter budget the zoo's methods match by default.
-  std::string method = cell.method == "transfer" ? "maps" : cell.method;
-  const Json empty = Json::object();
-  std::string estimated_as;
-  if (!json.value("sets", empty).value(cell.set, empty).value("methods", empty).contains(method)) {
-    if (cell.method != "transfer") estimated_as = "maps";
-    method = "maps";
+  // A transfer cell trains MAPS (for one task, from a trained run). A method whose cost depends on a choice
+  // (Diffusion Policy's denoiser) is priced at its choice's entry, else at the method's. A method the table has not
+  // measured (one added to the registry since) is estimated as MAPS, whose parameter budget the zoo's methods match by
+  // default.
+  const std::string base = cell.method == "transfer" ? "maps" : cell.method;
+  const core::PolicyMethod* registered = nullptr;
+  try {
+    registered = &core::policy_method(base);
+  } catch (const std::exception&) {
+    // A name the suite's checks let through but this registry lacks: priced as any unmeasured method.
   }
+  const Json empty = Json::object();
+  const Json& own = cell.request.contains(base) && cell.request[base].is_object() ? cell.request[base] : empty;
+  std::vector<std::string> candidates;
+  if (registered && !registered->cost_option.empty() && own.contains(registered->cost_option) &&
+      own[registered->cost_option].is_string())
+    candidates.push_back(cost_key(base, own[registered->cost_option].get<std::string>()));
+  candidates.push_back(base);
+  candidates.push_back("maps");
+  const Json& measured = json.value("sets", empty).value(cell.set, empty).value("methods", empty);
+  std::string method = candidates.back();
+  for (const auto& candidate : candidates)
+    if (measured.contains(candidate)) {
+      method = candidate;
+      break;
+    }
+  const std::string estimated_as = method == candidates.front() || cell.method == "transfer" ? "" : method;
   try {
     entry = &json.at("sets").at(cell.set).at("methods").at(method);
   } catch (const Json::exception&) {
     throw std::runtime_error(path + " has no cost for " + method + " on " + cell.set +
                              " (re-measure: maps suite calibrate)");
   }
+  if (!entry->is_object())
+    throw std::runtime_error(path + ": sets." + cell.set + ".methods." + method + " is " + entry->dump() +
+                             "; expected an object of costs (re-measure: maps suite calibrate)");
+  const Json& entry_cpu = entry->contains("cpu") ? entry->at("cpu") : json.value("cpu", Json("an unnamed CPU"));
+  const std::string cpu = entry_cpu.is_string() ? entry_cpu.get<std::string>() : std::string("an unnamed CPU");
   // A measured cost: a finite number >= 0 (positive where it divides), or `fallback` when absent and allowed.
   const auto cost = [&](const char* key, bool positive, std::optional<double> fallback = std::nullopt) {
     const std::string where = path + ": sets." + cell.set + ".methods." + method + "." + key;
@@ -72,6 +99,12 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
     return value.get<double>();
   };
   const Json& r = cell.request;
+  // An evaluation step's work against the calibrated run's (Diffusion Policy: sampling steps per executed action),
+  // where the entry is the method's own and records it.
+  double episode_scale = 1.0;
+  if (registered && registered->evaluation_work && method != "maps" && entry->contains("evaluation_work"))
+    episode_scale = registered->evaluation_work(own) / cost("evaluation_work", true);
+  const double episode_seconds = cost("episode_seconds", true) * episode_scale;
   // A step's rows: the batch, and for MAML its query batch too (maml.cpp: support + query rows per task).
   double rows = r["train"]["states_per_task"].get<double>(), measured_rows = cost("states_per_task", true);
   if (method == "maml" && entry->contains("query_per_task")) {
@@ -116,10 +149,12 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
                             warmup_updates * cost("gail_discriminator_update_seconds", false, 0.0);
     return {.overhead = cost("overhead_seconds", false),
             .training = training,
-            .evaluation = r["eval"]["episodes"].get<double>() * evaluated_tasks * cost("episode_seconds", true),
+            .evaluation = r["eval"]["episodes"].get<double>() * evaluated_tasks * episode_seconds,
             .validation = 0.0,
             .checkpointing = 0.0,
-            .estimated_as = estimated_as};
+            .estimated_as = estimated_as,
+            .key = candidates.front(),
+            .cpu = cpu};
   }
   // A bf16 cell's steps at their own measured cost (validation and evaluation run float32 in both).
   const bool bf16 = r["train"].value("precision", std::string("float32")) == "bf16";
@@ -144,13 +179,14 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
       cost("validation_states_per_task", true, r["train"]["validation_states_per_task"].get<double>());
   const double validation = validations * cost("validation_seconds", false, 0.0) * model_scale * validation_states;
   const double checkpointing = writes * cost("checkpoint_seconds", false, 0.0);
-  return {
-      .overhead = cost("overhead_seconds", false),
-      .training = steps * step + validation + checkpointing,
-      .evaluation = evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks * cost("episode_seconds", true),
-      .validation = validation,
-      .checkpointing = checkpointing,
-      .estimated_as = estimated_as};
+  return {.overhead = cost("overhead_seconds", false),
+          .training = steps * step + validation + checkpointing,
+          .evaluation = evaluations * r["eval"]["episodes"].get<double>() * evaluated_tasks * episode_seconds,
+          .validation = validation,
+          .checkpointing = checkpointing,
+          .estimated_as = estimated_as,
+          .key = candidates.front(),
+          .cpu = cpu};
 }
 
 double CostTable::collect_seconds(const std::string& set) const {

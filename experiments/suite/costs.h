@@ -35,8 +35,13 @@ struct CostTable {
     // Of training: scoring the validation states, and writing checkpoints (best.ckpt counted at every
     // validation: an upper bound, as it is written only when the validation loss improves).
     double validation = 0.0, checkpointing = 0.0;
-    // Empty, or the method whose measured cost stood in for the cell's unmeasured one ("maps").
+    // Empty, or the entry whose measured cost stood in for the cell's unmeasured one ("maps", or for a choice of a
+    // method's cost option the method's entry without one, "diffusion_policy").
     std::string estimated_as;
+    // The entry the cell asks for ("mt_bc", "diffusion_policy/mlp"), measured or not.
+    std::string key;
+    // The CPU the entry used was timed on (its own "cpu", else the table's).
+    std::string cpu;
     double total() const { return overhead + training + evaluation; }
   };
   // Throws naming the set and method when the table lacks them.
@@ -44,6 +49,9 @@ struct CostTable {
   double cell_seconds(const SuiteCell& cell) const { return cell_cost(cell).total(); }
   double collect_seconds(const std::string& set) const;
 };
+
+// A cost table's key for a method, or for one choice of its cost option ("diffusion_policy/mlp").
+std::string cost_key(const std::string& method, const std::string& choice = "");
 
 // experiments/suites/costs.json of the source tree (override: MAPS_SUITES_DIR) when `path` is empty.
 std::filesystem::path default_costs_path();

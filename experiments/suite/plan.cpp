@@ -48,9 +48,13 @@ int run_suite_plan(const SuitePlanOptions& options) {
   // "method on set" that the table has not measured, estimated as another method's cost: said, so that an estimate
   // resting on a stand-in is not read as measured.
   std::set<std::string> unmeasured;
+  std::set<std::string> cpus;  // where the entries the plan used were timed
   for (const auto* cell : cells) {
     const CostTable::CellCost cost = costs.cell_cost(*cell);
-    if (!cost.estimated_as.empty()) unmeasured.insert(cell->method + " on " + cell->set);
+    if (!cost.estimated_as.empty())
+      unmeasured.insert(cost.key + " on " + cell->set +
+                        (cost.estimated_as == "maps" ? "" : " (as " + cost.estimated_as + ")"));
+    cpus.insert(cost.cpu);
     const double seconds = cost.total();
     total += seconds;
     steps_part += cost.training - cost.validation - cost.checkpointing;
@@ -79,6 +83,8 @@ int run_suite_plan(const SuitePlanOptions& options) {
     group.episodes = cell->request["eval"]["episodes"].get<int>();
     Json entry = cell->identity();
     entry["estimated_seconds"] = seconds;
+    entry["estimated_evaluation_seconds"] = cost.evaluation;
+    entry["cost_entry"] = cost.estimated_as.empty() ? cost.key : cost.estimated_as;
     entry["shard_key"] = shard_key(suite, *cell);
     cell_list.push_back(entry);
   }
@@ -106,7 +112,8 @@ int run_suite_plan(const SuitePlanOptions& options) {
                       {"jobs", jobs},
                       {"wall_seconds", total / jobs + collect},
                       {"costs", costs.path},
-                      {"unmeasured", unmeasured}}
+                      {"unmeasured", unmeasured},
+                      {"measured_on", cpus}}
                      .dump(1)
               << "\n";
     return 0;
@@ -149,14 +156,17 @@ int run_suite_plan(const SuitePlanOptions& options) {
         "start-up and data %.1f%%",
         100 * steps_part / total, 100 * validation_part / total, 100 * checkpoint_part / total,
         100 * evaluation_part / total, 100 * other_part / total);
+  std::string measured_on;
+  for (const auto& cpu : cpus) measured_on += (measured_on.empty() ? "" : " and ") + cpu;
+  if (measured_on.empty()) measured_on = costs.json.value("cpu", std::string("an unnamed CPU"));
   std::printf("\ncosts: %s (measured on %s; `maps suite calibrate` re-measures on this machine)\n", costs.path.c_str(),
-              costs.json.value("cpu", std::string("an unnamed CPU")).c_str());
+              measured_on.c_str());
   if (!unmeasured.empty()) {
     std::string named;
     for (const auto& entry : unmeasured) named += (named.empty() ? "" : ", ") + entry;
     std::printf(
-        "not measured, estimated at MAPS's cost per step and episode (the table predates them, or their cost "
-        "depends on their config): %s\n",
+        "not measured, estimated at MAPS's cost per step and episode unless another is named (the table predates "
+        "them: maps suite calibrate --methods NAME adds them): %s\n",
         named.c_str());
   }
   return 0;

@@ -37,8 +37,6 @@ double seconds_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double>(b - a).count();
 }
 
-std::string shape_string(const ag::Tensor& t) { return t.defined() ? ag::to_string(t.shape()) : "an undefined tensor"; }
-
 struct TaskRun {
   TaskEvaluation evaluation;
   double setup_seconds = 0.0;
@@ -228,8 +226,8 @@ TaskRun run_task(StepHelpers& helpers, const EnvFactory& make_env, Policy& polic
         const bool width_ok = usage_sum.size() == 0 || (u.defined() && u.dim() == 2 && u.size(1) == usage_sum.size());
         if (!u.defined() || u.dim() != 2 || u.size(0) != n || u.size(1) < 1 || !width_ok)
           throw std::runtime_error("evaluate: task '" + task + "': the module usage function returned shape " +
-                                   shape_string(u) + ", expected [" + std::to_string(n) + ", M] with the same M >= 1 " +
-                                   "at every step");
+                                   ag::shape_text(u) + ", expected [" + std::to_string(n) +
+                                   ", M] with the same M >= 1 " + "at every step");
         const ag::RowMatrixD scores = ag::to_eigen_double(u);
         if (usage_sum.size() == 0) usage_sum = Eigen::VectorXd::Zero(scores.cols());
         usage_sum += scores.colwise().sum().transpose();

@@ -3,11 +3,6 @@
 #include <stdexcept>
 
 namespace maps::core {
-namespace {
-
-std::string shape_of(const ag::Tensor& t) { return t.defined() ? ag::to_string(t.shape()) : "an undefined tensor"; }
-
-}  // namespace
 
 ag::RowMatrixD step_actions(Policy& policy, const ag::Tensor& x, const ag::Tensor& before, std::int64_t task_id,
                             const std::vector<chunking::ChunkExecutor*>& executors, const std::string& where) {
@@ -17,7 +12,7 @@ ag::RowMatrixD step_actions(Policy& policy, const ag::Tensor& x, const ag::Tenso
   const std::int64_t predicted_size = chunking.chunked() ? chunking.horizon * action_size : action_size;
   auto checked = [&](const ag::Tensor& a, std::int64_t rows) {
     if (!a.defined() || a.dim() != 2 || a.size(0) != rows || a.size(1) != predicted_size)
-      throw std::runtime_error(where + ": the policy returned actions of shape " + shape_of(a) + ", expected [" +
+      throw std::runtime_error(where + ": the policy returned actions of shape " + ag::shape_text(a) + ", expected [" +
                                std::to_string(rows) + ", " + std::to_string(predicted_size) + "] (one row per " +
                                (chunking.chunked() ? "episode asking for a chunk" : "running episode") + ")");
     return ag::to_eigen_double(a);

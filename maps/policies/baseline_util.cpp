@@ -4,12 +4,6 @@
 
 namespace maps::core::detail {
 
-namespace {
-
-std::string describe(const ag::Tensor& t) { return t.defined() ? ag::to_string(t.shape()) : "an undefined tensor"; }
-
-}  // namespace
-
 void check_construction(const std::string& type_name, const PolicyShape& shape,
                         const std::vector<std::int64_t>& hidden_sizes, bool need_hidden) {
   if (shape.observation_size <= 0 || shape.action_size <= 0 || shape.num_tasks <= 0)
@@ -35,7 +29,7 @@ void check_observations(const std::string& where, const PolicyShape& shape, cons
                         const std::vector<std::int64_t>& tasks) {
   if (!observations.defined() || observations.dim() != 2 || observations.size(1) != shape.observation_size)
     throw std::invalid_argument(where + ": expected observations [n, " + std::to_string(shape.observation_size) +
-                                "], got " + describe(observations));
+                                "], got " + ag::shape_text(observations));
   if (static_cast<std::int64_t>(tasks.size()) != observations.size(0))
     throw std::invalid_argument(where + ": expected one task index per observation row (" +
                                 std::to_string(observations.size(0)) + "), got " + std::to_string(tasks.size()));
@@ -51,7 +45,7 @@ void check_batch(const std::string& where, const PolicyShape& shape, const Batch
   if (!batch.actions.defined() || batch.actions.dim() != 2 || batch.actions.size(0) != n ||
       batch.actions.size(1) != shape.action_size)
     throw std::invalid_argument(where + ": expected actions [" + std::to_string(n) + ", " +
-                                std::to_string(shape.action_size) + "], got " + describe(batch.actions));
+                                std::to_string(shape.action_size) + "], got " + ag::shape_text(batch.actions));
   if (batch.per_task < 0)
     throw std::invalid_argument(where + ": per_task must be >= 0, got " + std::to_string(batch.per_task));
   if (batch.per_task == 0) return;

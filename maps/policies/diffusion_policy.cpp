@@ -353,6 +353,11 @@ PolicyMethod diffusion_policy_method() {
     c.previous_observation = option_int(own, "observations") == 2;
     return c;
   };
+  method.cost_option = "denoiser";
+  // Each chunk asks the denoiser inference_steps times and lasts `execute` env steps.
+  method.evaluation_work = [](const nlohmann::json& own) {
+    return static_cast<double>(option_int(own, "inference_steps")) / static_cast<double>(option_int(own, "execute"));
+  };
   method.parameters = [](const PolicyShape& shape, const MethodOptions& o) {
     return diffusion_policy_parameter_count(shape, diffusion_policy_config(shape, o));
   };

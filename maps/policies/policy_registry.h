@@ -53,6 +53,14 @@ struct PolicyMethod {
   // Empty: the run's chunking.* applies (one action per step by default). make() gets the shape with the output
   // widened to horizon x the action size either way.
   std::function<chunking::ActionChunking(const nlohmann::json& own)> own_chunking;
+  // A choice among the options whose value changes the cost of a step or an episode by more than the size does
+  // (Diffusion Policy's denoiser): `maps suite calibrate` times every choice apart and a plan prices a cell at its
+  // own. Empty: one cost for the method.
+  std::string cost_option;
+  // An evaluation step's work relative to one policy call on the filled-in section (Diffusion Policy: its sampling
+  // steps over the actions executed per chunk): a plan scales the calibrated episode cost by the cell's work over the
+  // calibrated run's. Empty: the same work whatever the section.
+  std::function<double(const nlohmann::json& own)> evaluation_work;
   std::function<std::shared_ptr<Policy>(const PolicyShape&, const MethodOptions&, ag::Generator&)> make;
 };
 

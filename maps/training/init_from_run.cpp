@@ -4,11 +4,6 @@
 #include <stdexcept>
 
 namespace maps::core {
-namespace {
-
-std::string shape_text(const ag::Tensor& t) { return ag::to_string(t.shape()); }
-
-}  // namespace
 
 void initialize_from(Policy& target, const std::vector<std::string>& target_tasks, const Policy& source,
                      const std::vector<std::string>& source_tasks) {
@@ -37,8 +32,8 @@ void initialize_from(Policy& target, const std::vector<std::string>& target_task
       continue;
     }
     if (!task_input)
-      throw std::invalid_argument("initialize_from: parameter " + name + " is " + shape_text(src) +
-                                  " in the source and " + shape_text(dst) +
+      throw std::invalid_argument("initialize_from: parameter " + name + " is " + ag::shape_text(src) +
+                                  " in the source and " + ag::shape_text(dst) +
                                   " here, and is not a [state, task] input "
                                   "layer that differs only in its tasks");
     const ag::RowMatrixD from_weight = ag::to_eigen_double(src);

@@ -365,6 +365,12 @@ TEST(TensorShape, ToStringShowsShapeAndDtype) {
   EXPECT_EQ(Tensor().to_string().empty(), false);
 }
 
+TEST(TensorShape, ShapeTextNamesTheShapeOrAnUndefinedTensor) {
+  EXPECT_EQ(ag::shape_text(tensor({1, 2, 3, 4, 5, 6}, {2, 3})), "[2, 3]");
+  EXPECT_EQ(ag::shape_text(tensor({5}, {})), "[]");
+  EXPECT_EQ(ag::shape_text(Tensor()), "an undefined tensor");
+}
+
 TEST(GradMode, GuardsNestAndRestore) {
   EXPECT_TRUE(ag::GradMode::is_enabled());
   {

@@ -234,6 +234,92 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("not measured, estimated at MAPS's cost per step and episode", text)
         self.assertIn("mt_bc on gravity", text)
 
+    def test_each_choice_of_a_cost_option_is_priced_at_its_own_entry_and_evaluation_work(self):
+        costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        gravity = costs["sets"]["gravity"]["methods"]
+        for key in [k for k in gravity if k.startswith("diffusion_policy")]:
+            del gravity[key]
+        config = json.loads(TINY.read_text())
+        config["variants"] = {"mlp1": {"diffusion_policy": {"denoiser": "mlp", "horizon": 1, "execute": 1}},
+                              "mlp16": {"diffusion_policy": {"denoiser": "mlp"}},
+                              "moe1": {"diffusion_policy": {"denoiser": "moe", "horizon": 1, "execute": 1}}}
+        config["grids"] = [{"name": "dp", "sets": ["gravity"], "methods": ["diffusion_policy"],
+                            "variants": ["mlp1", "mlp16", "moe1"], "seeds": [0]}]
+        suite = write_config(self.dir, config, "dp_suite.json")
+
+        def priced(name):
+            result = plan(suite, "--costs", write_config(self.dir, costs, name))
+            return result, {c["variant"]: c for c in result["cells"]}
+
+        # No entry of the method: MAPS's costs stand in, named by the entries the cells ask for.
+        result, cells = priced("no_dp.json")
+        self.assertEqual(result["unmeasured"], ["diffusion_policy/mlp on gravity", "diffusion_policy/moe on gravity"])
+        self.assertEqual({c["cost_entry"] for c in cells.values()}, {"maps"})
+        # The method's entry without a choice (a table older than the choices) stands in for every choice, and an
+        # evaluation step's work scales its episodes: 8 sampling steps an action at H = 1, 8 per 8 actions at H = 16.
+        gravity["diffusion_policy"] = dict(gravity["maps"], episode_seconds=0.5, evaluation_work=1.0)
+        result, cells = priced("dp.json")
+        self.assertEqual(result["unmeasured"], ["diffusion_policy/mlp on gravity (as diffusion_policy)",
+                                                "diffusion_policy/moe on gravity (as diffusion_policy)"])
+        episodes_times_tasks = config["defaults"]["eval"]["episodes"] * 5
+        self.assertAlmostEqual(cells["mlp16"]["estimated_evaluation_seconds"], episodes_times_tasks * 0.5, places=6)
+        self.assertAlmostEqual(cells["mlp1"]["estimated_evaluation_seconds"], episodes_times_tasks * 0.5 * 8, places=6)
+        # A choice's own entry prices its cells, and the plan names the CPU each entry used was timed on.
+        gravity["diffusion_policy/mlp"] = dict(gravity["maps"], episode_seconds=0.25, evaluation_work=2.0,
+                                               cpu="A CPU of the test")
+        result, cells = priced("dp_mlp.json")
+        self.assertEqual(result["unmeasured"], ["diffusion_policy/moe on gravity (as diffusion_policy)"])
+        self.assertEqual(cells["mlp1"]["cost_entry"], "diffusion_policy/mlp")
+        self.assertAlmostEqual(cells["mlp1"]["estimated_evaluation_seconds"], episodes_times_tasks * 0.25 * 8 / 2,
+                               places=6)
+        self.assertIn("A CPU of the test", result["measured_on"])
+        text = maps("suite", "plan", suite, "--costs", self.dir / "dp_mlp.json").stdout
+        self.assertRegex(text, r"measured on (.+ and )?A CPU of the test")
+        # The recorded work is a measured value like any other: checked.
+        gravity["diffusion_policy/mlp"]["evaluation_work"] = 0
+        proc = maps("suite", "plan", suite, "--costs", write_config(self.dir, costs, "bad.json"), check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("sets.gravity.methods.diffusion_policy/mlp.evaluation_work is 0; expected a finite number > 0",
+                      proc.stderr)
+
+    @heavy
+    def test_calibrate_times_each_choice_and_gail_where_it_applies_and_keeps_other_entries(self):
+        table = self.dir / "costs.json"
+        old = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
+        old["cpu"] = "The old table's CPU"
+        for methods in (old["sets"][s]["methods"] for s in old["sets"]):
+            for key in [k for k in methods if k.startswith("diffusion_policy")]:
+                del methods[key]
+            for entry in methods.values():
+                entry.pop("cpu", None)
+        write_config(self.dir, old, "costs.json")
+        proc = maps("suite", "calibrate", "--out", table, "--work", self.dir / "work", "--suite", TINY, "--sets",
+                    "gravity", "--methods", "mt_bc", "diffusion_policy", "--steps", "4", "--episodes", "1",
+                    "--gail-env-steps", "100")
+        new = json.loads(table.read_text())
+        gravity = new["sets"]["gravity"]["methods"]
+        denoisers = ["maps", "mlp", "moe", "unet"]
+        self.assertEqual(sorted(k for k in gravity if k.startswith("diffusion_policy")),
+                         [f"diffusion_policy/{d}" for d in denoisers])
+        for key in ["mt_bc"] + [f"diffusion_policy/{d}" for d in denoisers]:
+            self.assertEqual(gravity[key]["cpu"], new["cpu"], key)
+            self.assertGreater(gravity[key]["step_seconds"], 0, key)
+            self.assertGreater(gravity[key]["episode_seconds"], 0, key)
+        # Diffusion Policy's chunks do not train by GAIL: said, not a failed calibration; MT-BC's are timed.
+        self.assertGreater(gravity["mt_bc"]["gail_env_step_seconds"], 0)
+        for d in denoisers:
+            self.assertEqual(gravity[f"diffusion_policy/{d}"]["evaluation_work"], 1.0)  # 8 sampling steps per 8
+            self.assertNotIn("gail_env_step_seconds", gravity[f"diffusion_policy/{d}"])
+            self.assertIn(f"gravity/diffusion_policy-{d}_d2_s0: no GAIL cost (it does not train by GAIL", proc.stdout)
+        # Entries not re-measured stay, named by the CPU they were timed on.
+        self.assertEqual(gravity["maps"], dict(old["sets"]["gravity"]["methods"]["maps"], cpu="The old table's CPU",
+                                               measured=old["measured"]))
+        self.assertEqual(new["sets"]["mt10"]["methods"].keys(), old["sets"]["mt10"]["methods"].keys())
+        self.assertIn("--methods mt_bc diffusion_policy", new["command"])
+        proc = maps("suite", "calibrate", "--out", table, "--methods", "no_such_method", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("no_such_method", proc.stderr)
+
     def test_gail_cells_are_priced_by_their_env_steps_or_refused_without_a_gail_cost(self):
         costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
         for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
