@@ -25,6 +25,7 @@
 #include "maps/adversarial/gail_config.h"
 #include "maps/policies/policy_registry.h"
 #include "maps/training/run_config.h"
+#include "maps/training/run_config_fields.h"
 
 namespace maps::experiments {
 
@@ -89,15 +90,31 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
     calibrated_methods.push_back(name);
   }
   const std::string cpu = cpu_model(), measured = utc_now();
+  std::vector<std::string> set_names;
+  for (const auto& name : options.sets.empty() ? envs::task_set_names() : options.sets)
+    if (!options.sets.empty() || base.sets.count(name)) set_names.push_back(name);
+  for (const auto& name : set_names)
+    if (!base.sets.count(name)) throw std::invalid_argument("--sets: '" + name + "' is not a set of " + suite_path);
+  // The table this run merges into, checked before anything is timed.
+  Json table = Json::object();
+  if (fs::exists(out)) {
+    table = read_json_file(out);
+    if (!table.is_object() || (table.contains("sets") && !table["sets"].is_object()))
+      throw std::runtime_error(out +
+                               ": not a cost table (expected an object with an object \"sets\"); move it away "
+                               "or name another --out");
+  }
+  const auto cpu_of = [](const Json& holder) {
+    return holder.contains("cpu") && holder["cpu"].is_string() ? holder["cpu"].get<std::string>()
+                                                               : std::string("an unnamed CPU");
+  };
   Json sets = Json::object();
   const bool bf16 = ag::matmul_precision_refusal(ag::MatmulPrecision::bf16).empty();
   if (!bf16)
     std::printf(
         "calibrate: this CPU has no AVX512-BF16: float32 steps only (a plan of bf16 cells needs a table "
         "calibrated on a CPU with it)\n");
-  for (const auto& set_name : options.sets.empty() ? envs::task_set_names() : options.sets) {
-    if (!base.sets.count(set_name))
-      throw std::invalid_argument("--sets: '" + set_name + "' is not a set of " + suite_path);
+  for (const auto& set_name : set_names) {
     Json config = base.source;
     config["grids"] = Json::array({{{"name", "calibrate"},
                                     {"sets", {set_name}},
@@ -117,7 +134,8 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
     const bool had_file = fs::exists(suite.sets.at(set_name).demo_file);
     ensure_demo_files(suite, cells, 1);
     Json entry{{"methods", Json::object()}};
-    if (!had_file) entry["collect_seconds"] = seconds_since(collect_start);
+    // A plan prices collecting the paper's demo files: another suite's (fewer demonstrations) would understate it.
+    if (!had_file && options.suite.empty()) entry["collect_seconds"] = seconds_since(collect_start);
     const fs::path work = fs::path(options.work) / set_name;
     for (const char* suffix : {"", "_bf16", "_gail"}) fs::remove_all(fs::path(options.work) / (set_name + suffix));
     // A training step alone: train.json's time less its validations and checkpoint writes, over the steps.
@@ -183,7 +201,12 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
         gail_cell.request["imitation"] = "gail";
         gail_cell.request["gail"] = {{"env_steps_per_task", options.gail_env_steps},
                                      {"discriminator_warmup_iterations", 0}};
-        gail_cell.request["train"]["keep_every"] = 0;
+        // The timed suite's BC-only training keys (refused under GAIL) at their defaults: only the method's own
+        // refusal (MAML's inner loop, a policy of chunks) skips it.
+        for (const core::RunConfigField& field : core::run_config_fields())
+          for (const char* key : {"train.keep_every", "train.optimizer", "train.precision", "train.freeze",
+                                  "train.lr_scale", "train.ema_power", "train.ema_max_decay"})
+            if (field.spec.key == key) gail_cell.request[io::key_pointer(key)] = field.spec.default_value;
         if (const std::string why = gail_refusal(gail_cell.request); !why.empty()) {
           std::printf("calibrate: %s: no GAIL cost (it does not train by GAIL: %s)\n", cell.name.c_str(), why.c_str());
           std::fflush(stdout);
@@ -208,14 +231,12 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
   }
   // Methods and sets not re-measured keep their old entries (collect times are kept when the file existed); entries
   // of an older table that name no CPU get the table's, before the table's own CPU becomes this run's.
-  Json table = Json::object();
-  if (fs::exists(out)) table = read_json_file(out);
-  if (table.contains("sets") && table["sets"].is_object())
+  if (table.contains("sets"))
     for (auto& [name, old] : table["sets"].items())
       if (old.is_object() && old.contains("methods") && old["methods"].is_object())
         for (auto& [key, method] : old["methods"].items())
           if (method.is_object() && !method.contains("cpu")) {
-            method["cpu"] = table.value("cpu", std::string("an unnamed CPU"));
+            method["cpu"] = cpu_of(table);
             if (table.contains("measured")) method["measured"] = table["measured"];
           }
   for (auto& [name, entry] : sets.items()) {

@@ -102,8 +102,9 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   // An evaluation step's work against the calibrated run's (Diffusion Policy: sampling steps per executed action),
   // where the entry is the method's own and records it.
   double episode_scale = 1.0;
-  if (registered && registered->evaluation_work && method != "maps" && entry->contains("evaluation_work"))
-    episode_scale = registered->evaluation_work(own) / cost("evaluation_work", true);
+  // MAPS standing in calls its policy once an env step: the cell's own work against 1.
+  if (registered && registered->evaluation_work && (method == "maps" || entry->contains("evaluation_work")))
+    episode_scale = registered->evaluation_work(own) / (method == "maps" ? 1.0 : cost("evaluation_work", true));
   const double episode_seconds = cost("episode_seconds", true) * episode_scale;
   // A step's rows: the batch, and for MAML its query batch too (maml.cpp: support + query rows per task).
   double rows = r["train"]["states_per_task"].get<double>(), measured_rows = cost("states_per_task", true);
@@ -204,6 +205,10 @@ CostTable load_costs(const std::string& path) {
   if (!table.json.is_object() || !table.json.contains("sets") || !table.json["sets"].is_object())
     throw std::runtime_error(table.path +
                              ": not a cost table (expected \"sets\"; write one with maps suite calibrate)");
+  for (const auto& [name, set] : table.json["sets"].items())
+    if (!set.is_object() || !set.contains("methods") || !set["methods"].is_object())
+      throw std::runtime_error(table.path + ": sets." + name + " is not a set's costs (expected an object with an " +
+                               "object \"methods\"; write one with maps suite calibrate)");
   return table;
 }
 

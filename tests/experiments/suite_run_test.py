@@ -275,6 +275,11 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("A CPU of the test", result["measured_on"])
         text = maps("suite", "plan", suite, "--costs", self.dir / "dp_mlp.json").stdout
         self.assertRegex(text, r"measured on (.+ and )?A CPU of the test")
+        # A set's entry that is not one is refused naming it.
+        proc = maps("suite", "plan", suite, "--costs", write_config(self.dir, dict(costs, sets=dict(costs["sets"],
+                    gravity=[])), "bad_set.json"), check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("sets.gravity is not a set's costs", proc.stderr)
         # The recorded work is a measured value like any other: checked.
         gravity["diffusion_policy/mlp"]["evaluation_work"] = 0
         proc = maps("suite", "plan", suite, "--costs", write_config(self.dir, costs, "bad.json"), check=False)
@@ -316,6 +321,14 @@ class SuiteTest(unittest.TestCase):
                                                measured=old["measured"]))
         self.assertEqual(new["sets"]["mt10"]["methods"].keys(), old["sets"]["mt10"]["methods"].keys())
         self.assertIn("--methods mt_bc diffusion_policy", new["command"])
+        self.assertEqual(new["sets"]["gravity"]["collect_seconds"], old["sets"]["gravity"]["collect_seconds"])
+        # A damaged table to merge into is refused before anything is timed.
+        (self.dir / "damaged.json").write_text("[]")
+        proc = maps("suite", "calibrate", "--out", self.dir / "damaged.json", "--work", self.dir / "work2", "--suite",
+                    TINY, check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("damaged.json: not a cost table", proc.stderr)
+        self.assertFalse((self.dir / "work2").exists())
         proc = maps("suite", "calibrate", "--out", table, "--methods", "no_such_method", check=False)
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("no_such_method", proc.stderr)
