@@ -104,10 +104,6 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
                                ": not a cost table (expected an object with an object \"sets\"); move it away "
                                "or name another --out");
   }
-  const auto cpu_of = [](const Json& holder) {
-    return holder.contains("cpu") && holder["cpu"].is_string() ? holder["cpu"].get<std::string>()
-                                                               : std::string("an unnamed CPU");
-  };
   Json sets = Json::object();
   const bool bf16 = ag::matmul_precision_refusal(ag::MatmulPrecision::bf16).empty();
   if (!bf16)
@@ -236,7 +232,7 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
       if (old.is_object() && old.contains("methods") && old["methods"].is_object())
         for (auto& [key, method] : old["methods"].items())
           if (method.is_object() && !method.contains("cpu")) {
-            method["cpu"] = cpu_of(table);
+            method["cpu"] = recorded_cpu(table);
             if (table.contains("measured")) method["measured"] = table["measured"];
           }
   for (auto& [name, entry] : sets.items()) {

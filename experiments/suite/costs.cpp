@@ -44,6 +44,11 @@ std::string cost_key(const std::string& method, const std::string& choice) {
   return choice.empty() ? method : method + "/" + choice;
 }
 
+std::string recorded_cpu(const Json& holder) {
+  return holder.contains("cpu") && holder["cpu"].is_string() ? holder["cpu"].get<std::string>()
+                                                             : std::string("an unnamed CPU");
+}
+
 CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   const Json* entry = nullptr;
   // A transfer cell trains MAPS (for one task, from a trained run). A method whose cost depends on a choice
@@ -82,8 +87,7 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   if (!entry->is_object())
     throw std::runtime_error(path + ": sets." + cell.set + ".methods." + method + " is " + entry->dump() +
                              "; expected an object of costs (re-measure: maps suite calibrate)");
-  const Json& entry_cpu = entry->contains("cpu") ? entry->at("cpu") : json.value("cpu", Json("an unnamed CPU"));
-  const std::string cpu = entry_cpu.is_string() ? entry_cpu.get<std::string>() : std::string("an unnamed CPU");
+  const std::string cpu = recorded_cpu(entry->contains("cpu") ? *entry : json);
   // A measured cost: a finite number >= 0 (positive where it divides), or `fallback` when absent and allowed.
   const auto cost = [&](const char* key, bool positive, std::optional<double> fallback = std::nullopt) {
     const std::string where = path + ": sets." + cell.set + ".methods." + method + "." + key;
@@ -100,9 +104,8 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   };
   const Json& r = cell.request;
   // An evaluation step's work against the calibrated run's (Diffusion Policy: sampling steps per executed action),
-  // where the entry is the method's own and records it.
+  // where the entry records it; MAPS standing in calls its policy once an env step: the cell's work against 1.
   double episode_scale = 1.0;
-  // MAPS standing in calls its policy once an env step: the cell's own work against 1.
   if (registered && registered->evaluation_work && (method == "maps" || entry->contains("evaluation_work")))
     episode_scale = registered->evaluation_work(own) / (method == "maps" ? 1.0 : cost("evaluation_work", true));
   const double episode_seconds = cost("episode_seconds", true) * episode_scale;

@@ -52,6 +52,8 @@ struct CostTable {
 
 // A cost table's key for a method, or for one choice of its cost option ("diffusion_policy/mlp").
 std::string cost_key(const std::string& method, const std::string& choice = "");
+// The CPU a cost entry or a whole table names (its "cpu"), or "an unnamed CPU" when it names none.
+std::string recorded_cpu(const nlohmann::json& holder);
 
 // experiments/suites/costs.json of the source tree (override: MAPS_SUITES_DIR) when `path` is empty.
 std::filesystem::path default_costs_path();

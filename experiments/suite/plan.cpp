@@ -158,7 +158,7 @@ int run_suite_plan(const SuitePlanOptions& options) {
         100 * evaluation_part / total, 100 * other_part / total);
   std::string measured_on;
   for (const auto& cpu : cpus) measured_on += (measured_on.empty() ? "" : " and ") + cpu;
-  if (measured_on.empty()) measured_on = costs.json.value("cpu", std::string("an unnamed CPU"));
+  if (measured_on.empty()) measured_on = recorded_cpu(costs.json);
   std::printf("\ncosts: %s (measured on %s; `maps suite calibrate` re-measures on this machine)\n", costs.path.c_str(),
               measured_on.c_str());
   if (!unmeasured.empty()) {
