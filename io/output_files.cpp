@@ -20,7 +20,8 @@ void check_writable_folder(const std::string& option, const std::string& named, 
   fs::create_directories(dir, error);
   if (error)
     throw std::runtime_error(where + "cannot make the folder '" + dir.string() + "' (" + error.message() + ")");
-  const fs::path probe = dir / (".maps-write-probe-" + std::to_string(::getpid()));
+  // Named as a temporary: a process killed between writing and removing it leaves it behind like any other.
+  const fs::path probe = dir / (".maps-write-probe.tmp-" + std::to_string(::getpid()));
   {
     std::ofstream out(probe);
     if (!out) throw std::runtime_error(where + "cannot write in the folder '" + dir.string() + "'");
