@@ -15,11 +15,21 @@ void add_train(CLI::App& tool, Commands& commands) {
   auto options = std::make_shared<TrainRunOptions>();
   CLI::App* command = tool.add_subcommand("train", "Train one method on a demo file as a JSON config says");
   std::string method_lines = "Methods (config \"method\"; docs/configs.md, docs/zoo.md):";
-  for (const auto& method : core::policy_methods())
+  std::string not_by_gail, own_chunks;
+  for (const auto& method : core::policy_methods()) {
     method_lines +=
         "\n  " + method.name + std::string(method.name.size() < 10 ? 10 - method.name.size() : 1, ' ') + method.summary;
+    if (!method.not_trained_by_gail.empty()) not_by_gail += (not_by_gail.empty() ? "" : ", ") + method.name;
+    if (method.own_chunking) own_chunks += (own_chunks.empty() ? "" : ", ") + method.name;
+  }
   method_lines +=
-      "\nSelector losses (config maps.selector_losses; docs/selector-losses.md): " + core::selector_loss_names();
+      "\nSelector losses (config maps.selector_losses; docs/selector-losses.md): " + core::selector_loss_names() +
+      "\nAction chunks (config chunking.*; docs/zoo.md): chunking.horizon actions a query, executed by ACT's ensemble "
+      "or open loop; every method but " +
+      own_chunks + " (chunks in its own section)" +
+      "\nImitation objective (config imitation; docs/adversarial.md): bc (default) or gail (PPO on a "
+      "discriminator's reward in the envs, gail.*; one action a step; every method but " +
+      not_by_gail + ")";
   command->footer(method_lines);
   command->add_option("--config", options->config_path, "Run config (JSON; every key in docs/configs.md)")
       ->required()

@@ -363,6 +363,9 @@ PolicyMethod diffusion_policy_method() {
   };
   method.size_keys = "diffusion_policy.width and diffusion_policy.layers";
   method.sampled_bc_loss = false;
+  // A DDIM sample is a deterministic map of the state, which PPO would treat as a Gaussian's mean, backpropagating
+  // through every sampling step and its clipping: not the action distribution the denoiser models.
+  method.not_trained_by_gail = "it samples its actions by denoising, not from a Gaussian around a mean";
   method.make = [](const PolicyShape& shape, const MethodOptions& o, ag::Generator& gen) -> std::shared_ptr<Policy> {
     return std::make_shared<DiffusionPolicy>(shape, diffusion_policy_config(shape, o), gen);
   };

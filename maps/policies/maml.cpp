@@ -247,6 +247,7 @@ PolicyMethod maml_method() {
   method.size_keys = "baselines.hidden";
   method.uses_baselines_hidden = true;
   method.sampled_bc_loss = false;
+  method.not_trained_by_gail = "its adaptation is a BC inner loop";
   method.make = [](const PolicyShape& shape, const MethodOptions& o, ag::Generator& gen) -> std::shared_ptr<Policy> {
     return std::make_shared<MAML>(shape, gen, o.maml, o.baseline_hidden);
   };

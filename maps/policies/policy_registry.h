@@ -49,6 +49,9 @@ struct PolicyMethod {
   bool uses_baselines_hidden = false;
   // Whether train.bc_loss "sampled" applies (MAML's inner steps use the mean's squared error).
   bool sampled_bc_loss = true;
+  // Why imitation "gail" cannot train it ("" when it can): GAIL's PPO needs act() to be the mean of a Gaussian
+  // policy over one step's action, trained by that Gaussian's probability ratio.
+  std::string not_trained_by_gail;
   // A method that predicts action chunks by its own design (Diffusion Policy): its chunks from its filled-in section.
   // Empty: the run's chunking.* applies (one action per step by default). make() gets the shape with the output
   // widened to horizon x the action size either way.

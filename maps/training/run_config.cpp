@@ -62,10 +62,6 @@ void check_imitation_keys(const RunConfig& c) {
                                     "\"gail\" to train adversarially)");
     return;
   }
-  if (c.method == "maml")
-    throw std::invalid_argument(
-        "config imitation: \"gail\" trains one policy by PPO; maml's adaptation is a BC inner "
-        "loop (use imitation \"bc\" for maml)");
   const TrainConfig defaults;
   const auto refuse = [](const std::string& key, const std::string& why) {
     throw std::invalid_argument("config train." + key + ": " + why + " under imitation \"gail\"");
@@ -175,6 +171,10 @@ RunConfig parse_run_config(const Json& json) {
       throw std::invalid_argument("config maps.selector_losses: unknown selector loss '" + name +
                                   "'; known: " + selector_loss_names());
   }
+  // Before the chunk checks: a method GAIL cannot train is the reason, not its chunks.
+  if (c.imitation == "gail" && !chosen.not_trained_by_gail.empty())
+    throw std::invalid_argument("config imitation: \"gail\" trains a Gaussian policy by PPO; " + c.method + ": " +
+                                chosen.not_trained_by_gail + " (use imitation \"bc\" for " + c.method + ")");
   chunking::check_action_chunking(c.chunking, "chunking");
   if (chosen.own_chunking && c.chunking != chunking::ActionChunking{})
     throw std::invalid_argument("config chunking: " + c.method +

@@ -404,7 +404,8 @@ std::vector<RunConfigField> make_fields() {
   add(
       "imitation", [](RunConfig & c) -> auto& { return c.imitation; }, one_of({"bc", "gail"}),
       "`bc`: behaviour cloning on the demonstrations (the study's); `gail`: adversarial imitation, the policy "
-      "trained by PPO on a discriminator's reward in the envs ([adversarial.md](adversarial.md)), set by `gail.*`; "
+      "trained by PPO on a discriminator's reward in the envs ([adversarial.md](adversarial.md)), set by `gail.*`, for "
+      "every method but `maml` and `diffusion_policy` (not Gaussian policies); "
       "`train.*` then applies only through `train.validation_states_per_task` and the BC term's loss "
       "(`gail.bc_weight`)");
   add(

@@ -102,6 +102,23 @@ TEST(ActionChunking, RefusalsNameTheKey) {
               HasSubstr("GAIL's PPO acts one step at a time"));
 }
 
+TEST(ImitationObjective, GailRefusesTheMethodsItCannotTrainSayingWhyBeforeAnythingElse) {
+  // Diffusion Policy at one action a chunk passes every chunk check, so only the method's own refusal stops it.
+  for (const nlohmann::json& section :
+       {nlohmann::json::object(), nlohmann::json{{"denoiser", "mlp"}, {"horizon", 1}, {"execute", 1}}})
+    EXPECT_THAT(error_of([&] {
+                  config_of({{"method", "diffusion_policy"}, {"imitation", "gail"}, {"diffusion_policy", section}});
+                }),
+                HasSubstr("config imitation: \"gail\" trains a Gaussian policy by PPO; diffusion_policy: it samples "
+                          "its actions by denoising"));
+  EXPECT_THAT(error_of([] {
+                config_of({{"method", "maml"}, {"imitation", "gail"}});
+              }),
+              HasSubstr("maml: its adaptation is a BC inner loop (use imitation \"bc\" for maml)"));
+  for (const char* method : {"maps", "single_bc", "mt_bc", "mt_mh_bc", "moore", "soft_modularization"})
+    EXPECT_EQ(config_of({{"method", method}, {"imitation", "gail"}}).imitation, "gail") << method;
+}
+
 TEST(DiffusionPolicy, ItsSectionSetsItsChunksAndItsRefusalsNameTheKey) {
   const core::RunConfig config = config_of({{"method", "diffusion_policy"}});
   const auto chunks = core::action_chunking(config);
