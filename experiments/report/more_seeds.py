@@ -31,6 +31,14 @@ from suite_results import SuiteError, is_keep_only, label, load_suite, maps_part
 from suite_stats import fmt, paired, significance  # noqa: E402
 
 
+def file_indent(text):
+    """The indent of the file's first indented line (1 if none), so that a rewrite changes only what it appends."""
+    for line in text.splitlines()[1:]:
+        if line.startswith(" "):
+            return len(line) - len(line.lstrip(" "))
+    return 1
+
+
 def grid_demos(config, grid, set_name):
     """The demo counts a grid runs on a set: its own (a list, or per set), else the set's (as `maps suite` reads a
     grid whose per-set counts do not name the set)."""
@@ -219,7 +227,7 @@ def main(argv=None):
     print(json.dumps(grids, indent=1))
     if args.write:
         config["grids"] += grids
-        config_path.write_text(json.dumps(config, indent=1) + "\n")
+        config_path.write_text(json.dumps(config, indent=file_indent(config_path.read_text())) + "\n")
         print(f"appended to {config_path}; `maps suite plan {config_path}` lists the new cells")
     return 0
 

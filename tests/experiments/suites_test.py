@@ -1165,6 +1165,17 @@ class MoreSeeds(unittest.TestCase):
         self.assertIn("no grids to add", stdout)
         self.assertEqual(json.loads(config.read_text())["grids"], grids)
 
+    def test_write_keeps_the_files_indent_so_the_diff_is_the_new_grids(self):
+        for indent in (1, 2, 4):
+            with tempfile.TemporaryDirectory() as tmp:
+                config = pathlib.Path(tmp) / "c.json"
+                config.write_text(json.dumps(self.CONFIG, indent=indent) + "\n")
+                code, _, stderr = self.run_tool(FIXTURE, config, "--seeds", "2,3", "--write")
+                self.assertEqual(code, 0, stderr)
+                written = json.loads(config.read_text())
+                self.assertGreater(len(written["grids"]), len(self.CONFIG["grids"]))
+                self.assertEqual(config.read_text(), json.dumps(written, indent=indent) + "\n", indent)
+
     def test_overlapping_settings_get_the_new_seeds_with_their_maps(self):
         with tempfile.TemporaryDirectory() as tmp:
             config = pathlib.Path(tmp) / "c.json"
