@@ -1,5 +1,7 @@
 #include "maps/policies/single_bc.h"
 
+#include <algorithm>
+
 #include "maps/policies/policy_registry.h"
 #include "nn/module_list.h"
 #include "nn/parallel_linear.h"
@@ -36,9 +38,31 @@ ag::Tensor SingleBC::forward_all(const ag::Tensor& observations) {
 
 ag::Tensor SingleBC::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("SingleBC::act", shape(), observations, tasks);
-  const ag::Tensor all = run(observations);  // [K, n, A]
-  return ag::index_select(ag::reshape(all, {-1, shape().action_size}), own_task_rows(tasks));
+  const std::int64_t K = shape().num_tasks;
+  std::vector<std::vector<std::int64_t>> groups(static_cast<std::size_t>(K));
+  for (std::size_t j = 0; j < tasks.size(); ++j)
+    groups[static_cast<std::size_t>(tasks[j])].push_back(static_cast<std::int64_t>(j));
+  std::int64_t m = 1;
+  for (const auto& rows : groups) m = std::max<std::int64_t>(m, static_cast<std::int64_t>(rows.size()));
+  std::vector<std::int64_t> gather(static_cast<std::size_t>(K * m), 0), place(tasks.size());
+  for (std::int64_t k = 0; k < K; ++k) {
+    const auto& rows = groups[static_cast<std::size_t>(k)];
+    for (std::int64_t i = 0; i < m; ++i) {
+      const auto slot = static_cast<std::size_t>(k * m + i);
+      if (i < static_cast<std::int64_t>(rows.size())) {
+        gather[slot] = rows[static_cast<std::size_t>(i)];
+        place[static_cast<std::size_t>(rows[static_cast<std::size_t>(i)])] = k * m + i;
+      } else if (!rows.empty()) {
+        gather[slot] = rows.front();
+      }
+    }
+  }
+  const ag::Tensor grouped =
+      ag::reshape(ag::index_select(observations, gather), {K, m, shape().observation_size});  // [K, m, S]
+  return ag::index_select(ag::reshape(run(grouped), {K * m, shape().action_size}), place);
 }
+
+PolicyForward SingleBC::forward_terms(const Batch& batch) { return {predict(batch), {}}; }
 
 ag::Tensor SingleBC::predict(const Batch& batch) {
   detail::check_batch("SingleBC::predict", shape(), batch);

@@ -24,9 +24,12 @@ class SingleBC : public Policy {
            const std::vector<std::int64_t>& hidden_sizes = detail::default_hidden_sizes(),
            nn::Activation activation = nn::Activation::Tanh);
 
-  // Row j from task tasks[j]'s network. Every row goes through all K networks (one batched pass) and keeps its
-  // own task's output: K times the work of one network, but no regrouping of rows.
+  // Row j from task tasks[j]'s network. The rows are regrouped by task into [K, m, S] (m: the most rows any task
+  // has; shorter groups padded with a copy of a row, whose outputs are dropped), so each row goes through its own
+  // network only: about the work of one network when the tasks are balanced, never more than K times it.
   ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
+  // predict(): PPO's balanced minibatches (GAIL) then run each network on its own task's rows only.
+  PolicyForward forward_terms(const Batch& batch) override;
   // Mean over batch and action dims of the squared error; terms {"bc"}. Any batch; balanced ones run faster.
   LossTerms loss(const Batch& batch) override;
 

@@ -48,6 +48,42 @@ TEST(SingleBC, ActOnMixedTasksMatchesTheBalancedPath) {
   EXPECT_NEAR(policy.loss(mixed).total.item(), policy.loss(batch).total.item(), 1e-6);
 }
 
+// act() regroups rows by task (padding the shorter groups): uneven counts, a task with no rows and one row alone
+// give each row its own network's output, and the parameters' gradients, as running every network on every row.
+TEST(SingleBC, ActOnUnevenTasksEqualsEveryNetworkOnEveryRowInValueAndGradient) {
+  ag::Generator gen(11);
+  core::SingleBC policy(kShape, gen, {16, 16});
+  const core::Batch batch = make_batch(3, 5, 12);
+  const std::vector<std::int64_t> rows{14, 0, 3, 1, 4, 2, 13};  // task 0 five rows, task 1 none, task 2 two
+  const core::Batch uneven = rows_of(batch, rows);
+  const Tensor acted = policy.act(uneven.observations, uneven.tasks);
+  const Tensor every = ag::index_select(ag::reshape(policy.forward_all(uneven.observations), {-1, 2}),
+                                        core::own_task_rows(uneven.tasks));
+  EXPECT_LT(max_abs_diff(acted, every), 1e-6);
+  const auto gradients = [&](const Tensor& out) {
+    policy.zero_grad();
+    ag::sum(ag::square(out)).backward();
+    std::vector<Tensor> grads;
+    for (const Tensor& p : policy.parameters()) grads.push_back(p.grad().clone());
+    return grads;
+  };
+  const std::vector<Tensor> grouped = gradients(policy.act(uneven.observations, uneven.tasks));
+  const std::vector<Tensor> reference = gradients(ag::index_select(
+      ag::reshape(policy.forward_all(uneven.observations), {-1, 2}), core::own_task_rows(uneven.tasks)));
+  ASSERT_EQ(grouped.size(), reference.size());
+  for (std::size_t i = 0; i < grouped.size(); ++i) EXPECT_LT(max_abs_diff(grouped[i], reference[i]), 1e-5) << i;
+  // Task 1 has no rows: its network gets no gradient at all.
+  const Tensor first = policy.parameter("layers.0.weight").grad();  // [K, S, 16]
+  EXPECT_EQ(max_abs_diff(ag::narrow(grouped[0], 0, 1, 1), ag::zeros_like(ag::narrow(first, 0, 1, 1))), 0.0);
+  // One row of one task alone.
+  const core::Batch one = rows_of(batch, {7});
+  EXPECT_LT(max_abs_diff(policy.act(one.observations, one.tasks),
+                         ag::narrow(policy.forward_all(one.observations), 0, 1, 1).reshape({1, 2})),
+            1e-6);
+  // PPO's balanced minibatches take predict()'s path.
+  EXPECT_EQ(max_abs_diff(policy.forward_terms(batch).mean_actions, policy.predict(batch)), 0.0);
+}
+
 TEST(SingleBC, ChangingOneTasksNetworkChangesOnlyItsRows) {
   ag::Generator gen(5);
   core::SingleBC policy(kShape, gen, {8});
