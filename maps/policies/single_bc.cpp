@@ -38,6 +38,7 @@ ag::Tensor SingleBC::forward_all(const ag::Tensor& observations) {
 
 ag::Tensor SingleBC::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("SingleBC::act", shape(), observations, tasks);
+  if (tasks.empty()) return ag::reshape(run(observations), {0, shape().action_size});  // no row to gather from
   const std::int64_t K = shape().num_tasks;
   std::vector<std::vector<std::int64_t>> groups(static_cast<std::size_t>(K));
   for (std::size_t j = 0; j < tasks.size(); ++j)

@@ -80,6 +80,8 @@ TEST(SingleBC, ActOnUnevenTasksEqualsEveryNetworkOnEveryRowInValueAndGradient) {
   EXPECT_LT(max_abs_diff(policy.act(one.observations, one.tasks),
                          ag::narrow(policy.forward_all(one.observations), 0, 1, 1).reshape({1, 2})),
             1e-6);
+  // No rows at all: no actions, and no error.
+  EXPECT_EQ(policy.act(ag::zeros({0, 3}, ag::Dtype::Float32), {}).shape(), (ag::Shape{0, 2}));
   // PPO's balanced minibatches take predict()'s path.
   EXPECT_EQ(max_abs_diff(policy.forward_terms(batch).mean_actions, policy.predict(batch)), 0.0);
 }
