@@ -119,9 +119,11 @@ void write_or_check_manifest(const fs::path& out, const Suite& suite) {
     for (const auto& cell : old.cells) {
       const auto found = now.find(cell.name);
       if (found != now.end() && !same_run_config(found->second->request, cell.request))
-        throw std::runtime_error(out.string() + " holds a suite whose cell " + cell.name +
-                                 " has another run config than " + suite.path +
-                                 " gives it; use a new --out, or delete that cell's folder and its entry");
+        throw std::runtime_error(
+            out.string() + " holds a suite whose cell " + cell.name + " has another run config than " + suite.path +
+            " gives it (" +
+            run_config_differences(cell.request, found->second->request, "the folder's", "the config's") +
+            "); use a new --out, or delete that cell's folder and its entry");
     }
     // Cells of the old manifest that the new config drops stay listed, so status and report still see them.
     for (const auto& cell : old.cells)
@@ -142,6 +144,49 @@ bool same_run_config(const Json& a, const Json& b) {
   } catch (const std::exception&) {
     return false;
   }
+}
+
+namespace {
+
+std::string short_dump(const Json& value) {
+  std::string text = value.is_null() ? std::string("absent") : value.dump();
+  return text.size() > 40 ? text.substr(0, 37) + "..." : text;
+}
+
+void collect_differences(const Json& a, const Json& b, const std::string& path, std::vector<std::string>& out,
+                         const std::string& a_name, const std::string& b_name) {
+  if (a.is_object() && b.is_object()) {
+    std::set<std::string> keys;
+    for (const auto& [key, value] : a.items()) keys.insert(key);
+    for (const auto& [key, value] : b.items()) keys.insert(key);
+    for (const auto& key : keys)
+      collect_differences(a.contains(key) ? a[key] : Json(), b.contains(key) ? b[key] : Json(),
+                          path.empty() ? key : path + "." + key, out, a_name, b_name);
+    return;
+  }
+  if (a != b) out.push_back(path + ": " + short_dump(a) + " in " + a_name + ", " + short_dump(b) + " in " + b_name);
+}
+
+}  // namespace
+
+std::string run_config_differences(const Json& a, const Json& b, const std::string& a_name, const std::string& b_name) {
+  const auto resolved = [](const Json& config, const std::string& name, std::string& error) -> Json {
+    try {
+      return core::to_json(core::parse_run_config(load_config_plugins(config, ".", "a run config")));
+    } catch (const std::exception& e) {
+      error = name + " is no run config (" + e.what() + ")";
+      return Json();
+    }
+  };
+  std::string error;
+  const Json ra = resolved(a, a_name, error), rb = error.empty() ? resolved(b, b_name, error) : Json();
+  if (!error.empty()) return error;
+  std::vector<std::string> found;
+  collect_differences(ra, rb, "", found, a_name, b_name);
+  std::string text;
+  for (std::size_t i = 0; i < found.size() && i < 3; ++i) text += (i ? "; " : "") + found[i];
+  if (found.size() > 3) text += "; and " + std::to_string(found.size() - 3) + " more";
+  return text;
 }
 
 bool is_temporary(const fs::path& file) {
@@ -174,7 +219,9 @@ std::optional<Json> read_result(const fs::path& dir, const SuiteCell& cell, std:
   if (!result.contains("cell") || !result["cell"].is_object() || io::string_or(result["cell"], "name", "") != cell.name)
     return reject("names another cell");
   if (!result.contains("config") || !same_run_config(result["config"], cell.request))
-    return reject("was trained with another run config");
+    return reject("was trained with another run config (" +
+                  run_config_differences(result.value("config", Json()), cell.request, "its config", "the suite's") +
+                  ")");
   const auto number = [](const Json& object, const char* key) {
     return object.is_object() && object.contains(key) && object[key].is_number();
   };

@@ -50,6 +50,10 @@ Suite read_manifest(const std::filesystem::path& out);
 // Whether two run configs are the same run once each is resolved (core::parse_run_config then to_json), so a folder
 // written before a config key existed (its default then implied) still matches. An unparsable one matches nothing.
 bool same_run_config(const nlohmann::json& a, const nlohmann::json& b);
+// Where two run configs differ once resolved, for a message: up to three keys, each with both values
+// ("maml.query_per_task: 40 in its config, 160 in the suite's"), then how many more; or which one is no run config.
+std::string run_config_differences(const nlohmann::json& a, const nlohmann::json& b, const std::string& a_name,
+                                   const std::string& b_name);
 
 // Temporaries a killed writer left in dir (io::write_file_atomically's ".<name>.tmp-...", maps collect's
 // "*.partial.h5"): removed by whoever holds the cell's lock, and never copied.

@@ -62,6 +62,29 @@ TEST_F(Manifest, ACellsRunConfigIsReadResolved) {
   EXPECT_TRUE(same_run_config(request, cell["request"]));
 }
 
+// Why a result or a folder is refused names the keys that differ and both values, resolved (a key one of them
+// leaves at its default is no difference), at most three and how many more.
+TEST(RunConfigDifferences, NameTheKeysAndBothValues) {
+  const Json base{{"method", "maps"}, {"data", {{"file", "data/gravity.h5"}}}};
+  Json theirs = base, ours = base;
+  theirs["train"] = {{"steps", 5}};
+  ours["train"] = {{"steps", 20000}};
+  ours["maml"] = {{"query_per_task", 40}};
+  ours["eval"] = {{"episodes", 100}};  // the default: no difference
+  EXPECT_FALSE(same_run_config(theirs, ours));
+  EXPECT_EQ(run_config_differences(theirs, ours, "its config", "the suite's"),
+            "maml.query_per_task: 160 in its config, 40 in the suite's; train.steps: 5 in its config, 20000 in the "
+            "suite's");
+  ours["train"]["validate_every"] = 7;
+  ours["seed"] = 9;
+  EXPECT_EQ(run_config_differences(theirs, ours, "a", "b"),
+            "maml.query_per_task: 160 in a, 40 in b; seed: 0 in a, 9 in b; train.steps: 5 in a, 20000 in b; and 1 "
+            "more");
+  EXPECT_EQ(run_config_differences(base, base, "a", "b"), "");
+  const std::string unreadable = run_config_differences(Json{{"method", "mapz"}}, base, "a", "b");
+  EXPECT_EQ(unreadable.rfind("a is no run config (", 0), 0u) << unreadable;
+}
+
 TEST_F(RetireCell, MovesTheResultsToAFolderNamedForWhenTheyFinished) {
   finish("2026-11-27T10:20:30Z", "step,loss\n50,0.1\n");
   const fs::path kept = retire_cell(dir_);

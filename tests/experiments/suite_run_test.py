@@ -614,7 +614,8 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("6 finished before, 3 to run", proc.stdout)
         self.assertIn("gravity/maps_d2_s0", proc.stdout)
         self.assertIn("mt10/mt_bc_d2_s0: " + str(cells / "mt10/mt_bc_d2_s0/result.json") +
-                      ": was trained with another run config; redoing the cell", proc.stdout)
+                      ": was trained with another run config (train.steps: 5 in its config, 60 in the suite's);"
+                      " redoing the cell", proc.stdout)
         self.assertIn("mt10/maps_d2_s1: resuming failed", proc.stdout)
         self.assertIn("redoing the cell from nothing", proc.stdout)
         self.assertEqual(results(out), results(self.reference))
@@ -689,6 +690,7 @@ class SuiteTest(unittest.TestCase):
         proc = maps("suite", "run", path, "--out", out, check=False)
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("has another run config", proc.stderr)
+        self.assertIn("(train.steps: 60 in the folder's, 61 in the config's)", proc.stderr)
         # More seeds: the suite grows, the finished cell stays.
         config = json.loads(TINY.read_text())
         config["grids"][0]["seeds"] = [0, 1, 2]
