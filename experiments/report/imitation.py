@@ -1,20 +1,24 @@
 """GAIL against BC (issue 45, docs/adversarial.md): the report's tables on the imitation objective. A cell trained by
 GAIL says so in its resolved config ("imitation": "gail"); it is paired with the cell of the same set, method, demos,
-k and seed trained by BC (the method's base cells). Three tables, each a list of Markdown lines:
+k and seed trained by BC (the method's base cells). Four tables, each a list of Markdown lines:
 
 - objective_table: every method's GAIL - BC difference in mean score, paired by seed, Holm over the whole table (one
   question, asked at every set, method and demo count);
 - maps_table: MAPS against each other method under each objective, paired by seed, Holm within each objective (does
   MAPS's lead, or its lack, survive the change of objective?);
+- speed_table: how fast each method learns under GAIL (the area under its training curve, the env steps to 0.9 of
+  the expert's return), MAPS against each other method paired by seed (the final scores of the cheetah sets saturate
+  near the expert's, so a difference between methods shows in how soon, not how high);
 - routing_table: MAPS's routing under each objective (how far each task's module usage is from the tasks' mean, the
   per-state entropy and top score, the shared and task-specific modules), GAIL - BC paired by seed.
 
 The figures are in imitation_figures.py."""
+import csv
 import math
 from collections import namedtuple
 
 from suite_results import METHOD_NAMES, SET_ORDER, method_rank, order
-from suite_stats import USED_FACTOR, division, fmt, holm, mean, paired, paired_p, usage_distances
+from suite_stats import USED_FACTOR, ci95, division, fmt, holm, mean, paired, paired_p, usage_distances
 from tables import against_columns, holm_columns, table
 
 Setting = namedtuple("Setting", "set method variant demos subsample")
@@ -64,6 +68,52 @@ def budget_line(cells):
             f" ({'the policy after the last iteration' if rules == ['last'] else 'gail.checkpoint'}); BC:"
             f" {'/'.join(str(s) for s in sorted({c.steps for c in bc}))} steps, the best-validation checkpoint."
             " Both evaluated alike (the suite's eval settings, the mean action).")
+
+
+def expert_returns(cell):
+    """{task: the return its score is divided by}: the evaluation's expert_return, else (a result written before maps
+    eval recorded it) its return over its score where the score is above 0 (it is clipped at 0)."""
+    found = {}
+    for t in cell.tasks:
+        expert = t.expert_return
+        if expert is None and t.score > 0 and math.isfinite(t.return_mean):
+            expert = t.return_mean / t.score
+        if expert is not None and math.isfinite(expert) and expert != 0:
+            found[t.task] = expert
+    return found
+
+
+def training_curve(cell):
+    """{env steps per task: the mean over tasks of the iteration's mean training return over the task's expert
+    return (expert_returns)} from a GAIL cell's curve.csv. {} when the curve is missing or unreadable, or a task has
+    no expert return to divide by."""
+    if all(t.scored_by == "success" for t in cell.tasks):
+        return success_curve(cell)
+    experts = expert_returns(cell)
+    if not experts or set(experts) != {t.task for t in cell.tasks}:
+        return {}
+    curve = {}
+    try:
+        with (cell.folder / "curve.csv").open() as f:
+            for row in csv.DictReader(f):
+                values = [float(row[f"return:{task}"]) / expert for task, expert in experts.items()]
+                curve[int(row["env_steps_per_task"])] = mean(values)
+    except (OSError, KeyError, ValueError, TypeError, ZeroDivisionError):
+        return {}
+    return curve
+
+
+def success_curve(cell):
+    """{env steps per task: the share of the iteration's training episodes that succeeded at some step, over all
+    tasks} from curve.csv's success column: the curve of a set scored by success (MT10)."""
+    curve = {}
+    try:
+        with (cell.folder / "curve.csv").open() as f:
+            for row in csv.DictReader(f):
+                curve[int(row["env_steps_per_task"])] = float(row["success"])
+    except (OSError, KeyError, ValueError, TypeError):
+        return {}
+    return curve
 
 
 def objective_table(cells):
@@ -170,3 +220,82 @@ def routing_table(cells):
              " division), p: paired t test, Holm over the rows:", ""]
             + table(["set", "demos", "k", "objective", "seeds"] + ROUTING_COLUMNS
                     + ["GAIL - BC (TV)", "p", "p (Holm)"], shown))
+
+
+# How fast GAIL learns: a curve's value (return over the expert's, or the success rate) counts as reached when the
+# mean over a trailing window of iterations reaches it: one iteration's few training episodes per task are too noisy
+# to read alone (the curves of gail_curves.png swing by 0.1 from one iteration to the next).
+REACH = 0.9
+WINDOW_ENV_STEPS = 20000
+
+
+def learning_speed(curve, budget=None):
+    """(area, env steps to REACH) of one GAIL cell's training curve {env steps per task: value}: area = the mean of
+    the value over the iterations up to budget (env steps per task; all without one), the normalised area under the
+    learning curve; env steps to REACH = the env steps per task at the end of the first trailing window of
+    WINDOW_ENV_STEPS whose mean value is >= REACH, None where no window reaches it. (None, None) for an empty
+    curve."""
+    steps = sorted(s for s in curve if budget is None or s <= budget)
+    if not steps:
+        return None, None
+    values = [curve[s] for s in steps]
+    per_iteration = steps[0] if len(steps) == 1 else min(b - a for a, b in zip(steps, steps[1:]))
+    window = max(1, round(WINDOW_ENV_STEPS / per_iteration)) if per_iteration > 0 else 1
+    reached = None
+    for end in range(window - 1, len(values)):
+        if mean(values[end - window + 1:end + 1]) >= REACH:
+            reached = steps[end]
+            break
+    return mean(values), reached
+
+
+def fmt_steps(values, total):
+    """"0.17M +- 0.02M" over the seeds that reached REACH, with "(2 of 3)" when some did not; "not reached" when
+    none did."""
+    reached = [v for v in values if v is not None]
+    if not reached:
+        return "not reached"
+    text = (f"{reached[0] / 1e6:.2f}M" if len(reached) == 1
+            else f"{mean(reached) / 1e6:.2f}M +- {ci95(reached) / 1e6:.2f}M")
+    return text + ("" if len(reached) == total else f" ({len(reached)} of {total})")
+
+
+def speed_table(cells):
+    """How fast each method learns under GAIL, per set and demo count: the normalised area under its training curve
+    (mean over the run of the training episodes' return over the expert's, or of their success rate) and the env
+    steps per task at which it first reaches REACH, per seed then mean +- CI; and MAPS - each other method's area,
+    paired by seed, Holm over the rows with a p. [] without GAIL cells with curves. The curves are compared over the
+    budget all of a setting's cells ran (the shortest)."""
+    settings = by_objective(cells)
+    curves = {id(c): training_curve(c) for runs in settings.values() for c in runs["gail"]}
+    rows = []
+    for setting, runs in settings.items():
+        mine = [c for c in runs["gail"] if curves[id(c)]]
+        if not mine:
+            continue
+        partner = settings.get(setting._replace(method="maps"))
+        peers = [c for c in partner["gail"] if curves[id(c)]] if partner and setting.method != "maps" else []
+        budget = min(max(curves[id(c)]) for c in mine + peers)
+        speed = {c.seed: learning_speed(curves[id(c)], budget) for c in mine}
+        row = [setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample, len(mine),
+               f"{budget:,}", fmt([a for a, _ in speed.values()]),
+               fmt_steps([s for _, s in speed.values()], len(mine))]
+        if peers:
+            maps_area = {c.seed: learning_speed(curves[id(c)], budget)[0] for c in peers}
+            diffs = [maps_area[seed] - area for seed, (area, _) in speed.items() if seed in maps_area]
+            row += [len(diffs), fmt(diffs, signed=True) if diffs else "-", paired_p(diffs) if diffs else math.nan]
+        else:
+            row += ["", "", math.nan]
+        rows.append(row)
+    if not rows:
+        return []
+    shown, sizes = holm_columns(rows)
+    return ([f"How fast each method learns under GAIL: area = the mean over the run's iterations of its training"
+             " episodes' return over the expert's (success-scored sets: their success rate), the normalised area"
+             f" under the learning curve of gail_curves.png; reaches {REACH:g} = the env steps per task at the end of"
+             f" the first trailing window of {WINDOW_ENV_STEPS:,} env steps per task whose mean is >= {REACH:g}"
+             " (mean +- 95% CI over the seeds that reached it, how many where not all did). Both per seed, then over"
+             " seeds, over the budget every cell of the row and MAPS's ran. MAPS - other: the area's difference,"
+             f" paired by seed; p: paired t test; Holm over all {sizes[None]} rows with a p:", ""]
+            + table(["set", "method", "demos", "k", "seeds", "budget", "area", f"reaches {REACH:g} at",
+                     "MAPS - other pairs", "MAPS - other (area)", "p", "p (Holm)"], shown))

@@ -8,7 +8,6 @@
 
 Each function returns the Figures it wrote, or [] when the suite has no GAIL cells."""
 import csv
-import math
 
 import matplotlib
 
@@ -18,7 +17,7 @@ import numpy as np  # noqa: E402
 
 from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_panels,  # noqa: E402
                      write_csv)
-from imitation import by_objective  # noqa: E402
+from imitation import by_objective, training_curve  # noqa: E402
 from suite_results import SET_ORDER, order, score_name, success_scored  # noqa: E402
 from suite_stats import ci95, describe_n, mean  # noqa: E402
 
@@ -82,52 +81,6 @@ def imitation_scores(cells, out):
                    " (the mean action).")]
 
 
-def expert_returns(cell):
-    """{task: the return its score is divided by}: the evaluation's expert_return, else (a result written before maps
-    eval recorded it) its return over its score where the score is above 0 (it is clipped at 0)."""
-    found = {}
-    for t in cell.tasks:
-        expert = t.expert_return
-        if expert is None and t.score > 0 and math.isfinite(t.return_mean):
-            expert = t.return_mean / t.score
-        if expert is not None and math.isfinite(expert) and expert != 0:
-            found[t.task] = expert
-    return found
-
-
-def training_curve(cell):
-    """{env steps per task: the mean over tasks of the iteration's mean training return over the task's expert
-    return (expert_returns)} from a GAIL cell's curve.csv. {} when the curve is missing or unreadable, or a task has
-    no expert return to divide by."""
-    if all(t.scored_by == "success" for t in cell.tasks):
-        return success_curve(cell)
-    experts = expert_returns(cell)
-    if not experts or set(experts) != {t.task for t in cell.tasks}:
-        return {}
-    curve = {}
-    try:
-        with (cell.folder / "curve.csv").open() as f:
-            for row in csv.DictReader(f):
-                values = [float(row[f"return:{task}"]) / expert for task, expert in experts.items()]
-                curve[int(row["env_steps_per_task"])] = mean(values)
-    except (OSError, KeyError, ValueError, TypeError, ZeroDivisionError):
-        return {}
-    return curve
-
-
-def success_curve(cell):
-    """{env steps per task: the share of the iteration's training episodes that succeeded at some step, over all
-    tasks} from curve.csv's success column: the curve of a set scored by success (MT10)."""
-    curve = {}
-    try:
-        with (cell.folder / "curve.csv").open() as f:
-            for row in csv.DictReader(f):
-                curve[int(row["env_steps_per_task"])] = float(row["success"])
-    except (OSError, KeyError, ValueError, TypeError):
-        return {}
-    return curve
-
-
 def gail_curves(cells, out):
     settings = by_objective(cells)
     sets = order(SET_ORDER, {s.set for s in settings})
@@ -183,4 +136,5 @@ def gail_curves(cells, out):
                    "GAIL's learning curves: each iteration's training episodes (actions drawn from the policy's"
                    " Gaussian, so below what the mean action scores) as return over the task's expert return, mean"
                    " over tasks, then over seeds (band: 95% CI), against env steps per task; the dotted line is the"
-                   f" same method's BC score at the same demos (evaluated, the mean action). {describe_n(used)}.")]
+                   f" same method's BC score at the same demos (evaluated, the mean action). {describe_n(used)} (GAIL:"
+                   " iterations).")]

@@ -279,6 +279,9 @@ def imitation_section(cells, draw):
     against = imitation.maps_table(cells)
     body += ["", "### MAPS against the others under each objective", ""] + (
         against or ["No MAPS cells, or no other method at the same settings."])
+    speed = imitation.speed_table(cells)
+    body += ["", "### How fast each method learns under GAIL", ""] + (
+        speed or ["No GAIL cell with a learning curve (curve.csv) to read."])
     routing = imitation.routing_table(cells)
     body += ["", "### MAPS's routing under each objective", ""] + (
         routing or ["No MAPS cells with module usage under both objectives."])

@@ -163,7 +163,8 @@ class Gail(unittest.TestCase):
             key = (cell["cell"]["method"], cell["config"]["imitation"], cell["cell"]["demos"], cell["cell"]["seed"])
             scores[key] = cell["eval"]["mean_score"]
         self.assertEqual(len(scores), 16)
-        rows = [line for line in text.splitlines() if line.startswith("| gravity | ") and " | 20 | 2 | " in line]
+        scores_table = text.split("## Imitation objective: GAIL against BC")[1].split("### MAPS against the others")[0]
+        rows = [line for line in scores_table.splitlines() if line.startswith("| gravity | ") and " | 20 | 2 | " in line]
         for method, shown in (("maps", "MAPS"), ("mt_bc", "MT-BC")):
             for demos in (1, 2):
                 row = [r for r in rows if r.startswith(f"| gravity | {shown} | {demos} | 20 | 2 |")]
@@ -174,6 +175,10 @@ class Gail(unittest.TestCase):
         self.assertRegex(text, r"GAIL above BC after Holm in \d of 4 settings, below in \d\.")
         self.assertIn("### MAPS against the others under each objective", text)
         self.assertIn("| gravity | MAPS - MT-BC | 1 | 20 | 2 |", text)
+        self.assertIn("### How fast each method learns under GAIL", text)
+        # MT-BC's row pairs both seeds with MAPS's; MAPS's own row has no pairs.
+        self.assertRegex(text, r"\| gravity \| MT-BC \| 1 \| 20 \| 2 \| 2,000 \| [-0-9.]+ \+- [0-9.]+ \| .* \| 2 \| ")
+        self.assertRegex(text, r"\| gravity \| MAPS \| 1 \| 20 \| 2 \| 2,000 \| ")
         self.assertIn("### MAPS's routing under each objective", text)
         self.assertRegex(text, r"\| gravity \| 1 \| 20 \| GAIL \| 2 \| ")
         for figure in ("imitation_scores", "gail_curves"):

@@ -1,0 +1,98 @@
+#!/usr/bin/python3
+"""Tests of how fast GAIL learns in the report (experiments/report/imitation.py, speed_table; issue 45) against values
+computed by hand: the area is the mean of the training curve over the budget; a value counts as reached only when a
+trailing window's mean reaches it (one lucky iteration does not); the table pairs MAPS with each other method by seed,
+over the budget both ran, and adjusts by Holm over its rows. Run by ctest (tests/CMakeLists.txt)."""
+import pathlib
+import statistics
+import sys
+import tempfile
+import unittest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "experiments" / "report"))
+
+import imitation  # noqa: E402
+from suite_results import Cell, TaskResult  # noqa: E402
+from suite_stats import paired_p  # noqa: E402
+
+TASKS = ["s/a", "s/b"]
+EXPERT = {"s/a": 1000.0, "s/b": 2000.0}
+
+
+def gail_cell(root, method, seed, fractions, steps_per_iteration=10000, budget=None):
+    """A finished GAIL cell whose curve.csv has, at each iteration, every task's return at the given fraction of its
+    expert's return."""
+    folder = pathlib.Path(root) / f"{method}_s{seed}"
+    folder.mkdir()
+    lines = ["iteration,env_steps_per_task," + ",".join(f"return:{t}" for t in TASKS) + ",success"]
+    for i, f in enumerate(fractions, start=1):
+        lines.append(f"{i},{i * steps_per_iteration}," + ",".join(str(f * EXPERT[t]) for t in TASKS) + ",0")
+    (folder / "curve.csv").write_text("\n".join(lines) + "\n")
+    tasks = [TaskResult(t, 1.0, 0.0, 0.0, EXPERT[t], scored_by="return", expert_return=EXPERT[t]) for t in TASKS]
+    config = {"method": method, "imitation": "gail",
+              "gail": {"env_steps_per_task": budget or len(fractions) * steps_per_iteration}}
+    return Cell(folder, f"s/{method}-gail_d1_s{seed}", "gail", "s", method, "gail", 1, 10, seed, config,
+                len(fractions), len(fractions), 10, 1.0, tasks)
+
+
+class LearningSpeedTest(unittest.TestCase):
+    def test_the_area_is_the_curves_mean_and_a_window_must_reach(self):
+        curve = {10000 * (i + 1): v for i, v in enumerate([0.0, 0.5, 0.8, 1.0, 0.9, 0.95])}
+        # 20,000 env steps = two iterations: window means 0.25, 0.65, 0.9 -> reached at the window ending at 40,000.
+        area, reached = imitation.learning_speed(curve)
+        self.assertAlmostEqual(area, (0.0 + 0.5 + 0.8 + 1.0 + 0.9 + 0.95) / 6)
+        self.assertEqual(reached, 40000)
+        # Over a budget of 30,000 env steps: three iterations, no window reaches 0.9.
+        area, reached = imitation.learning_speed(curve, budget=30000)
+        self.assertAlmostEqual(area, (0.0 + 0.5 + 0.8) / 3)
+        self.assertIsNone(reached)
+
+    def test_one_lucky_iteration_is_not_reaching(self):
+        curve = {10000 * (i + 1): v for i, v in enumerate([0.0, 0.95, 0.2, 0.3, 0.92, 0.91])}
+        self.assertEqual(imitation.learning_speed(curve)[1], 60000)
+        # Iterations of 5,000 env steps: a window of four.
+        curve = {5000 * (i + 1): v for i, v in enumerate([0.9, 0.9, 0.9, 0.8, 1.0, 0.9])}
+        self.assertEqual(imitation.learning_speed(curve)[1], 25000)  # (0.9 + 0.9 + 0.8 + 1.0) / 4 = 0.9
+        self.assertEqual(imitation.learning_speed({}), (None, None))
+
+    def test_steps_are_shown_over_the_seeds_that_reached(self):
+        self.assertEqual(imitation.fmt_steps([None, None], 2), "not reached")
+        self.assertEqual(imitation.fmt_steps([150000, None], 2), "0.15M (1 of 2)")
+        self.assertEqual(imitation.fmt_steps([150000, 170000, 160000], 3), "0.16M +- 0.02M")
+
+    def test_the_table_pairs_maps_with_each_method_by_seed_over_the_shared_budget(self):
+        with tempfile.TemporaryDirectory() as root:
+            maps_curves = {0: [0.2, 0.9, 1.0, 1.0], 1: [0.4, 0.9, 0.95, 1.0], 2: [0.1, 0.6, 1.0, 1.0]}
+            # MT-BC's seed 2 ran one iteration more: compared over the four all ran.
+            other_curves = {0: [0.1, 0.3, 0.8, 1.0], 1: [0.0, 0.4, 0.6, 0.7], 2: [0.1, 0.5, 0.9, 1.0, 1.0]}
+            cells = [gail_cell(root, "maps", s, c) for s, c in maps_curves.items()]
+            cells += [gail_cell(root, "mt_bc", s, c) for s, c in other_curves.items()]
+            lines = imitation.speed_table(cells)
+        self.assertIn("Holm over all 1 rows with a p", lines[0])
+        rows = {line.split(" | ")[1]: line.strip("| ").split(" | ") for line in lines if line.startswith("| s | ")}
+        self.assertEqual(set(rows), {"MAPS", "MT-BC"})
+        maps_row, other_row = rows["MAPS"], rows["MT-BC"]
+        self.assertEqual(other_row[4:6], ["3", "40,000"])
+        areas = {s: statistics.mean(c[:4]) for s, c in other_curves.items()}
+        maps_areas = {s: statistics.mean(c) for s, c in maps_curves.items()}
+        self.assertTrue(other_row[6].startswith(f"{statistics.mean(areas.values()):.2f} +- "), other_row[6])
+        # Reached (a window of two iterations of 10,000): MAPS at 30,000 (seeds 0 and 1) and 40,000 (seed 2, whose
+        # window ending at 30,000 has (0.6 + 1.0) / 2 = 0.8); MT-BC at 40,000 (seeds 0 and 2), never in seed 1.
+        self.assertEqual(maps_row[7], f"{statistics.mean([30000, 30000, 40000]) / 1e6:.2f}M +- 0.01M")
+        self.assertEqual(other_row[7], "0.04M +- 0.00M (2 of 3)")
+        diffs = [maps_areas[s] - areas[s] for s in (0, 1, 2)]
+        self.assertEqual(other_row[8], "3")
+        self.assertTrue(other_row[9].startswith(f"+{statistics.mean(diffs):.2f} +- "), other_row[9])
+        self.assertEqual(other_row[10], f"{paired_p(diffs):.3f}")
+        self.assertEqual(maps_row[8:10], ["", ""])
+
+    def test_no_curves_no_table(self):
+        with tempfile.TemporaryDirectory() as root:
+            cell = gail_cell(root, "maps", 0, [0.5])
+            (cell.folder / "curve.csv").unlink()
+            self.assertEqual(imitation.speed_table([cell]), [])
+
+
+if __name__ == "__main__":
+    unittest.main()
