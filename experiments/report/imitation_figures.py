@@ -96,6 +96,7 @@ def gail_curves(cells, out):
         for ax in axes_row[len(panels):]:
             ax.set_visible(False)
         for ax, (demos, k) in zip(axes_row, panels):
+            shown = []  # the panel's means and BC lines: its y range (a band of two seeds can span -1 to 3)
             for setting in (s for s in mine if (s.demos, s.subsample) == (demos, k)):
                 curves = [c for c in (training_curve(c) for c in mine[setting]["gail"]) if c]
                 if not curves:
@@ -112,15 +113,20 @@ def gail_curves(cells, out):
                                 color=color(setting.method), linewidth=0)
                 rows += [[set_name, setting.method, setting.variant, demos, k, s, len(curves), m, h]
                          for s, m, h in zip(steps, means, half)]
+                shown += list(means)
                 bc = mine[setting]["bc"]
                 if bc and setting.variant == variants[0]:
-                    ax.axhline(mean([c.mean_score for c in bc]), color=color(setting.method), linestyle=":",
+                    shown.append(mean([c.mean_score for c in bc]))
+                    ax.axhline(shown[-1], color=color(setting.method), linestyle=":",
                                label=f"{name(setting.method)}, BC (evaluated)")
                 drawn = True
             ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
             ax.set_xlabel("env steps per task")
             ax.set_ylabel("success rate (training episodes)" if success_scored(set_name, mine_cells(mine))
                           else "return / expert's return\n(mean over tasks)")
+            if shown:  # bands past the means' range by more than a tenth are clipped
+                low, high = min(shown), max(shown)
+                ax.set_ylim(min(low, 0.0) - 0.1, max(high, 1.0) + 0.1)
             ax.grid(alpha=0.3)
     if not drawn:
         plt.close(fig)
@@ -135,6 +141,6 @@ def gail_curves(cells, out):
     return [Figure("gail_curves.png",
                    "GAIL's learning curves: each iteration's training episodes (actions drawn from the policy's"
                    " Gaussian, so below what the mean action scores) as return over the task's expert return, mean"
-                   " over tasks, then over seeds (band: 95% CI), against env steps per task; the dotted line is the"
-                   f" same method's BC score at the same demos (evaluated, the mean action). {describe_n(used)} (GAIL:"
-                   " iterations).")]
+                   " over tasks, then over seeds (band: 95% CI, clipped a tenth past the panel's means), against env"
+                   " steps per task; the dotted line is the same method's BC score at the same demos (evaluated, the"
+                   f" mean action). {describe_n(used)} (GAIL: iterations).")]

@@ -164,7 +164,8 @@ class Gail(unittest.TestCase):
             scores[key] = cell["eval"]["mean_score"]
         self.assertEqual(len(scores), 16)
         scores_table = text.split("## Imitation objective: GAIL against BC")[1].split("### MAPS against the others")[0]
-        rows = [line for line in scores_table.splitlines() if line.startswith("| gravity | ") and " | 20 | 2 | " in line]
+        rows = [line for line in scores_table.splitlines()
+                if line.startswith("| gravity | ") and " | 20 | 2 | " in line]
         for method, shown in (("maps", "MAPS"), ("mt_bc", "MT-BC")):
             for demos in (1, 2):
                 row = [r for r in rows if r.startswith(f"| gravity | {shown} | {demos} | 20 | 2 |")]
