@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 
 import aggregates
 import claims
+import comparisons
 import imitation
 import suite_results
 import tables
@@ -233,6 +234,12 @@ def holm_families(suite):
     return report.get("holm", "variant") if isinstance(report, dict) else "variant"
 
 
+def report_comparisons(suite):
+    """The suite config's report.compare ("A - B" entries; [] when it names none)."""
+    report = suite.config.get("report") or {}
+    return list(report.get("compare", [])) if isinstance(report, dict) else []
+
+
 def per_set(suite, make, intro):
     """Each set's table from make(cells) under a heading, after the intro lines (or intro(set name)'s); [] when no set
     has one."""
@@ -335,6 +342,12 @@ def report_lines(suite, draw, beside=None):
         caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
         lines += section("Against MAPS, every set", per_set(suite, lambda c: tables.paired_table(c, holm), caveat),
                          "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds).")
+
+    compare = report_comparisons(suite)
+    if compare:
+        lines += section("Chosen comparisons (report.compare)",
+                         per_set(suite, lambda c: comparisons.compare_table(c, compare), []),
+                         "No entry of report.compare has both its rows at the same demos, k and seeds.")
 
     lines += section("Aggregate statistics: IQM and probability of improvement",
                      per_set(suite, aggregates.aggregate_table, []), "No cells with a score for every task.")

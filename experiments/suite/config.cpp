@@ -44,6 +44,34 @@ const Json& checked(const Json& value, const std::string& key, const std::string
   return value;
 }
 
+// The report's name of a cell's row: "maps", "diffusion_policy (dp_mlp_h16)" (experiments/report/suite_results.py).
+std::string row_label(const SuiteCell& cell) {
+  return cell.variant == "base" ? cell.method : cell.method + " (" + cell.variant + ")";
+}
+
+// report.compare: each "A - B" names two different rows of the suite, so that a typo fails at plan time rather than
+// leaving the report's table empty.
+void check_comparisons(const Json& compare, const std::vector<SuiteCell>& cells, const std::string& where) {
+  std::set<std::string> rows;
+  for (const auto& cell : cells) rows.insert(row_label(cell));
+  std::string known;
+  for (const auto& row : rows) known += (known.empty() ? "" : ", ") + row;
+  for (std::size_t i = 0; i < compare.size(); ++i) {
+    const std::string at = where + "[" + std::to_string(i) + "]", text = compare[i].get<std::string>();
+    const std::size_t split = text.find(" - ");
+    if (split == std::string::npos || text.find(" - ", split + 1) != std::string::npos)
+      throw std::invalid_argument(at + ": expected \"A - B\" (two rows of the report joined by \" - \"), got \"" +
+                                  text + "\"");
+    const std::string a = text.substr(0, split), b = text.substr(split + 3);
+    for (const auto& side : {a, b})
+      if (!rows.count(side))
+        throw std::invalid_argument(at + ": \"" + side +
+                                    "\" is no row of the suite (a method, or \"method (variant)\"," +
+                                    " of one of its cells: " + known + ")");
+    if (a == b) throw std::invalid_argument(at + ": expected two different rows, got \"" + a + "\" twice");
+  }
+}
+
 bool is_plain_name(const std::string& name) {
   static const std::regex pattern("[a-z0-9][a-z0-9_]*");
   return std::regex_match(name, pattern);
@@ -176,8 +204,10 @@ Suite parse_suite(const Json& json, const std::string& where) {
   // Read by `maps report` alone (experiments/report/tables.py); checked here so that a typo fails at plan time.
   if (json.contains("report")) {
     if (!json["report"].is_object()) throw std::invalid_argument(where + ".report: expected an object");
-    check_keys(json["report"], where + ".report", {"holm"});
+    check_keys(json["report"], where + ".report", {"holm", "compare"});
     if (json["report"].contains("holm")) checked(json["report"]["holm"], "report.holm", where + ".report.holm");
+    if (json["report"].contains("compare"))
+      checked(json["report"]["compare"], "report.compare", where + ".report.compare");
   }
   // Loaded first: the grids may name their methods and the cells' configs their selector losses. load_suite has
   // made the paths absolute (relative to the config's folder); a JSON parsed on its own has them from the working
@@ -347,6 +377,8 @@ Suite parse_suite(const Json& json, const std::string& where) {
         }
       }
   }
+  if (json.contains("report") && json["report"].contains("compare"))
+    check_comparisons(json["report"]["compare"], suite.cells, where + ".report.compare");
   // A cell that starts from a sibling cell (init.run "../<name>") which, through its own init.run, starts from the
   // first: neither can run before the other.
   for (const auto& cell : suite.cells) {

@@ -80,6 +80,13 @@ std::vector<io::Field> make_schema() {
       "made under one variant (a variant that asks its own question, such as a control); `set`, every row of a "
       "set's paired differences from MAPS (MAPS's own variants stay in their table's families), for a suite whose "
       "variants are methods of their own (experiments/suites/zoo-modern.json)"));
+  s.push_back(make("report.compare", ValueKind::kStringList, "string list",
+                   "comparisons `maps report` makes directly, beside those with MAPS: each \"A - B\", A and B a row "
+                   "of the report (a method, or `method (variant)`, each of some cell of the suite), e.g. "
+                   "\"diffusion_policy (dp_maps_h16) - diffusion_policy (dp_mlp_h16)\": A - B paired by seed at every "
+                   "set, demos and k both ran, Holm over a set's rows, and the probability of improvement"));
+  s.back().default_value = nlohmann::json::array();
+  s.back().unique = true;
   s.push_back(make("grids[].name", ValueKind::kString, "string",
                    "the grid's name (lower-case letters, digits and _; unique in the suite)"));
   s.back().non_empty = true;

@@ -191,6 +191,14 @@ class SuiteTest(unittest.TestCase):
             (lambda c: c.update(report=["set"]), ".report: expected an object"),
             (lambda c: c.update(report={"holm_family": "set"}), "unknown key 'holm_family'"),
             (lambda c: c.update(report={"holm": "method"}), 'report.holm: expected "variant" or "set", got "method"'),
+            (lambda c: c.update(report={"compare": "maps - mt_bc"}), ".report.compare: expected"),
+            (lambda c: c.update(report={"compare": ["maps-mt_bc"]}), 'report.compare[0]: expected "A - B"'),
+            (lambda c: c.update(report={"compare": ["maps - mt_bc - maps"]}), 'report.compare[0]: expected "A - B"'),
+            (lambda c: c.update(report={"compare": ["maps - mt_bc", "maps - mapz"]}),
+             'report.compare[1]: "mapz" is no row of the suite (a method, or "method (variant)", of one of its cells:'
+             ' maps, maps (no_share), mt_bc)'),
+            (lambda c: c.update(report={"compare": ["maps (no_share) - maps (no_share)"]}),
+             'report.compare[0]: expected two different rows, got "maps (no_share)" twice'),
         ]
         for mutate, message in cases:
             config = copy.deepcopy(base)
@@ -200,6 +208,9 @@ class SuiteTest(unittest.TestCase):
             self.assertNotEqual(proc.returncode, 0, message)
             self.assertIn(message, proc.stderr)
             self.assertIn(str(path), proc.stderr)
+        config = copy.deepcopy(base)
+        config["report"] = {"compare": ["maps (no_share) - maps", "mt_bc - maps"]}
+        self.assertEqual(maps("suite", "plan", write_config(self.dir, config), check=False).returncode, 0)
         for bad in ["1/1", "2/2", "x", "-1/3", "1/0"]:
             proc = maps("suite", "plan", TINY, "--shard", bad, check=False)
             self.assertNotEqual(proc.returncode, 0, bad)
