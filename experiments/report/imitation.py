@@ -250,14 +250,12 @@ def learning_speed(curve, budget=None):
 
 
 def fmt_steps(values, total):
-    """"0.17M +- 0.02M" over the seeds that reached REACH, with "(2 of 3)" when some did not; "not reached" when
-    none did."""
-    reached = [v for v in values if v is not None]
+    """"0.17 +- 0.02" (millions of env steps) over the seeds that reached REACH, with "(2 of 3)" when some did not;
+    "not reached" when none did."""
+    reached = [v / 1e6 for v in values if v is not None]
     if not reached:
         return "not reached"
-    text = (f"{reached[0] / 1e6:.2f}M" if len(reached) == 1
-            else f"{mean(reached) / 1e6:.2f}M +- {ci95(reached) / 1e6:.2f}M")
-    return text + ("" if len(reached) == total else f" ({len(reached)} of {total})")
+    return fmt(reached) + ("" if len(reached) == total else f" ({len(reached)} of {total})")
 
 
 def speed_table(cells):
@@ -294,8 +292,10 @@ def speed_table(cells):
              " episodes' return over the expert's (success-scored sets: their success rate), the normalised area"
              f" under the learning curve of gail_curves.png; reaches {REACH:g} = the env steps per task at the end of"
              f" the first trailing window of {WINDOW_ENV_STEPS:,} env steps per task whose mean is >= {REACH:g}"
-             " (mean +- 95% CI over the seeds that reached it, how many where not all did). Both per seed, then over"
-             " seeds, over the budget every cell of the row and MAPS's ran. MAPS - other: the area's difference,"
-             f" paired by seed; p: paired t test; Holm over all {sizes[None]} rows with a p:", ""]
-            + table(["set", "method", "demos", "k", "seeds", "budget", "area", f"reaches {REACH:g} at",
-                     "MAPS - other pairs", "MAPS - other (area)", "p", "p (Holm)"], shown))
+             " (millions of env steps per task, mean +- 95% CI over the seeds that reached it, how many where not all"
+             " did). Both per seed, then over seeds, over the budget every cell of the row and MAPS's ran. MAPS -"
+             f" other: the area's difference, paired by seed; p: paired t test; Holm over all {sizes[None]} rows with a"
+             " p:", ""]
+            + table(["set", "method", "demos", "k", "seeds", "budget", "area",
+                     f"reaches {REACH:g} at (10^6 env steps)", "MAPS - other pairs", "MAPS - other (area)", "p",
+                     "p (Holm)"], shown))

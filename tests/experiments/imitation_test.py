@@ -58,8 +58,8 @@ class LearningSpeedTest(unittest.TestCase):
 
     def test_steps_are_shown_over_the_seeds_that_reached(self):
         self.assertEqual(imitation.fmt_steps([None, None], 2), "not reached")
-        self.assertEqual(imitation.fmt_steps([150000, None], 2), "0.15M (1 of 2)")
-        self.assertEqual(imitation.fmt_steps([150000, 170000, 160000], 3), "0.16M +- 0.02M")
+        self.assertEqual(imitation.fmt_steps([150000, None], 2), "0.15 (1 of 2)")
+        self.assertEqual(imitation.fmt_steps([150000, 170000, 160000], 3), "0.16 +- 0.02")
 
     def test_the_table_pairs_maps_with_each_method_by_seed_over_the_shared_budget(self):
         with tempfile.TemporaryDirectory() as root:
@@ -79,8 +79,8 @@ class LearningSpeedTest(unittest.TestCase):
         self.assertTrue(other_row[6].startswith(f"{statistics.mean(areas.values()):.2f} +- "), other_row[6])
         # Reached (a window of two iterations of 10,000): MAPS at 30,000 (seeds 0 and 1) and 40,000 (seed 2, whose
         # window ending at 30,000 has (0.6 + 1.0) / 2 = 0.8); MT-BC at 40,000 (seeds 0 and 2), never in seed 1.
-        self.assertEqual(maps_row[7], f"{statistics.mean([30000, 30000, 40000]) / 1e6:.2f}M +- 0.01M")
-        self.assertEqual(other_row[7], "0.04M +- 0.00M (2 of 3)")
+        self.assertEqual(maps_row[7], f"{statistics.mean([30000, 30000, 40000]) / 1e6:.2f} +- 0.01")
+        self.assertEqual(other_row[7], "0.04 +- 0.00 (2 of 3)")
         diffs = [maps_areas[s] - areas[s] for s in (0, 1, 2)]
         self.assertEqual(other_row[8], "3")
         self.assertTrue(other_row[9].startswith(f"+{statistics.mean(diffs):.2f} +- "), other_row[9])
