@@ -17,7 +17,8 @@ methods and counts, and only the cells asked for are added; or where an earlier 
 `maps suite run` runs them after everything else. Cells the config or suite.json plan already are never added again,
 so a second run adds only the settings the first could not judge yet (not ready then). The pairing is the report's (suite_stats.paired,
 significance); a method whose cells have not all finished is listed as not ready and gets nothing, so run this when
-the first seeds are done."""
+the first seeds are done. The comparisons the config's report.compare names ("A - B", report.md's "Chosen
+comparisons") follow the same rule: where A - B's interval includes 0, A's and B's cells there get the new seeds."""
 import argparse
 import copy
 import json
@@ -70,6 +71,76 @@ def planned_label(method, variant):
     the base (suite_results.stands_for_base), so its MAPS is the base MAPS partner."""
     variant = str(variant or "base")
     return str(method) if variant == "base" or is_keep_only(variant) else label(str(method), variant)
+
+
+def verdict(diffs):
+    """(whether the rule asks for more seeds: the 95% interval of the paired differences includes 0, or fewer than 2
+    pairs; what to print: "-0.05 +- 0.64 (2 pairs): more seeds")."""
+    overlaps = len(diffs) < 2 or significance(diffs) == 0
+    text = fmt(diffs, signed=True) if diffs else "no pairs"
+    return overlaps, f"{text} ({len(diffs)} pairs): {'more seeds' if overlaps else 'separated, stays'}"
+
+
+def split_label(text):
+    """"diffusion_policy (dp_mlp_h16)" -> ("diffusion_policy", "dp_mlp_h16"); "maps" -> ("maps", None)."""
+    match = re.fullmatch(r"(\S+) \((.+)\)", text)
+    return (match.group(1), match.group(2)) if match else (text, None)
+
+
+def home_grid(config, method, variant, set_name, demos, new_seeds):
+    """The first grid of the config (not one this tool added) that runs the method under the variant at the set and
+    count: where its new seeds go."""
+    suffix = re.compile("_seeds_" + "_".join(map(str, new_seeds)) + r"(_\d+)?$")
+    for grid in config.get("grids", []):
+        if (not suffix.search(str(grid.get("name", ""))) and method in grid.get("methods", [])
+                and (variant or "base") in (grid.get("variants") or ["base"]) and set_name in grid.get("sets", [])
+                and demos in grid_demos(config, grid, set_name)):
+            return grid
+    return None
+
+
+def judge_comparisons(suite, config, new_seeds, finished, idents, everywhere, wanted):
+    """The same rule for the comparisons the config's report.compare names ("A - B", report.md's "Chosen
+    comparisons"): at every set and count where both rows are planned and finished, A - B paired by seed; where its
+    interval includes 0, both rows get the new seeds in the grids that run them (added to wanted). Lines to print."""
+    report = config.get("report") or {}
+    entries = report.get("compare", []) if isinstance(report, dict) else []
+    lines = []
+    for entry in entries:
+        parts = str(entry).split(" - ")
+        if len(parts) != 2:
+            lines.append(f"- compare {entry!r}: not \"A - B\", skipped")
+            continue
+        rows = {}  # over the first seeds: the new ones may be planned already (by the rule above, or a run before)
+        for ident in idents:
+            row = planned_label(ident.get("method"), ident.get("variant"))
+            if row in parts and ident.get("seed") not in new_seeds:
+                rows.setdefault((str(ident.get("set")), ident.get("demos"), row), []).append(str(ident.get("name")))
+        settings = sorted({(s, d) for (s, d, _) in rows if (s, d, parts[0]) in rows and (s, d, parts[1]) in rows},
+                          key=lambda item: (str(item[0]), item[1]))
+        for set_name, demos in settings:
+            names = {row: rows[(set_name, demos, row)] for row in parts}
+            waiting = sorted(n for row in parts for n in names[row] if n not in finished)
+            if waiting:
+                lines.append(f"- compare {entry}, {set_name} at {demos}: not ready ({len(waiting)} cells not finished"
+                             f" (failed or to run), e.g. {waiting[0]})")
+                continue
+            cells = {row: [finished[n] for n in names[row]] for row in parts}
+            overlaps, text = verdict(paired(cells[parts[0]], cells[parts[1]], lambda c: c.mean_score))
+            lines.append(f"- compare {entry}, {set_name} at {demos}: {text}")
+            if not overlaps:
+                continue
+            for row in parts:
+                method, variant = split_label(row)
+                if cell_names(set_name, method, [variant], demos, new_seeds) <= everywhere:
+                    continue
+                home = home_grid(config, method, variant, set_name, demos, new_seeds)
+                if home is None:
+                    lines.append(f"- {row} at {set_name} {demos}: no grid of the config runs it; add its seeds by"
+                                 " hand")
+                    continue
+                wanted.setdefault((home["name"], set_name, demos, variant or "base"), set()).add(method)
+    return lines
 
 
 def decide(suite, config, new_seeds):
@@ -131,11 +202,9 @@ def decide(suite, config, new_seeds):
                                      f" not finished (failed or to run), e.g. {waiting[0]})")
                         continue
                     variant = variant_name if variant_name != "base" else None
-                    diffs = paired(cells, maps_by.get((set_name, demos, reference), []), lambda c: c.mean_score)
-                    overlaps = len(diffs) < 2 or significance(diffs) == 0
-                    text = fmt(diffs, signed=True) if diffs else "no pairs"
-                    lines.append(f"- {name}, {set_name} at {demos}: {method_label} - {reference} {text}"
-                                 f" ({len(diffs)} pairs): {'more seeds' if overlaps else 'separated, stays'}")
+                    overlaps, text = verdict(paired(cells, maps_by.get((set_name, demos, reference), []),
+                                                    lambda c: c.mean_score))
+                    lines.append(f"- {name}, {set_name} at {demos}: {method_label} - {reference} {text}")
                     if not overlaps:
                         continue
                     if not cell_names(set_name, method, [variant], demos, new_seeds) <= everywhere:
@@ -148,6 +217,7 @@ def decide(suite, config, new_seeds):
                         wanted.setdefault((name, set_name, demos, ref_variant or "base"), set()).add("maps")
                     else:
                         needs_maps.add((set_name, demos, ref_variant))
+    lines += judge_comparisons(suite, config, new_seeds, finished, idents, everywhere, wanted)
     # A grid without its MAPS reference: the grid that runs that MAPS there runs its new seeds too.
     for set_name, demos, variant in sorted(needs_maps, key=str):
         home = next((g for g in config.get("grids", []) if "maps" in g.get("methods", [])

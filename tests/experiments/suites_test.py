@@ -1216,6 +1216,42 @@ class MoreSeeds(unittest.TestCase):
             # A second run adds nothing twice.
             self.assert_a_repeat_adds_nothing(FIXTURE, config)
 
+    def test_a_comparison_the_config_names_gets_seeds_where_its_interval_includes_0(self):
+        # MAPS at Gravity 5 moved up so that both methods' differences from it are separated (Single BC's -0.90 on
+        # both seeds, MT-BC's -0.80 and -0.90), while Single BC - MT-BC (-0.10, 0.00) is not: report.compare's entry
+        # alone asks for the new seeds, of its two rows only.
+        with tempfile.TemporaryDirectory() as tmp:
+            suite_dir = pathlib.Path(tmp) / "suite"
+            shutil.copytree(FIXTURE, suite_dir)
+            for name, scores in (("maps_d5_s0", [1.4, 1.2]), ("maps_d5_s1", [1.5, 1.3]), ("mt_bc_d5_s1", [0.6, 0.4])):
+                path = suite_dir / "cells" / "gravity" / name / "result.json"
+                result = json.loads(path.read_text())
+                for task, score in zip(result["eval"]["tasks"], scores):
+                    task["score"] = score
+                result["eval"]["mean_score"] = sum(scores) / len(scores)
+                path.write_text(json.dumps(result))
+            grid = dict(self.CONFIG["grids"][0], sets=["gravity"], demos=[5])
+            config = pathlib.Path(tmp) / "c.json"
+            config.write_text(json.dumps(dict(self.CONFIG, grids=[grid])))
+            code, stdout, stderr = self.run_tool(suite_dir, config, "--seeds", "2,3")
+            self.assertEqual(code, 0, stderr)
+            self.assertIn("- comparison, gravity at 5: single_bc - maps -0.90 +- 0.00 (2 pairs): separated, stays",
+                          stdout)
+            self.assertIn("- comparison, gravity at 5: mt_bc - maps -0.85 +- 0.64 (2 pairs): separated, stays", stdout)
+            self.assertIn("no grids to add", stdout)
+            config.write_text(json.dumps(dict(self.CONFIG, grids=[grid], report={"compare": ["single_bc - mt_bc"]})))
+            code, stdout, stderr = self.run_tool(suite_dir, config, "--seeds", "2,3", "--write")
+            self.assertEqual(code, 0, stderr)
+            self.assertIn("- compare single_bc - mt_bc, gravity at 5: -0.05 +- 0.64 (2 pairs): more seeds", stdout)
+            # Judged wherever the suite ran both rows; a setting no grid of the config runs is said, not added.
+            self.assertIn("- compare single_bc - mt_bc, gravity at 10: not ready (1 cells not finished", stdout)
+            self.assertIn("- compare single_bc - mt_bc, mt10 at 5: +0.15 +- 1.91 (2 pairs): more seeds", stdout)
+            self.assertIn("- single_bc at mt10 5: no grid of the config runs it; add its seeds by hand", stdout)
+            added = [g for g in json.loads(config.read_text())["grids"] if g["name"] != "comparison"]
+            self.assertEqual([(g["name"], g["methods"], g["demos"], g["seeds"]) for g in added],
+                             [("comparison_seeds_2_3", ["single_bc", "mt_bc"], {"gravity": [5]}, [2, 3])])
+            self.assert_a_repeat_adds_nothing(suite_dir, config)
+
     def test_a_later_run_adds_the_settings_that_were_not_ready(self):
         # The first run adds what it can judge; MT-BC at Gravity 10 waits for its failed seed 1. Once that cell has
         # finished (and suite.json plans MAPS's new seeds there, unfinished), a second run judges MT-BC over the
