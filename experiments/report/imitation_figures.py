@@ -2,6 +2,7 @@
 
     imitation_scores.png  mean score over tasks against demos per task, one panel per set: each method under BC (solid)
                           and under GAIL (dashed), band: 95% CI over seeds
+    gail_module_usage.png MAPS's per-task module usage under BC and under GAIL, one seed per setting, side by side
     gail_curves.png       GAIL's learning curves: the training episodes' return over the expert's (mean over tasks,
                           then over seeds) against env steps per task, one panel per set and demo count, each
                           method's BC score (evaluated) as a dotted line for reference
@@ -18,12 +19,19 @@ import numpy as np  # noqa: E402
 from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_panels,  # noqa: E402
                      write_csv)
 from imitation import by_objective, training_curve  # noqa: E402
-from suite_results import SET_ORDER, order, score_name, success_scored  # noqa: E402
+from suite_results import SET_ORDER, order, score_name, short_task, success_scored  # noqa: E402
 from suite_stats import ci95, describe_n, mean  # noqa: E402
 
 STYLES = {"bc": {"linestyle": "-"}, "gail": {"linestyle": "--", "markerfacecolor": "white"}}
 OBJECTIVE_NAMES = {"bc": "BC", "gail": "GAIL"}
 LINES = ["-", "-.", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1)), (0, (1, 1)), (0, (8, 2, 2, 2))]
+
+
+def written(fig, out, stem, header, rows, caption):
+    """Saves the figure as stem.png and its numbers as stem.csv; [its Figure]."""
+    save(fig, out, f"{stem}.png")
+    write_csv(out / f"{stem}.csv", header, rows)
+    return [Figure(f"{stem}.png", caption)]
 
 
 def mine_cells(settings):
@@ -71,14 +79,12 @@ def imitation_scores(cells, out):
     fig.suptitle("Mean score over tasks against demos per task\nBC: solid; GAIL: dashed, hollow markers\n"
                  "(mean over seeds, band: 95% CI)")
     fig.tight_layout(rect=(0, 0.14, 1, 1))
-    save(fig, out, "imitation_scores.png")
-    write_csv(out / "imitation_scores.csv", ["set", "method", "objective", "demos", "subsample", "seeds", "mean",
-                                             "ci95"], rows)
-    return [Figure("imitation_scores.png",
+    return written(fig, out, "imitation_scores", ["set", "method", "objective", "demos", "subsample", "seeds", "mean",
+                                                  "ci95"], rows,
                    "Each set's mean score over its tasks against demonstrations per task, each method trained by BC"
                    " (solid) and by GAIL (dashed, hollow markers); points are means over seeds, the band the 95% CI"
                    f" over seeds. {describe_n(drawn)} (GAIL: iterations). The same evaluation for both"
-                   " (the mean action).")]
+                   " (the mean action).")
 
 
 def gail_curves(cells, out):
@@ -135,12 +141,72 @@ def gail_curves(cells, out):
     fig.suptitle("GAIL's learning curves: training return over the expert's against env steps per task\n"
                  "(mean over seeds, band: 95% CI; dotted: the same method's BC score)")
     fig.tight_layout(rect=(0, 1.0 / height, 1, 1))
-    save(fig, out, "gail_curves.png")
-    write_csv(out / "gail_curves.csv", ["set", "method", "variant", "demos", "subsample", "env_steps_per_task", "seeds", "mean",
-                                        "ci95"], rows)
-    return [Figure("gail_curves.png",
+    return written(fig, out, "gail_curves", ["set", "method", "variant", "demos", "subsample", "env_steps_per_task",
+                                             "seeds", "mean", "ci95"], rows,
                    "GAIL's learning curves: each iteration's training episodes (actions drawn from the policy's"
                    " Gaussian, so below what the mean action scores) as return over the task's expert return, mean"
                    " over tasks, then over seeds (band: 95% CI, clipped a tenth past the panel's means), against env"
                    " steps per task; the dotted line is the same method's BC score at the same demos (evaluated, the"
-                   f" mean action). {describe_n(used)} (GAIL: iterations).")]
+                   f" mean action). {describe_n(used)} (GAIL: iterations).")
+
+
+def gail_module_usage(cells, out):
+    """MAPS's per-task module usage under BC and under GAIL side by side, a heatmap (tasks x modules) per objective for
+    each set (a pair of columns) and demo count (a row), one seed (the lowest both objectives ran: module indices mean
+    nothing across runs), the modules of each panel sorted by their total usage so that the two panels' shapes
+    compare; one colour scale for all."""
+    panels = {}
+    for setting, runs in by_objective(cells).items():
+        key = (setting.set, setting.demos, setting.subsample)
+        if setting.method != "maps" or (key in panels and setting.variant != "gail"):
+            continue  # one GAIL variant per setting: the suite's own ("gail"), else the first (a pilot's)
+        bc = {c.seed: c for c in runs["bc"] if c.has_usage}
+        gail = {c.seed: c for c in runs["gail"] if c.has_usage}
+        both = sorted(set(bc) & set(gail))
+        if both:
+            panels[key] = (bc[both[0]], gail[both[0]], setting.variant)
+    if not panels:
+        return []
+    sets = order(SET_ORDER, {key[0] for key in panels})
+    counts = sorted({key[1:] for key in panels})
+    usage_of = {}
+    for key, pair in panels.items():
+        tasks = [t.task for t in pair[0].tasks]
+        for kind, cell in zip(("bc", "gail"), pair[:2]):
+            by_task = {t.task: t.usage for t in cell.tasks}
+            shown = OBJECTIVE_NAMES[kind] + (f" ({pair[2]})" if kind == "gail" and pair[2] != "gail" else "")
+            usage_of[key + (kind,)] = (tasks, cell.seed, np.array([by_task[task] for task in tasks], dtype=float),
+                                       shown)
+    top = max(0.5, max(float(u.max()) for _, _, u, _ in usage_of.values()))
+    fig, axes = plt.subplots(len(counts), 2 * len(sets), figsize=(4.2 * len(sets) + 1.5, 2.9 * len(counts) + 1.2),
+                             squeeze=False)
+    rows, image = [], None
+    for r, (demos, k) in enumerate(counts):
+        for s_, set_name in enumerate(sets):
+            for c, kind in enumerate(("bc", "gail")):
+                ax = axes[r, 2 * s_ + c]
+                found = usage_of.get((set_name, demos, k, kind))
+                if found is None:
+                    ax.set_visible(False)
+                    continue
+                tasks, seed, usage, shown = found
+                order_ = np.argsort(-usage.sum(axis=0), kind="stable")
+                image = ax.imshow(usage[:, order_], cmap="viridis", vmin=0, vmax=top, aspect="auto")
+                ax.set_yticks(range(len(tasks)), [short_task(t) for t in tasks] if c == 0 else [], fontsize=7)
+                ax.set_xticks(range(len(order_)), [f"m{m}" for m in order_], fontsize=6)
+                ax.set_title(f"{set_name}, {demos} demos, k = {k}\n{shown}, seed {seed}", fontsize=8)
+                rows += [[set_name, demos, k, kind, seed, task, m, usage[i, m]]
+                         for i, task in enumerate(tasks) for m in range(usage.shape[1])]
+    fig.suptitle("MAPS's module usage per task under BC and under GAIL: the mean selector score over the task's"
+                 " evaluation states\n(one seed each; each panel's modules sorted by total usage, since indices mean"
+                 " nothing across runs)", fontsize=9)
+    fig.tight_layout(rect=(0, 0, 0.9, 0.95))
+    fig.colorbar(image, cax=fig.add_axes((0.92, 0.1, 0.012, 0.75)), label="usage")
+    return written(fig, out, "gail_module_usage", ["set", "demos", "subsample", "objective", "seed", "task", "module",
+                                                   "usage"], rows,
+                   "MAPS's module usage per task (rows) and module (columns: each panel's modules sorted by their"
+                   " total usage, labelled with their indices as trained), the mean selector score over the task's"
+                   " evaluation states, under BC and under GAIL side by side, one seed per setting (the lowest both"
+                   " ran: module indices mean nothing across runs, so the panels compare in shape, not module by"
+                   " module); uniform routing over M modules is 1/M everywhere. The routing table above gives every"
+                   " seed's numbers.")

@@ -42,7 +42,7 @@ from suite_stats import describe_n, fmt, vs_single_bc
 
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
              "zoo_routing.png", "zoo_routing.csv", "imitation_scores.png", "imitation_scores.csv", "gail_curves.png",
-             "gail_curves.csv"]
+             "gail_curves.csv", "gail_module_usage.png", "gail_module_usage.csv"]
 RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
                   "success_at_end", "return_mean", "return_unclipped_cost", "best_step", "steps", "wall_seconds",
                   "compute_seconds", "grid", "cell"]
@@ -291,7 +291,7 @@ def imitation_section(cells, draw):
         speed or ["No GAIL cell with a learning curve (curve.csv) to read."])
     routing = imitation.routing_table(cells)
     body += ["", "### MAPS's routing under each objective", ""] + (
-        routing or ["No MAPS cells with module usage under both objectives."])
+        routing or ["No MAPS cells with module usage under both objectives."]) + embed(figures("gail_module_usage"))
     draw.failed += figures.failed
     return section("Imitation objective: GAIL against BC", body, "")
 

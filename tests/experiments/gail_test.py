@@ -182,10 +182,17 @@ class Gail(unittest.TestCase):
         self.assertRegex(text, r"\| gravity \| MAPS \| 1 \| 20 \| 2 \| 2,000 \| ")
         self.assertIn("### MAPS's routing under each objective", text)
         self.assertRegex(text, r"\| gravity \| 1 \| 20 \| GAIL \| 2 \| ")
-        for figure in ("imitation_scores", "gail_curves"):
+        for figure in ("imitation_scores", "gail_curves", "gail_module_usage"):
             self.assertGreater((report / f"{figure}.png").stat().st_size, 1000, figure)
             with open(report / f"{figure}.csv") as f:
                 self.assertTrue(list(csv.DictReader(f)), figure)
+        with open(report / "gail_module_usage.csv") as f:
+            usage = list(csv.DictReader(f))
+        # MAPS under each objective at both counts, one seed: 2 tasks x 3 modules a panel.
+        self.assertEqual(sorted({(r["objective"], r["demos"]) for r in usage}),
+                         [("bc", "1"), ("bc", "2"), ("gail", "1"), ("gail", "2")])
+        self.assertEqual(len(usage), 4 * 2 * 3)
+        self.assertIn("![](gail_module_usage.png)", text)
         with open(report / "gail_curves.csv") as f:
             curve = list(csv.DictReader(f))
         # Two iterations of 1000 env steps per task, each point over both seeds.
