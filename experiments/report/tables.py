@@ -346,14 +346,29 @@ def variant_table(cells):
             continue
         columns = against_columns(runs, base)
         if columns:
-            rows.append([key.label, key.demos, key.subsample] + columns)
+            rows.append([key.label, key.demos, key.subsample] + columns[:-1] + [improvement(runs, base, cells),
+                                                                                  columns[-1]])
     if not rows:
         return []
     rows, _ = holm_columns(rows, [row[0] for row in rows])
     return (["Each variant against the same method without it (its base cells at the same demos, k and seeds): mean"
              " score over tasks, mean +- 95% CI over the seeds both ran (base and variant alike); difference = variant -"
-             " base; p: paired t test; Holm within each variant's rows (the counts it ran at):", ""]
-            + table(["variant", "demos", "k", "pairs", "base", "variant", "difference", "p", "p (Holm)"], rows))
+             " base; P(variant > base): the probability that a variant run beats a base run on a task, with its"
+             " stratified bootstrap interval (aggregates.py), over the same seeds; p: paired t test; Holm within each"
+             " variant's rows (the counts it ran at):", ""]
+            + table(["variant", "demos", "k", "pairs", "base", "variant", "difference", "P(variant > base) [95% CI]",
+                     "p", "p (Holm)"], rows))
+
+
+def improvement(runs, reference, cells):
+    """P(a run of runs beats one of reference on a task) with its interval, over the seeds both ran (aggregates.py);
+    "-" where a cell lacks a task's score."""
+    import aggregates  # here: aggregates imports this module's table()
+    seeds = {c.seed for c in runs} & {c.seed for c in reference}
+    tasks = task_names(cells)
+    a = aggregates.runs_by_tasks([c for c in runs if c.seed in seeds], tasks)
+    b = aggregates.runs_by_tasks([c for c in reference if c.seed in seeds], tasks)
+    return "-" if a is None or b is None else aggregates.fmt_interval(*aggregates.poi_interval(a, b))
 
 
 def control_meaning(cell):

@@ -309,6 +309,10 @@ class Report(unittest.TestCase):
         # no_explore at 5 demos: 0.3 - 0.7 and 0.3 - 0.6 against MAPS's own seeds.
         self.assertEqual(row_of(variants, ["maps (no_explore)", "5"])[3:7],
                          ["2", "0.65 +- 0.64", "0.30 +- 0.00", "-0.35 +- 0.64"])
+        # Its probability of improvement over the base, on the same seeds: every no_explore run scores below every MAPS
+        # run on each task of the fixture, so 0, with a degenerate interval.
+        self.assertIn("| P(variant > base) [95% CI] | p | p (Holm) |", variants)
+        self.assertEqual(row_of(variants, ["maps (no_explore)", "5"])[7], "0.000 [0.000, 0.000]")
         self.assertEqual(len(rows_of(variants, ["maps (m5)"])), 2)
         # Base methods are not variants of anything.
         self.assertEqual(rows_of(variants, ["maps"]) + rows_of(variants, ["mt_bc"]), [])
