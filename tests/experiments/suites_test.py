@@ -253,6 +253,20 @@ class Report(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "report.holm: expected 'variant' or 'set', got 'family'"):
             tables.paired_table(suite.cells_of("gravity"), "family")
 
+    def test_the_comparisons_the_config_names_are_a_section_of_their_own(self):
+        """report.compare ("A - B"): report.md's "Chosen comparisons" per set, A - B paired by seed (MT-BC - Single BC
+        at Gravity 5: +0.00 as in the pooling table below, the other way round); none without the key."""
+        import report
+        suite = suite_results.load_suite(FIXTURE)
+        no_figures = type("NoFigures", (), {"failed": [], "__call__": lambda self, name, **extra: []})()
+        self.assertNotIn("## Chosen comparisons", "\n".join(report.report_lines(suite, no_figures)))
+        suite.config["report"] = {"compare": ["single_bc - mt_bc"]}
+        whole = "\n".join(report.report_lines(suite, no_figures))
+        chosen = between(whole, "## Chosen comparisons (report.compare)", "## Aggregate statistics")
+        self.assertEqual(row_of(between(chosen, "### gravity", "###"), ["single_bc", "mt_bc", "5"])[4:8],
+                         ["2", "0.45 +- 0.64", "0.45 +- 0.64", "+0.00 +- 1.27"])
+        self.assertIn("### mt10", chosen)
+
     def test_pooling_is_paired_with_single_bc_and_holm_corrected(self):
         gravity = between(self.md, "## Set gravity", "## Set mt10")
         pooling = between(gravity, "### Paired differences from Single BC", "###")
