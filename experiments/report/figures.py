@@ -89,10 +89,11 @@ def line_with_band(ax, xs, runs_per_x, value, dodge=0.0, **style):
         rows.append((x, len(vals), mean(vals), ci95(vals)))
     ys = np.array([r[2] for r in rows])
     half = np.array([r[3] for r in rows])
+    marker = style.pop("marker", "o")
     if len(xs) == 1:
-        ax.errorbar([xs[0] + dodge], ys, yerr=np.nan_to_num(half), fmt="o", capsize=4, **style)
+        ax.errorbar([xs[0] + dodge], ys, yerr=np.nan_to_num(half), fmt=marker, capsize=4, **style)
         return rows
-    ax.plot(xs, ys, marker="o", **style)
+    ax.plot(xs, ys, marker=marker, **style)
     ax.fill_between(xs, ys - half, ys + half, where=np.isfinite(half), alpha=0.15, color=style.get("color"),
                     linewidth=0)
     return rows

@@ -30,23 +30,57 @@ def objective(cell):
     return str(cell.config.get("imitation", "bc"))
 
 
+def network(cell):
+    """What a cell's network is: MAPS's module count and widths, or a baseline's hidden widths."""
+    if cell.method == "maps":
+        maps = cell.config.get("maps", {})
+        return ("maps", cell.modules, tuple(maps.get("module_hidden", ())), tuple(maps.get("selector_hidden", ())))
+    return (cell.method, cell.hidden)
+
+
+def bc_partner(bc_cells, gail_cells):
+    """The BC cells a GAIL setting is paired with, among one set, method, demos and k's BC cells: those of the same
+    network (network()), the base method's where it has that network, else those of the one variant that has it (a
+    width control such as "mt_bc (w430)" for a GAIL run of that width); [] where none or several do."""
+    shape = network(gail_cells[0])
+    same = {}
+    for c in bc_cells:
+        if network(c) == shape:
+            same.setdefault(c.label, []).append(c)
+    method = gail_cells[0].method
+    if method in same:
+        return same[method]
+    return next(iter(same.values())) if len(same) == 1 else []
+
+
 def by_objective(cells):
     """{Setting: {"bc": [cells], "gail": [cells]}}: a method's cells trained by GAIL under one variant, and beside them
-    the method's base cells (BC) at the same set, demos and k, in report order (set, method, variant, demos, k). A
-    suite may hold several GAIL variants (a pilot's settings): each is its own setting, paired with the same BC cells.
-    Variants of the BC protocol (ablations, controls) are not the BC a GAIL cell is paired with."""
-    base, gail = {}, {}
+    the BC cells of the method at the same set, demos and k and with the same network (bc_partner: the base cells, or
+    a width control's for a GAIL run of that width), in report order (set, method, variant, demos, k). A suite may
+    hold several GAIL variants (a pilot's settings): each is its own setting. Other variants of the BC protocol
+    (ablations, the paper's options) are not the BC a GAIL cell is paired with."""
+    bc, gail = {}, {}
     for c in cells:
         if objective(c) == "gail":
             gail.setdefault(Setting(c.set, c.method, c.variant, c.demos, c.subsample), []).append(c)
-        elif c.label == c.method:
-            base.setdefault((c.set, c.method, c.demos, c.subsample), []).append(c)
+        else:
+            bc.setdefault((c.set, c.method, c.demos, c.subsample), []).append(c)
     sets = order(SET_ORDER, {s.set for s in gail})
-    found = {s: {"bc": base.get((s.set, s.method, s.demos, s.subsample), []), "gail": runs}
+    found = {s: {"bc": bc_partner(bc.get((s.set, s.method, s.demos, s.subsample), []), runs), "gail": runs}
              for s, runs in gail.items()}
     return dict(sorted(found.items(), key=lambda item: (sets.index(item[0].set), method_rank(item[0].method),
                                                         item[0].method, item[0].variant, item[0].demos,
                                                         item[0].subsample)))
+
+
+def maps_setting(settings, setting):
+    """MAPS's setting to pair a GAIL setting with: MAPS under the same GAIL variant, else under the suite's own
+    ("gail": a control's variant such as gail_w430 has no MAPS of its own); None where MAPS ran neither."""
+    for variant in (setting.variant, "gail"):
+        found = settings.get(setting._replace(method="maps", variant=variant))
+        if found:
+            return setting._replace(method="maps", variant=variant), found
+    return None, None
 
 
 def has_gail(cells):
@@ -149,11 +183,11 @@ def maps_table(cells):
     for setting, runs in settings.items():
         if setting.method == "maps":
             continue
-        partner = settings.get(setting._replace(method="maps"))
+        maps_key, partner = maps_setting(settings, setting)
         if not partner:
             continue
-        row = [setting.set, f"{name('maps', setting.variant)} - {name(setting.method, setting.variant)}", setting.demos,
-               setting.subsample]
+        row = [setting.set, f"{name('maps', maps_key.variant)} - {name(setting.method, setting.variant)}",
+               setting.demos, setting.subsample]
         for kind in OBJECTIVES:
             diffs = paired(partner[kind], runs[kind], lambda c: c.mean_score)
             rows.append(row + [kind, len(diffs), fmt(diffs, signed=True) if diffs else "-",
@@ -271,8 +305,8 @@ def speed_table(cells):
         mine = [c for c in runs["gail"] if curves[id(c)]]
         if not mine:
             continue
-        partner = settings.get(setting._replace(method="maps"))
-        peers = [c for c in partner["gail"] if curves[id(c)]] if partner and setting.method != "maps" else []
+        partner = maps_setting(settings, setting)[1] if setting.method != "maps" else None
+        peers = [c for c in partner["gail"] if curves[id(c)]] if partner else []
         budget = min(max(curves[id(c)]) for c in mine + peers)
         speed = {c.seed: learning_speed(curves[id(c)], budget) for c in mine}
         row = [setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample, len(mine),

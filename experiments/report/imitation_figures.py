@@ -57,14 +57,15 @@ def imitation_scores(cells, out):
             for kind in ("bc", "gail"):
                 keys = sorted((s for s in mine if (s.method, s.variant) == (method, variant) and mine[s][kind]),
                               key=lambda s: s.demos)
-                if not keys or (kind == "bc" and variant != "gail" and (method, "gail") in
-                                {(s.method, s.variant) for s in mine}):
-                    continue  # BC's line once per method (beside the suite's own GAIL variant)
+                if not keys or (kind == "bc" and variant != "gail" and any(
+                        mine.get(s._replace(variant="gail"), {}).get("bc") == mine[s]["bc"] for s in keys)):
+                    continue  # BC's line once per method and network (beside the suite's own GAIL variant)
                 runs = [mine[s][kind] for s in keys]
-                shown = name(method) if kind == "bc" else variant_name(method, variant)
+                partner = runs[0][0].label  # a width control's BC cells: "mt_bc (w430)"
+                shown = (name(method) + partner[len(method):] if kind == "bc" else variant_name(method, variant))
+                style = dict(STYLES[kind], **({} if variant == "gail" else {"marker": "s"}))
                 points = line_with_band(ax, [s.demos for s in keys], runs, lambda c: c.mean_score,
-                                        color=color(method), label=f"{shown}, {OBJECTIVE_NAMES[kind]}",
-                                        **STYLES[kind])
+                                        color=color(method), label=f"{shown}, {OBJECTIVE_NAMES[kind]}", **style)
                 rows += [[set_name, method, kind if kind == "bc" else variant, x, keys[0].subsample, n, m, h]
                          for x, n, m, h in points]
                 means += [m for _, _, m, _ in points]

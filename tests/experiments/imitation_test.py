@@ -87,6 +87,46 @@ class LearningSpeedTest(unittest.TestCase):
         self.assertEqual(other_row[10], f"{paired_p(diffs):.3f}")
         self.assertEqual(maps_row[8:10], ["", ""])
 
+    def test_a_width_control_under_gail_pairs_with_its_own_width_under_bc_and_with_maps_under_gail(self):
+        def bc_cell(method, variant, seed, hidden=None):
+            config = {"method": method}
+            if hidden:
+                config["baselines"] = {"hidden": hidden}
+            tasks = [TaskResult(t, 0.5, 0.0, 0.0, 500.0) for t in TASKS]
+            return Cell(pathlib.Path("."), f"s/{method}-{variant}_d1_s{seed}", "bc", "s", method, variant, 1, 10,
+                        seed, config, 100, 100, 10, 1.0, tasks)
+
+        with tempfile.TemporaryDirectory() as root:
+            narrow, wide = [128, 128, 128], [430, 430, 430]
+            bc = ([bc_cell("mt_bc", "base", s, narrow) for s in (0, 1)]
+                  + [bc_cell("mt_bc", "w430", s, wide) for s in (0, 1)]
+                  + [bc_cell("mt_bc", "paper_protocol", s, narrow) for s in (0, 1)]
+                  + [bc_cell("maps", "base", s) for s in (0, 1)])
+            gail = []
+            for seed in (0, 1):
+                gail.append(gail_cell(root, "maps", seed, [0.5, 1.0]))
+                gail.append(gail_cell(root, "mt_bc", seed, [0.1, 0.5]))
+                gail[-1].config["baselines"] = {"hidden": narrow}
+                wide_cell = gail_cell(root, f"mt_bc_w{seed}", seed, [0.2, 0.6])
+                wide_cell.method, wide_cell.variant = "mt_bc", "gail_w430"
+                wide_cell.config.update(method="mt_bc", baselines={"hidden": wide})
+                gail.append(wide_cell)
+            settings = imitation.by_objective(bc + gail)
+            by_variant = {(s.method, s.variant): runs for s, runs in settings.items()}
+            self.assertEqual({c.variant for c in by_variant[("mt_bc", "gail")]["bc"]}, {"base"})
+            self.assertEqual({c.variant for c in by_variant[("mt_bc", "gail_w430")]["bc"]}, {"w430"})
+            self.assertEqual({c.variant for c in by_variant[("maps", "gail")]["bc"]}, {"base"})
+            wide_key = next(s for s in settings if s.variant == "gail_w430")
+            self.assertEqual(imitation.maps_setting(settings, wide_key)[0].variant, "gail")
+            # MAPS - the wide MT-BC under each objective, and in how fast it learns.
+            self.assertIn("| s | MAPS - MT-BC (gail_w430) | 1 | 10 | 2 |", "\n".join(imitation.maps_table(bc + gail)))
+            speed = {line.split(" | ")[1]: line.split(" | ") for line in imitation.speed_table(bc + gail)
+                     if line.startswith("| s | ")}
+            self.assertEqual(speed["MT-BC (gail_w430)"][8], "2")
+            self.assertTrue(speed["MT-BC (gail_w430)"][9].startswith("+0.35"), speed["MT-BC (gail_w430)"][9])
+            objective = "\n".join(imitation.objective_table(bc + gail))
+            self.assertIn("| s | MT-BC (gail_w430) | 1 | 10 | 2 |", objective)
+
     def test_no_curves_no_table(self):
         with tempfile.TemporaryDirectory() as root:
             cell = gail_cell(root, "maps", 0, [0.5])
