@@ -94,6 +94,14 @@ def fmt_interval(value, bounds):
     return f"{value:.3f} [{bounds[0]:.3f}, {bounds[1]:.3f}]"
 
 
+def fmt_improvement(x, y):
+    """P(X > Y) of two runs x tasks matrices with its interval; the estimate alone where a side has one run (a
+    bootstrap cannot vary a single run, so its interval would be a point)."""
+    if min(len(x), len(y)) < 2:
+        return f"{probability_of_improvement(x, y):.3f}"
+    return fmt_interval(*poi_interval(x, y))
+
+
 def aggregate_table(cells):
     """One row per (method, demos) of a set's cells: runs, IQM with its interval, and, where MAPS ran at the same demos
     and subsample, P(MAPS > method) with its interval; [] without cells."""
@@ -105,6 +113,7 @@ def aggregate_table(cells):
         if matrix is None:
             continue
         value, bounds = iqm_interval(matrix)
+        shown = fmt_interval(value, bounds) if len(runs) > 1 else f"{value:.3f}"  # one run: no interval
         poi = ""
         # A variant against MAPS under the same variant where that ran, else base MAPS (as the paired tables do).
         method = key.label.partition(" ")[0]
@@ -113,8 +122,8 @@ def aggregate_table(cells):
         if maps:
             maps_matrix = runs_by_tasks(maps, tasks)
             if maps_matrix is not None:
-                poi = fmt_interval(*poi_interval(maps_matrix, matrix))
-        rows.append([key.label, key.demos, key.subsample, len(runs), fmt_interval(value, bounds), poi])
+                poi = fmt_improvement(maps_matrix, matrix)
+        rows.append([key.label, key.demos, key.subsample, len(runs), shown, poi])
     if not rows:
         return []
     return ([f"Interquartile mean (IQM) of the {len(tasks)} tasks x runs scores with its 95% stratified bootstrap"

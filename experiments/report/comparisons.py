@@ -6,7 +6,7 @@ Per set, every (demos, k) where both rows ran: both mean scores over the seeds b
 paired t test's p with Holm over the set's rows, and the probability that an A run beats a B run on a task (the
 aggregate statistics' estimator and interval, aggregates.py). `maps suite` has checked that every entry names two rows
 of the suite."""
-from aggregates import fmt_interval, poi_interval, runs_by_tasks
+from aggregates import fmt_improvement, runs_by_tasks
 from suite_results import groups, task_names
 from suite_stats import fmt, paired, paired_p
 from tables import holm_columns, table
@@ -36,8 +36,7 @@ def compare_table(cells, entries):
             mine_a = [c for c in runs_a if c.seed in seeds]
             mine_b = [c for c in runs_b if c.seed in seeds]
             matrix_a, matrix_b = runs_by_tasks(mine_a, tasks), runs_by_tasks(mine_b, tasks)
-            poi = fmt_interval(*poi_interval(matrix_a, matrix_b)) if matrix_a is not None and matrix_b is not None \
-                else "-"
+            poi = fmt_improvement(matrix_a, matrix_b) if matrix_a is not None and matrix_b is not None else "-"
             rows.append([a, b, key.demos, key.subsample, len(diffs), fmt([c.mean_score for c in mine_a]),
                          fmt([c.mean_score for c in mine_b]), fmt(diffs, signed=True), poi, paired_p(diffs)])
     if not rows:

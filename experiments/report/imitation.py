@@ -1,6 +1,7 @@
 """GAIL against BC (issue 45, docs/adversarial.md): the report's tables on the imitation objective. A cell trained by
 GAIL says so in its resolved config ("imitation": "gail"); it is paired with the cell of the same set, method, demos,
-k and seed trained by BC (the method's base cells). Four tables, each a list of Markdown lines:
+k and seed trained by BC with the same network on the same tasks (the method's base cells, or a width control's for a
+GAIL run of that width: bc_partner). Four tables, each a list of Markdown lines:
 
 - objective_table: every method's GAIL - BC difference in mean score, paired by seed, Holm over the whole table (one
   question, asked at every set, method and demo count);
@@ -17,7 +18,7 @@ import csv
 import math
 from collections import namedtuple
 
-from suite_results import METHOD_NAMES, SET_ORDER, method_rank, order
+from suite_results import METHOD_NAMES, SET_ORDER, method_rank, order, success_scored
 from suite_stats import USED_FACTOR, ci95, division, fmt, holm, mean, paired, paired_p, usage_distances
 from tables import against_columns, holm_columns, table
 
@@ -31,26 +32,32 @@ def objective(cell):
 
 
 def network(cell):
-    """What a cell's network is: MAPS's module count and widths, or a baseline's hidden widths."""
+    """What a cell's network is and what it learns: MAPS's module count and widths, or a baseline's hidden widths,
+    and the tasks it trains on (data.tasks: [] for all of the set's)."""
+    tasks = tuple(cell.config.get("data", {}).get("tasks", []) or [])
     if cell.method == "maps":
         maps = cell.config.get("maps", {})
-        return ("maps", cell.modules, tuple(maps.get("module_hidden", ())), tuple(maps.get("selector_hidden", ())))
-    return (cell.method, cell.hidden)
+        return ("maps", cell.modules, tuple(maps.get("module_hidden", ())), tuple(maps.get("selector_hidden", ())),
+                tasks)
+    return (cell.method, cell.hidden, tasks)
 
 
-def bc_partner(bc_cells, gail_cells):
-    """The BC cells a GAIL setting is paired with, among one set, method, demos and k's BC cells: those of the same
-    network (network()), the base method's where it has that network, else those of the one variant that has it (a
-    width control such as "mt_bc (w430)" for a GAIL run of that width); [] where none or several do."""
+def bc_partner(bc_cells, gail_cells, base_networks):
+    """The BC cells a GAIL setting is paired with, among one set, method, demos and k's BC cells (bc_cells): where the
+    GAIL run has a network the method's base cells have anywhere on the set (base_networks), the base cells of that
+    network; where its network is another (a width control), the cells of the one BC variant that has it ("mt_bc
+    (w430)" for a GAIL run at 3 x 430); [] where none or several do. So a variant of the BC protocol (an ablation, the
+    paper's options) is never the partner: its network is the base's."""
     shape = network(gail_cells[0])
+    method = gail_cells[0].method
     same = {}
     for c in bc_cells:
         if network(c) == shape:
             same.setdefault(c.label, []).append(c)
-    method = gail_cells[0].method
-    if method in same:
-        return same[method]
-    return next(iter(same.values())) if len(same) == 1 else []
+    if shape in base_networks or not base_networks:
+        return same.get(method, [])
+    controls = [runs for label, runs in same.items() if label != method]
+    return controls[0] if len(controls) == 1 else []
 
 
 def by_objective(cells):
@@ -59,14 +66,17 @@ def by_objective(cells):
     a width control's for a GAIL run of that width), in report order (set, method, variant, demos, k). A suite may
     hold several GAIL variants (a pilot's settings): each is its own setting. Other variants of the BC protocol
     (ablations, the paper's options) are not the BC a GAIL cell is paired with."""
-    bc, gail = {}, {}
+    bc, gail, base_networks = {}, {}, {}
     for c in cells:
         if objective(c) == "gail":
             gail.setdefault(Setting(c.set, c.method, c.variant, c.demos, c.subsample), []).append(c)
         else:
             bc.setdefault((c.set, c.method, c.demos, c.subsample), []).append(c)
+            if c.label == c.method:
+                base_networks.setdefault((c.set, c.method), set()).add(network(c))
     sets = order(SET_ORDER, {s.set for s in gail})
-    found = {s: {"bc": bc_partner(bc.get((s.set, s.method, s.demos, s.subsample), []), runs), "gail": runs}
+    found = {s: {"bc": bc_partner(bc.get((s.set, s.method, s.demos, s.subsample), []), runs,
+                                  base_networks.get((s.set, s.method), set())), "gail": runs}
              for s, runs in gail.items()}
     return dict(sorted(found.items(), key=lambda item: (sets.index(item[0].set), method_rank(item[0].method),
                                                         item[0].method, item[0].variant, item[0].demos,
@@ -75,11 +85,16 @@ def by_objective(cells):
 
 def maps_setting(settings, setting):
     """MAPS's setting to pair a GAIL setting with: MAPS under the same GAIL variant, else under the suite's own
-    ("gail": a control's variant such as gail_w430 has no MAPS of its own); None where MAPS ran neither."""
-    for variant in (setting.variant, "gail"):
-        found = settings.get(setting._replace(method="maps", variant=variant))
-        if found:
-            return setting._replace(method="maps", variant=variant), found
+    ("gail") where that ran GAIL alike (the same gail settings: a width control such as gail_w430 has no MAPS of its
+    own); (None, None) otherwise."""
+    own = settings.get(setting._replace(method="maps"))
+    if own:
+        return setting._replace(method="maps"), own
+    key = setting._replace(method="maps", variant="gail")
+    found = settings.get(key)
+    runs = settings.get(setting, {}).get("gail", [])
+    if found and runs and found["gail"] and found["gail"][0].config.get("gail") == runs[0].config.get("gail"):
+        return key, found
     return None, None
 
 
@@ -106,7 +121,8 @@ def budget_line(cells):
 
 def expert_returns(cell):
     """{task: the return its score is divided by}: the evaluation's expert_return, else (a result written before maps
-    eval recorded it) its return over its score where the score is above 0 (it is clipped at 0)."""
+    eval recorded it) its return over its score where the score is above 0: an estimate, off where some episode's
+    score was floored at 0 (the score is the mean of per-episode max(0, return / expert))."""
     found = {}
     for t in cell.tasks:
         expert = t.expert_return
@@ -121,7 +137,7 @@ def training_curve(cell):
     """{env steps per task: the mean over tasks of the iteration's mean training return over the task's expert
     return (expert_returns)} from a GAIL cell's curve.csv. {} when the curve is missing or unreadable, or a task has
     no expert return to divide by."""
-    if all(t.scored_by == "success" for t in cell.tasks):
+    if success_scored(cell.set, [cell]):
         return success_curve(cell)
     experts = expert_returns(cell)
     if not experts or set(experts) != {t.task for t in cell.tasks}:
@@ -192,7 +208,7 @@ def maps_table(cells):
             diffs = paired(partner[kind], runs[kind], lambda c: c.mean_score)
             rows.append(row + [kind, len(diffs), fmt(diffs, signed=True) if diffs else "-",
                                paired_p(diffs) if diffs else float("nan")])
-            families.append(kind)
+            families.append((kind, holm_family(setting)))
     if not rows:
         return []
     merged = {}
@@ -201,7 +217,8 @@ def maps_table(cells):
     empty = [0, "-", "-", "-"]
     shown = [list(key) + merged[key].get("bc", empty) + merged[key].get("gail", empty) for key in merged]
     return (["MAPS against each other method under each objective: difference = MAPS - the other, mean over tasks,"
-             " paired by seed (mean +- 95% CI); p: paired t test; Holm within each objective's column:", ""]
+             " paired by seed (mean +- 95% CI); p: paired t test; Holm within each objective's column, a control's"
+             " rows (a variant other than the suite's GAIL) a family of their own:", ""]
             + table(["set", "comparison", "demos", "k", "BC pairs", "BC difference", "BC p", "BC p (Holm)",
                      "GAIL pairs", "GAIL difference", "GAIL p", "GAIL p (Holm)"], shown))
 
@@ -283,24 +300,39 @@ def learning_speed(curve, budget=None):
     return mean(values), reached
 
 
-def fmt_steps(values, total):
-    """"0.17 +- 0.02" (millions of env steps) over the seeds that reached REACH, with "(2 of 3)" when some did not;
-    "not reached" when none did."""
-    reached = [v / 1e6 for v in values if v is not None]
-    if not reached:
-        return "not reached"
-    return fmt(reached) + ("" if len(reached) == total else f" ({len(reached)} of {total})")
+def fmt_steps(values, budget):
+    """The env steps to REACH over seeds, in millions: the median, a seed that never reached it counting as later than
+    any that did, and the range, "0.17 (0.15-0.25)"; a seed that never reached it shows in the range as past the
+    budget, "0.30 (0.15->1.00)", and where half or more never did the median is ">1.00" too. One seed: its value."""
+    ordered = sorted(values, key=lambda v: (v is None, v if v is not None else 0))
+    shown = [f"{v / 1e6:.2f}" if v is not None else f">{budget / 1e6:.2f}" for v in ordered]
+    if len(shown) == 1:
+        return "not reached" if ordered[0] is None else shown[0]
+    n = len(ordered)
+    if n % 2:
+        median = shown[n // 2]
+    else:
+        low, high = ordered[n // 2 - 1], ordered[n // 2]
+        median = f"{(low + high) / 2e6:.2f}" if low is not None and high is not None else f">{budget / 1e6:.2f}"
+    return f"{median} ({shown[0]}-{shown[-1]})"
+
+
+def holm_family(setting):
+    """A comparison's Holm family in the speed and MAPS tables: the suite's own GAIL runs ("gail"), or a control's
+    variant on its own (a width control asks its own question, as each variant does in variant_table)."""
+    return "main" if setting.variant in ("gail", "gail_mt10") else setting.variant
 
 
 def speed_table(cells):
     """How fast each method learns under GAIL, per set and demo count: the normalised area under its training curve
     (mean over the run of the training episodes' return over the expert's, or of their success rate) and the env
-    steps per task at which it first reaches REACH, per seed then mean +- CI; and MAPS - each other method's area,
-    paired by seed, Holm over the rows with a p. [] without GAIL cells with curves. The curves are compared over the
-    budget all of a setting's cells ran (the shortest)."""
+    steps per task at which it first reaches REACH, per seed then over seeds; and MAPS - each other method's area,
+    paired by seed, Holm over the rows with a p (a control's rows a family of their own). [] without GAIL cells with
+    curves. The curves are compared over the budget all of a setting's cells and MAPS's ran (the shortest; MAPS's own
+    row over its own cells')."""
     settings = by_objective(cells)
     curves = {id(c): training_curve(c) for runs in settings.values() for c in runs["gail"]}
-    rows = []
+    rows, families = [], []
     for setting, runs in settings.items():
         mine = [c for c in runs["gail"] if curves[id(c)]]
         if not mine:
@@ -309,27 +341,33 @@ def speed_table(cells):
         peers = [c for c in partner["gail"] if curves[id(c)]] if partner else []
         budget = min(max(curves[id(c)]) for c in mine + peers)
         speed = {c.seed: learning_speed(curves[id(c)], budget) for c in mine}
-        row = [setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample, len(mine),
-               f"{budget:,}", fmt([a for a, _ in speed.values()]),
-               fmt_steps([s for _, s in speed.values()], len(mine))]
-        if peers:
-            maps_area = {c.seed: learning_speed(curves[id(c)], budget)[0] for c in peers}
-            diffs = [maps_area[seed] - area for seed, (area, _) in speed.items() if seed in maps_area]
-            row += [len(diffs), fmt(diffs, signed=True) if diffs else "-", paired_p(diffs) if diffs else math.nan]
+        speed = {seed: value for seed, value in speed.items() if value[0] is not None}  # a curve starting past it
+        if not speed:
+            continue
+        row = [setting.set, name(setting.method, setting.variant), setting.demos, setting.subsample, len(speed),
+               f"{budget:,}", fmt([a for a, _ in speed.values()]), fmt_steps([s for _, s in speed.values()], budget)]
+        maps_area = {c.seed: learning_speed(curves[id(c)], budget)[0] for c in peers}
+        diffs = [maps_area[seed] - area for seed, (area, _) in speed.items() if maps_area.get(seed) is not None]
+        if diffs:
+            row += [len(diffs), fmt(diffs, signed=True), paired_p(diffs)]
         else:
             row += ["", "", math.nan]
         rows.append(row)
+        families.append(holm_family(setting))
     if not rows:
         return []
-    shown, sizes = holm_columns(rows)
+    shown, sizes = holm_columns(rows, families)
+    counted = "; ".join(f"{'the suite' + chr(39) + 's GAIL runs' if f == 'main' else f}: {n}"
+                        for f, n in sizes.items() if n)
     return ([f"How fast each method learns under GAIL: area = the mean over the run's iterations of its training"
              " episodes' return over the expert's (success-scored sets: their success rate), the normalised area"
              f" under the learning curve of gail_curves.png; reaches {REACH:g} = the env steps per task at the end of"
-             f" the first trailing window of {WINDOW_ENV_STEPS:,} env steps per task whose mean is >= {REACH:g}"
-             " (millions of env steps per task, mean +- 95% CI over the seeds that reached it, how many where not all"
-             " did). Both per seed, then over seeds, over the budget every cell of the row and MAPS's ran. MAPS -"
-             f" other: the area's difference, paired by seed; p: paired t test; Holm over all {sizes[None]} rows with a"
-             " p:", ""]
+             f" the first trailing window of about {WINDOW_ENV_STEPS:,} env steps per task (the nearest whole number"
+             f" of iterations) whose mean is >= {REACH:g}, in millions: the median over seeds (a seed that never"
+             " reached it counts as later than any that did) and the range, '>' marking a seed past the budget. Both"
+             " per seed, over the budget every cell of the row and MAPS's ran. MAPS - other: the area's difference,"
+             " paired by seed; p: paired t test; Holm over the rows with a p within each family (" + (counted or "none")
+             + "):", ""]
             + table(["set", "method", "demos", "k", "seeds", "budget", "area",
-                     f"reaches {REACH:g} at (10^6 env steps)", "MAPS - other pairs", "MAPS - other (area)", "p",
-                     "p (Holm)"], shown))
+                     f"reaches {REACH:g} at (10^6 env steps): median (range)", "MAPS - other pairs",
+                     "MAPS - other (area)", "p", "p (Holm)"], shown))

@@ -61,13 +61,14 @@ def imitation_scores(cells, out):
                         mine.get(s._replace(variant="gail"), {}).get("bc") == mine[s]["bc"] for s in keys)):
                     continue  # BC's line once per method and network (beside the suite's own GAIL variant)
                 runs = [mine[s][kind] for s in keys]
-                partner = runs[0][0].label  # a width control's BC cells: "mt_bc (w430)"
-                shown = (name(method) + partner[len(method):] if kind == "bc" else variant_name(method, variant))
-                style = dict(STYLES[kind], **({} if variant == "gail" else {"marker": "s"}))
+                bc_label = mine[keys[0]]["bc"][0].label if mine[keys[0]]["bc"] else method
+                shown = (name(method) + bc_label[len(method):] if kind == "bc" else variant_name(method, variant))
+                # A width control (its BC partner a variant of the method, "mt_bc (w430)"): square markers.
+                style = dict(STYLES[kind], **({} if bc_label == method else {"marker": "s"}))
                 points = line_with_band(ax, [s.demos for s in keys], runs, lambda c: c.mean_score,
                                         color=color(method), label=f"{shown}, {OBJECTIVE_NAMES[kind]}", **style)
-                rows += [[set_name, method, kind if kind == "bc" else variant, x, keys[0].subsample, n, m, h]
-                         for x, n, m, h in points]
+                rows += [[set_name, bc_label if kind == "bc" else method, kind if kind == "bc" else variant, x,
+                          keys[0].subsample, n, m, h] for x, n, m, h in points]
                 means += [m for _, _, m, _ in points]
                 drawn += [c for r in runs for c in r]
         ax.set_title(f"{set_name}", fontsize=9)
@@ -83,7 +84,8 @@ def imitation_scores(cells, out):
     return written(fig, out, "imitation_scores", ["set", "method", "objective", "demos", "subsample", "seeds", "mean",
                                                   "ci95"], rows,
                    "Each set's mean score over its tasks against demonstrations per task, each method trained by BC"
-                   " (solid) and by GAIL (dashed, hollow markers); points are means over seeds, the band the 95% CI"
+                   " (solid) and by GAIL (dashed, hollow markers; square markers: a width control beside its BC"
+                   " partner of the same width); points are means over seeds, the band the 95% CI"
                    f" over seeds. {describe_n(drawn)} (GAIL: iterations). The same evaluation for both"
                    " (the mean action).")
 
@@ -146,9 +148,10 @@ def gail_curves(cells, out):
                                              "seeds", "mean", "ci95"], rows,
                    "GAIL's learning curves: each iteration's training episodes (actions drawn from the policy's"
                    " Gaussian, so below what the mean action scores) as return over the task's expert return, mean"
-                   " over tasks, then over seeds (band: 95% CI, clipped a tenth past the panel's means), against env"
-                   " steps per task; the dotted line is the same method's BC score at the same demos (evaluated, the"
-                   f" mean action). {describe_n(used)} (GAIL: iterations).")
+                   " over tasks, then over seeds (band: 95% CI; each panel's y range spans its means and BC lines,"
+                   " and 0 to 1, with a tenth to spare, so a wider band is cut off), against env steps per task; the"
+                   " dotted line is the same method's BC score at the same demos (evaluated, the mean action)."
+                   f" {describe_n(used)} (GAIL: iterations).")
 
 
 def gail_module_usage(cells, out):
@@ -172,12 +175,17 @@ def gail_module_usage(cells, out):
     counts = sorted({key[1:] for key in panels})
     usage_of = {}
     for key, pair in panels.items():
-        tasks = [t.task for t in pair[0].tasks]
+        gail_tasks = {t.task for t in pair[1].tasks}
+        tasks = [t.task for t in pair[0].tasks if t.task in gail_tasks]  # the tasks both runs were evaluated on
+        if not tasks:
+            continue
         for kind, cell in zip(("bc", "gail"), pair[:2]):
             by_task = {t.task: t.usage for t in cell.tasks}
             shown = OBJECTIVE_NAMES[kind] + (f" ({pair[2]})" if kind == "gail" and pair[2] != "gail" else "")
             usage_of[key + (kind,)] = (tasks, cell.seed, np.array([by_task[task] for task in tasks], dtype=float),
                                        shown)
+    if not usage_of:
+        return []
     top = max(0.5, max(float(u.max()) for _, _, u, _ in usage_of.values()))
     fig, axes = plt.subplots(len(counts), 2 * len(sets), figsize=(4.2 * len(sets) + 1.5, 2.9 * len(counts) + 1.2),
                              squeeze=False)

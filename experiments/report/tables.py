@@ -368,7 +368,7 @@ def improvement(runs, reference, cells):
     tasks = task_names(cells)
     a = aggregates.runs_by_tasks([c for c in runs if c.seed in seeds], tasks)
     b = aggregates.runs_by_tasks([c for c in reference if c.seed in seeds], tasks)
-    return "-" if a is None or b is None else aggregates.fmt_interval(*aggregates.poi_interval(a, b))
+    return "-" if a is None or b is None else aggregates.fmt_improvement(a, b)
 
 
 def control_meaning(cell):

@@ -44,18 +44,32 @@ const Json& checked(const Json& value, const std::string& key, const std::string
   return value;
 }
 
-// The report's name of a cell's row: "maps", "diffusion_policy (dp_mlp_h16)" (experiments/report/suite_results.py).
-std::string row_label(const SuiteCell& cell) {
-  return cell.variant == "base" ? cell.method : cell.method + " (" + cell.variant + ")";
+bool is_keep_only(const std::string& variant) { return std::regex_match(variant, std::regex("keep[0-9]+")); }
+
+// The report's name of a cell's row: "maps", "diffusion_policy (dp_mlp_h16)" (experiments/report/suite_results.py); a
+// keep-only variant (train.keep_every alone) where its setting has no base cells stands for the base, as there.
+std::string row_label(const SuiteCell& cell, const std::set<std::string>& base_settings) {
+  if (cell.variant == "base") return cell.method;
+  if (is_keep_only(cell.variant) &&
+      !base_settings.count(cell.set + "/" + cell.method + "/" + std::to_string(cell.demos)))
+    return cell.method;
+  return cell.method + " (" + cell.variant + ")";
 }
 
-// report.compare: each "A - B" names two different rows of the suite, so that a typo fails at plan time rather than
-// leaving the report's table empty.
+// report.compare: each "A - B" names two different rows of the suite that share a set and count, once (not again as
+// "B - A": the same test twice in a Holm family), so that a typo fails at plan time rather than leaving the report's
+// table empty.
 void check_comparisons(const Json& compare, const std::vector<SuiteCell>& cells, const std::string& where) {
-  std::set<std::string> rows;
-  for (const auto& cell : cells) rows.insert(row_label(cell));
+  std::set<std::string> base_settings;
+  for (const auto& cell : cells)
+    if (cell.variant == "base") base_settings.insert(cell.set + "/" + cell.method + "/" + std::to_string(cell.demos));
+  std::map<std::string, std::set<std::string>> rows;  // row -> "set/demos/k" it ran at
+  for (const auto& cell : cells)
+    rows[row_label(cell, base_settings)].insert(cell.set + "/" + std::to_string(cell.demos) + "/" +
+                                                std::to_string(cell.subsample));
   std::string known;
-  for (const auto& row : rows) known += (known.empty() ? "" : ", ") + row;
+  for (const auto& [row, settings] : rows) known += (known.empty() ? "" : ", ") + row;
+  std::set<std::pair<std::string, std::string>> seen;
   for (std::size_t i = 0; i < compare.size(); ++i) {
     const std::string at = where + "[" + std::to_string(i) + "]", text = compare[i].get<std::string>();
     const std::size_t split = text.find(" - ");
@@ -69,6 +83,13 @@ void check_comparisons(const Json& compare, const std::vector<SuiteCell>& cells,
                                     "\" is no row of the suite (a method, or \"method (variant)\"," +
                                     " of one of its cells: " + known + ")");
     if (a == b) throw std::invalid_argument(at + ": expected two different rows, got \"" + a + "\" twice");
+    const auto& at_a = rows.at(a);
+    if (std::none_of(at_a.begin(), at_a.end(), [&](const std::string& s) { return rows.at(b).count(s) > 0; }))
+      throw std::invalid_argument(at + ": \"" + a + "\" and \"" + b +
+                                  "\" share no set, demonstration count and k, so there is nothing to pair");
+    if (seen.count({b, a}))
+      throw std::invalid_argument(at + ": \"" + text + "\" is an earlier entry reversed: the same test twice");
+    seen.insert({a, b});
   }
 }
 

@@ -56,20 +56,26 @@ class LearningSpeedTest(unittest.TestCase):
         self.assertEqual(imitation.learning_speed(curve)[1], 25000)  # (0.9 + 0.9 + 0.8 + 1.0) / 4 = 0.9
         self.assertEqual(imitation.learning_speed({}), (None, None))
 
-    def test_steps_are_shown_over_the_seeds_that_reached(self):
-        self.assertEqual(imitation.fmt_steps([None, None], 2), "not reached")
-        self.assertEqual(imitation.fmt_steps([150000, None], 2), "0.15 (1 of 2)")
-        self.assertEqual(imitation.fmt_steps([150000, 170000, 160000], 3), "0.16 +- 0.02")
+    def test_steps_are_a_median_where_a_seed_that_never_reached_counts_as_the_latest(self):
+        self.assertEqual(imitation.fmt_steps([None], 10**6), "not reached")
+        self.assertEqual(imitation.fmt_steps([150000], 10**6), "0.15")
+        self.assertEqual(imitation.fmt_steps([150000, 170000, 160000], 10**6), "0.16 (0.15-0.17)")
+        self.assertEqual(imitation.fmt_steps([300000, None, 150000], 10**6), "0.30 (0.15->1.00)")
+        self.assertEqual(imitation.fmt_steps([None, None, 150000], 10**6), ">1.00 (0.15->1.00)")
+        self.assertEqual(imitation.fmt_steps([200000, 100000], 10**6), "0.15 (0.10-0.20)")
+        self.assertEqual(imitation.fmt_steps([200000, None], 10**6), ">1.00 (0.20->1.00)")
 
     def test_the_table_pairs_maps_with_each_method_by_seed_over_the_shared_budget(self):
         with tempfile.TemporaryDirectory() as root:
-            maps_curves = {0: [0.2, 0.9, 1.0, 1.0], 1: [0.4, 0.9, 0.95, 1.0], 2: [0.1, 0.6, 1.0, 1.0]}
+            # MAPS also ran seed 4, which MT-BC did not: pairs are by seed, not by position.
+            maps_curves = {0: [0.2, 0.9, 1.0, 1.0], 1: [0.4, 0.9, 0.95, 1.0], 2: [0.1, 0.6, 1.0, 1.0],
+                           4: [0.9, 1.0, 1.0, 1.0]}
             # MT-BC's seed 2 ran one iteration more: compared over the four all ran.
             other_curves = {0: [0.1, 0.3, 0.8, 1.0], 1: [0.0, 0.4, 0.6, 0.7], 2: [0.1, 0.5, 0.9, 1.0, 1.0]}
             cells = [gail_cell(root, "maps", s, c) for s, c in maps_curves.items()]
             cells += [gail_cell(root, "mt_bc", s, c) for s, c in other_curves.items()]
             lines = imitation.speed_table(cells)
-        self.assertIn("Holm over all 1 rows with a p", lines[0])
+        self.assertIn("Holm over the rows with a p within each family (the suite's GAIL runs: 1)", lines[0])
         rows = {line.split(" | ")[1]: line.strip("| ").split(" | ") for line in lines if line.startswith("| s | ")}
         self.assertEqual(set(rows), {"MAPS", "MT-BC"})
         maps_row, other_row = rows["MAPS"], rows["MT-BC"]
@@ -77,10 +83,12 @@ class LearningSpeedTest(unittest.TestCase):
         areas = {s: statistics.mean(c[:4]) for s, c in other_curves.items()}
         maps_areas = {s: statistics.mean(c) for s, c in maps_curves.items()}
         self.assertTrue(other_row[6].startswith(f"{statistics.mean(areas.values()):.2f} +- "), other_row[6])
-        # Reached (a window of two iterations of 10,000): MAPS at 30,000 (seeds 0 and 1) and 40,000 (seed 2, whose
-        # window ending at 30,000 has (0.6 + 1.0) / 2 = 0.8); MT-BC at 40,000 (seeds 0 and 2), never in seed 1.
-        self.assertEqual(maps_row[7], f"{statistics.mean([30000, 30000, 40000]) / 1e6:.2f} +- 0.01")
-        self.assertEqual(other_row[7], "0.04 +- 0.00 (2 of 3)")
+        # Reached (a window of two iterations of 10,000): MAPS at 30,000 (seeds 0 and 1), 40,000 (seed 2, whose
+        # window ending at 30,000 has (0.6 + 1.0) / 2 = 0.8) and 20,000 (seed 4); MT-BC at 40,000 (seeds 0 and 2),
+        # never in seed 1 (within the 40,000 both ran).
+        self.assertEqual(maps_row[4], "4")
+        self.assertEqual(maps_row[7], "0.03 (0.02-0.04)")
+        self.assertEqual(other_row[7], "0.04 (0.04->0.04)")
         diffs = [maps_areas[s] - areas[s] for s in (0, 1, 2)]
         self.assertEqual(other_row[8], "3")
         self.assertTrue(other_row[9].startswith(f"+{statistics.mean(diffs):.2f} +- "), other_row[9])
@@ -88,20 +96,21 @@ class LearningSpeedTest(unittest.TestCase):
         self.assertEqual(maps_row[8:10], ["", ""])
 
     def test_a_width_control_under_gail_pairs_with_its_own_width_under_bc_and_with_maps_under_gail(self):
-        def bc_cell(method, variant, seed, hidden=None):
+        def bc_cell(method, variant, seed, hidden=None, score=0.5):
             config = {"method": method}
             if hidden:
                 config["baselines"] = {"hidden": hidden}
-            tasks = [TaskResult(t, 0.5, 0.0, 0.0, 500.0) for t in TASKS]
+            tasks = [TaskResult(t, score, 0.0, 0.0, 500.0) for t in TASKS]
             return Cell(pathlib.Path("."), f"s/{method}-{variant}_d1_s{seed}", "bc", "s", method, variant, 1, 10,
                         seed, config, 100, 100, 10, 1.0, tasks)
 
         with tempfile.TemporaryDirectory() as root:
             narrow, wide = [128, 128, 128], [430, 430, 430]
-            bc = ([bc_cell("mt_bc", "base", s, narrow) for s in (0, 1)]
-                  + [bc_cell("mt_bc", "w430", s, wide) for s in (0, 1)]
-                  + [bc_cell("mt_bc", "paper_protocol", s, narrow) for s in (0, 1)]
-                  + [bc_cell("maps", "base", s) for s in (0, 1)])
+            # Each BC row its own score, so that a table shows which one it paired with.
+            bc = ([bc_cell("mt_bc", "base", s, narrow, 0.1) for s in (0, 1)]
+                  + [bc_cell("mt_bc", "w430", s, wide, 0.3) for s in (0, 1)]
+                  + [bc_cell("mt_bc", "paper_protocol", s, narrow, 0.7) for s in (0, 1)]
+                  + [bc_cell("maps", "base", s, None, 0.2) for s in (0, 1)])
             gail = []
             for seed in (0, 1):
                 gail.append(gail_cell(root, "maps", seed, [0.5, 1.0]))
@@ -125,7 +134,20 @@ class LearningSpeedTest(unittest.TestCase):
             self.assertEqual(speed["MT-BC (gail_w430)"][8], "2")
             self.assertTrue(speed["MT-BC (gail_w430)"][9].startswith("+0.35"), speed["MT-BC (gail_w430)"][9])
             objective = "\n".join(imitation.objective_table(bc + gail))
-            self.assertIn("| s | MT-BC (gail_w430) | 1 | 10 | 2 |", objective)
+            self.assertIn("| s | MT-BC (gail_w430) | 1 | 10 | 2 | 0.30 +- 0.00 |", objective)
+            self.assertIn("| s | MT-BC | 1 | 10 | 2 | 0.10 +- 0.00 |", objective)
+            # MAPS - the wide MT-BC under BC pairs MAPS's BC (0.2) with the wide one's (0.3).
+            self.assertIn("| s | MAPS - MT-BC (gail_w430) | 1 | 10 | 2 | -0.10 +- 0.00 |",
+                          "\n".join(imitation.maps_table(bc + gail)))
+            # Without the base BC cells at this count, an ablation of the same network is not the partner: MT-BC
+            # under GAIL pairs with nothing, though its base network is known from another count.
+            elsewhere = bc_cell("mt_bc", "base", 0, narrow, 0.1)
+            elsewhere.demos = 2
+            no_base = [c for c in bc if not (c.method == "mt_bc" and c.variant == "base")] + [elsewhere]
+            settings = imitation.by_objective(no_base + gail)
+            self.assertEqual(next(r for s, r in settings.items() if (s.method, s.variant) == ("mt_bc", "gail"))["bc"],
+                             [])
+            self.assertNotIn("| s | MT-BC | 1 |", "\n".join(imitation.objective_table(no_base + gail)))
 
     def test_no_curves_no_table(self):
         with tempfile.TemporaryDirectory() as root:

@@ -199,6 +199,10 @@ class SuiteTest(unittest.TestCase):
              ' maps, maps (no_share), mt_bc)'),
             (lambda c: c.update(report={"compare": ["maps (no_share) - maps (no_share)"]}),
              'report.compare[0]: expected two different rows, got "maps (no_share)" twice'),
+            (lambda c: c.update(report={"compare": ["mt_bc - maps", "maps - mt_bc"]}),
+             'report.compare[1]: "maps - mt_bc" is an earlier entry reversed: the same test twice'),
+            (lambda c: (c["grids"][1].update(demos=[7]), c.update(report={"compare": ["maps (no_share) - mt_bc"]})),
+             'report.compare[0]: "maps (no_share)" and "mt_bc" share no set, demonstration count and k'),
         ]
         for mutate, message in cases:
             config = copy.deepcopy(base)
