@@ -263,8 +263,11 @@ class Report(unittest.TestCase):
         suite.config["report"] = {"compare": ["single_bc - mt_bc"]}
         whole = "\n".join(report.report_lines(suite, no_figures))
         chosen = between(whole, "## Chosen comparisons (report.compare)", "## Aggregate statistics")
-        self.assertEqual(row_of(between(chosen, "### gravity", "###"), ["single_bc", "mt_bc", "5"])[4:8],
-                         ["2", "0.45 +- 0.64", "0.45 +- 0.64", "+0.00 +- 1.27"])
+        row = row_of(between(chosen, "### gravity", "###"), ["single_bc", "mt_bc", "5"])
+        # Seeds 0 and 1: Single BC 0.4 and 0.5 against MT-BC 0.5 and 0.4, differences -0.1 and +0.1, so p 1.
+        self.assertEqual(row[4:8], ["2", "0.45 +- 0.64", "0.45 +- 0.64", "+0.00 +- 1.27"])
+        self.assertRegex(row[8], r"^0\.\d{3} \[0\.\d{3}, [01]\.\d{3}\]$")
+        self.assertEqual(row[9:], ["1.000", "1.000"])
         self.assertIn("### mt10", chosen)
 
     def test_pooling_is_paired_with_single_bc_and_holm_corrected(self):
