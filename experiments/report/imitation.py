@@ -303,18 +303,21 @@ def learning_speed(curve, budget=None):
 def fmt_steps(values, budget):
     """The env steps to REACH over seeds, in millions: the median, a seed that never reached it counting as later than
     any that did, and the range, "0.17 (0.15-0.25)"; a seed that never reached it shows in the range as past the
-    budget, "0.30 (0.15->1.00)", and where half or more never did the median is ">1.00" too. One seed: its value."""
+    budget, "0.30 (0.15 to >1.00)", and where half or more never did the median is ">1.00" too; "not reached" where
+    none did. One seed: its value."""
     ordered = sorted(values, key=lambda v: (v is None, v if v is not None else 0))
     shown = [f"{v / 1e6:.2f}" if v is not None else f">{budget / 1e6:.2f}" for v in ordered]
+    if all(v is None for v in ordered):
+        return "not reached"
     if len(shown) == 1:
-        return "not reached" if ordered[0] is None else shown[0]
+        return shown[0]
     n = len(ordered)
     if n % 2:
         median = shown[n // 2]
     else:
         low, high = ordered[n // 2 - 1], ordered[n // 2]
         median = f"{(low + high) / 2e6:.2f}" if low is not None and high is not None else f">{budget / 1e6:.2f}"
-    return f"{median} ({shown[0]}-{shown[-1]})"
+    return f"{median} ({shown[0]}{' to ' if ordered[-1] is None else '-'}{shown[-1]})"
 
 
 def holm_family(setting):
