@@ -148,6 +148,17 @@ class SuiteTest(unittest.TestCase):
                 seen += part
             self.assertEqual(sorted(seen), everything, f"N = {shards}")
 
+    def test_docs_suite_md_lists_every_suite_config_with_its_cell_count(self):
+        """docs/suite.md's table of suite configs has a row for each experiments/suites/*.json (but the cost table) whose
+        cell count is the one `maps suite plan` makes."""
+        doc = (ROOT / "docs" / "suite.md").read_text()
+        for config in sorted((ROOT / "experiments" / "suites").glob("*.json")):
+            if config.name == "costs.json":
+                continue
+            row = re.search(r"^\| `experiments/suites/" + re.escape(config.name) + r"` \| (\d+) \|", doc, re.M)
+            self.assertIsNotNone(row, f"docs/suite.md's table has no row for {config.name}")
+            self.assertEqual(int(row.group(1)), len(plan(config)["cells"]), config.name)
+
     def test_issue_46s_suites_plan_the_cells_docs_zoo_md_counts(self):
         """The counts docs/zoo.md gives for issue 46's suites are the ones `maps suite plan` makes: zoo-modern.json's
         cells and, of them, the zoo's own (MAPS, MT-MH-BC and Soft Modularization, copied under the zoo's names);
