@@ -234,6 +234,27 @@ def holm_families(suite):
     return report.get("holm", "variant") if isinstance(report, dict) else "variant"
 
 
+def check_report_config(suite):
+    """suite.json's report settings, read from a file that may come from elsewhere: SuiteError naming the key and what
+    was expected (`maps suite` checks them in a config it plans, but not in a suite.json edited since)."""
+    report = suite.config.get("report")
+    where = f"{suite.root / 'suite.json'}: config.report"
+    if report is None:
+        return
+    if not isinstance(report, dict):
+        raise SuiteError(f"{where}: expected an object, got {report!r}")
+    if report.get("holm", "variant") not in ("variant", "set"):
+        raise SuiteError(f"{where}.holm: expected \"variant\" or \"set\", got {report.get('holm')!r}")
+    compare = report.get("compare", [])
+    if not isinstance(compare, list) or not all(isinstance(entry, str) for entry in compare):
+        raise SuiteError(f"{where}.compare: expected a list of \"A - B\" strings, got {compare!r}")
+    for i, entry in enumerate(compare):
+        try:
+            comparisons.parse(entry)
+        except ValueError as error:
+            raise SuiteError(f"{where}.compare[{i}]: {str(error).partition(': ')[2]}") from None
+
+
 def report_comparisons(suite):
     """The suite config's report.compare ("A - B" entries; [] when it names none)."""
     report = suite.config.get("report") or {}
@@ -420,6 +441,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     try:
         suite = load_suite(args.dir, args.status)
+        check_report_config(suite)
     except SuiteError as error:
         print(f"report: {error}", file=sys.stderr)
         return 2

@@ -967,6 +967,23 @@ class Errors(unittest.TestCase):
             self.assertFalse({"mt10/single_bc_d5_s1", "gravity/maps_d10_s1", "mt10/maps-m5_d5_s0",
                               "gravity/mt_bc_d5_s1", "mt10/maps_d10_s1"} & cells)
 
+    def test_report_settings_edited_into_suite_json_are_refused_by_name(self):
+        cases = [({"compare": ["maps-mt_bc"]}, 'config.report.compare[0]: expected "A - B", got \'maps-mt_bc\''),
+                 ({"compare": "maps - mt_bc"}, 'config.report.compare: expected a list of "A - B" strings'),
+                 ({"holm": "family"}, 'config.report.holm: expected "variant" or "set", got \'family\''),
+                 (["set"], "config.report: expected an object")]
+        for report_config, message in cases:
+            with tempfile.TemporaryDirectory() as tmp:
+                suite = pathlib.Path(tmp) / "suite"
+                shutil.copytree(FIXTURE, suite)
+                listed = json.loads((suite / "suite.json").read_text())
+                listed.setdefault("config", {})["report"] = report_config
+                (suite / "suite.json").write_text(json.dumps(listed))
+                code, _, stderr = run_report(suite)
+                self.assertEqual(code, 2, stderr)
+                self.assertNotIn("Traceback", stderr)
+                self.assertIn(f"{suite / 'suite.json'}: {message}", stderr)
+
     def test_json_nested_too_deep_is_refused_by_name(self):
         """Issue 41: a suite folder's JSON nested past 64 levels of arrays and objects inside each other is refused
         naming the file, as the C++ readers refuse it, rather than ending in a RecursionError traceback (100000
