@@ -106,6 +106,9 @@ def judge_comparisons(suite, config, new_seeds, finished, idents, everywhere, wa
     report = config.get("report") or {}
     entries = report.get("compare", []) if isinstance(report, dict) else []
     lines = []
+    if not isinstance(entries, list):
+        return [f"- report.compare: {entries!r} is not a list of \"A - B\" entries (`maps suite plan` says what is"
+                " wrong), skipped"]
     for entry in entries:
         parts = str(entry).split(" - ")
         if len(parts) != 2:
