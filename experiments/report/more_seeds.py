@@ -66,6 +66,17 @@ def cell_names(set_name, method, variants, demos, seeds):
             for v in (variants or [None]) for seed in seeds}
 
 
+def planned_already(set_name, method, variant, demos, seeds, everywhere):
+    """Whether the method's cells for the seeds are planned: under the variant, or, for the base, under a keep-only
+    variant (keep<N>: train.keep_every alone), whose cells stand for the base where it has none."""
+    if cell_names(set_name, method, [variant], demos, seeds) <= everywhere:
+        return True
+    if variant not in (None, "base"):
+        return False
+    return all(any(re.fullmatch(re.escape(f"{set_name}/{method}-") + r"keep\d+" + re.escape(f"_d{demos}_s{seed}"), name)
+                   for name in everywhere) for seed in seeds)
+
+
 def planned_label(method, variant):
     """The label a planned cell's result will have: a keep-only variant of a setting without base cells stands for
     the base (suite_results.stands_for_base), so its MAPS is the base MAPS partner."""
@@ -214,7 +225,7 @@ def decide(suite, config, new_seeds):
                         wanted.setdefault((name, set_name, demos, variant or "base"), set()).add(method)
                     ref_variant = reference[len("maps ("):-1] if reference != "maps" else (
                         variant if variant and is_keep_only(variant) else None)
-                    if cell_names(set_name, "maps", [ref_variant], demos, new_seeds) <= everywhere:
+                    if planned_already(set_name, "maps", ref_variant, demos, new_seeds, everywhere):
                         continue
                     if in_grid and ref_variant in grid_variants:
                         wanted.setdefault((name, set_name, demos, ref_variant or "base"), set()).add("maps")

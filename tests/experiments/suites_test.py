@@ -1254,6 +1254,14 @@ class MoreSeeds(unittest.TestCase):
             # A second run adds nothing twice.
             self.assert_a_repeat_adds_nothing(FIXTURE, config)
 
+    def test_a_base_methods_new_seeds_planned_as_a_keep_only_variant_count_as_planned(self):
+        planned = {"mt10/maps-keep2500_d2_s3", "mt10/maps-keep2500_d2_s4", "mt10/maps_d14_s3"}
+        self.assertTrue(more_seeds.planned_already("mt10", "maps", None, 2, [3, 4], planned))
+        self.assertFalse(more_seeds.planned_already("mt10", "maps", None, 2, [3, 4, 5], planned))
+        self.assertFalse(more_seeds.planned_already("mt10", "maps", "chunk16", 2, [3, 4], planned))
+        self.assertFalse(more_seeds.planned_already("mt10", "maps", None, 14, [3, 4], planned))
+        self.assertTrue(more_seeds.planned_already("mt10", "maps", None, 14, [3], planned))
+
     def test_a_comparison_the_config_names_gets_seeds_where_its_interval_includes_0(self):
         # MAPS at Gravity 5 moved up so that both methods' differences from it are separated (Single BC's -0.90 on
         # both seeds, MT-BC's -0.80 and -0.90), while Single BC - MT-BC (-0.10, 0.00) is not: report.compare's entry
