@@ -6,10 +6,8 @@ Per set, every (demos, k) where both rows ran: both mean scores over the seeds b
 paired t test's p with Holm over the set's rows, and the probability that an A run beats a B run on a task (the
 aggregate statistics' estimator and interval, aggregates.py). `maps suite` has checked that every entry names two rows
 of the suite."""
-from aggregates import fmt_improvement, runs_by_tasks
-from suite_results import groups, task_names
-from suite_stats import fmt, paired, paired_p
-from tables import holm_columns, table
+from suite_results import groups
+from tables import against_columns, holm_columns, improvement, table
 
 
 def parse(entry):
@@ -23,22 +21,16 @@ def parse(entry):
 def compare_table(cells, entries):
     """One set's rows for the entries ("A - B"); [] when no entry has both rows at a demos and k."""
     by_key = groups(cells)
-    tasks = task_names(cells)
     rows = []
     for entry in entries:
         a, b = parse(entry)
         for key in sorted((k for k in by_key if k.label == a), key=lambda k: (k.demos, k.subsample)):
             runs_a, runs_b = by_key[key], by_key.get(key._replace(label=b))
-            diffs = paired(runs_a, runs_b, lambda c: c.mean_score) if runs_b else []
-            if not diffs:
-                continue
-            seeds = {c.seed for c in runs_a} & {c.seed for c in runs_b}
-            mine_a = [c for c in runs_a if c.seed in seeds]
-            mine_b = [c for c in runs_b if c.seed in seeds]
-            matrix_a, matrix_b = runs_by_tasks(mine_a, tasks), runs_by_tasks(mine_b, tasks)
-            poi = fmt_improvement(matrix_a, matrix_b) if matrix_a is not None and matrix_b is not None else "-"
-            rows.append([a, b, key.demos, key.subsample, len(diffs), fmt([c.mean_score for c in mine_a]),
-                         fmt([c.mean_score for c in mine_b]), fmt(diffs, signed=True), poi, paired_p(diffs)])
+            columns = against_columns(runs_a, runs_b) if runs_b else None  # pairs, B, A, A - B, p
+            if columns:
+                pairs, score_b, score_a, difference, p = columns
+                rows.append([a, b, key.demos, key.subsample, pairs, score_a, score_b, difference,
+                             improvement(runs_a, runs_b, cells), p])
     if not rows:
         return []
     shown, sizes = holm_columns(rows)

@@ -61,8 +61,8 @@ def protocol(suite):
               "Scores: on the HalfCheetah sets (gravity, modified) the return of a 1000-step episode divided by the"
               " mean return of that task's expert demonstrations, floored at 0 and not capped at 1; on MT10 the"
               " success rate (an episode succeeds if the task's success test holds at any step of its 150 steps; the"
-              " episode runs all 150 steps either way). Means are over seeds (each seed: the mean over the task's evaluation"
-              " episodes), +- the half-width of the 95% confidence interval (t distribution; none with one seed)."]
+              " episode runs all 150 steps either way). Means are over seeds (each seed: the mean over the task's"
+              " evaluation episodes), +- the half-width of the 95% confidence interval (t distribution; none with one seed)."]
     return lines
 
 
