@@ -6,6 +6,15 @@ A block in the page is delimited by two HTML comments, each on a line of its own
     ...replaced by the body of report.md's section "## The paper's claims"...
     <!-- /report.md -->
 
+A page that shows more than one suite names the other suites' report in its markers, as check_quotes.py's quotes do
+(FILE relative to the repository's root):
+
+    <!-- report.md: results/zoo-modern/report/report.md#Main results -->
+
+Given a report that blocks name so, only those blocks are refreshed; given any other report, only the blocks that
+name none (a block naming another report is left as it is), so neither report's sections can land in the other's
+blocks.
+
 Everything outside the blocks (the discussion) is left as written. A marker inside a fenced code block counts too:
 keep examples of markers off lines of their own. A block whose section is missing from
 report.md is an error, so a renamed section cannot leave a stale table behind silently; so are a comment line
@@ -34,6 +43,9 @@ RELATIVE_LINK = re.compile(r"(\]\()(?![a-z][a-z0-9+.-]*:|/|#)([^)\s]+)(\))", re.
 # A line that is a report.md comment but not a marker (indented, spaces missing): an error, not a block left stale.
 NEAR_MISS = re.compile(r"^[ \t]*<!--[ \t]*(/[ \t]*report\.md[ \t]*|report\.md[ \t]*:.*)-->[ \t]*$")
 HEADING = re.compile(r"^(#{1,6})(?= )")
+# A block's title naming its report: FILE#SECTION, FILE a .md path relative to the repository's root.
+NAMED = re.compile(r"^(?P<file>[^#\s][^#]*\.md)#(?P<section>.+)$")
+ROOT = Path(__file__).resolve().parents[2]
 FENCE = re.compile(r"^[ \t]*(```|~~~)")
 
 
@@ -79,24 +91,45 @@ def sections(report_text):
     return {name: "\n".join(lines).strip("\n") for name, lines in found.items()}
 
 
-def sync(report_text, doc_text, link_prefix=""):
+def named_reports(doc_text):
+    """The report files the page's blocks name (FILE of each FILE#SECTION title), in order of first mention."""
+    found = []
+    for match in BLOCK.finditer(doc_text):
+        if (named := NAMED.match(match.group("title").strip())) and named.group("file") not in found:
+            found.append(named.group("file"))
+    return found
+
+
+def sync(report_text, doc_text, link_prefix="", report_name=None):
     """Return (new doc text, titles of the blocks refreshed). `link_prefix` is the path from the page's folder to
-    report.md's ("../results/study/report"): relative link targets in the sections get it. Raises ValueError naming
-    a block whose section report.md lacks, or a page with an opening marker that is never closed."""
+    report.md's ("../results/study/report"): relative link targets in the sections get it. `report_name` is the
+    report's path relative to the repository's root: where blocks name it (FILE#SECTION), only they are refreshed,
+    else only the blocks that name no report. Raises ValueError naming a block whose section report.md lacks, or a
+    page with an opening marker that is never closed."""
     available = sections(report_text)
     if link_prefix:
         prefix = link_prefix.rstrip("/") + "/"
         available = {title: RELATIVE_LINK.sub(lambda m: m.group(1) + prefix + m.group(2) + m.group(3), body)
                      for title, body in available.items()}
-    refreshed = []
+    refreshed, blocks = [], 0
+    mine = report_name is not None and report_name in named_reports(doc_text)
 
     def replace(match):
+        nonlocal blocks
+        blocks += 1
         title = match.group("title").strip()
-        if title not in available:
-            raise ValueError(f"the page's block '{title}' has no section '## {title}' in report.md "
+        named = NAMED.match(title)
+        if named and named.group("file") == report_name:
+            section = named.group("section").strip()
+        elif not named and not mine:
+            section = title
+        else:  # another report's block, or an unnamed one while this report has blocks of its own
+            return match.group(0)
+        if section not in available:
+            raise ValueError(f"the page's block '{title}' has no section '## {section}' in report.md "
                              f"(its sections: {', '.join(sorted(available)) or 'none'})")
         refreshed.append(title)
-        return f"{match.group(1)}{nest(available[title], doc_text[:match.start()])}\n{match.group(4)}"
+        return f"{match.group(1)}{nest(available[section], doc_text[:match.start()])}\n{match.group(4)}"
 
     for number, line in enumerate(doc_text.split("\n"), 1):
         if NEAR_MISS.match(line) and not (OPENER.fullmatch(line) or CLOSER.fullmatch(line)):
@@ -104,8 +137,8 @@ def sync(report_text, doc_text, link_prefix=""):
                              "'<!-- report.md: TITLE -->' or '<!-- /report.md -->', alone on its line, unindented)")
     result = BLOCK.sub(replace, doc_text)
     opened, closed = len(OPENER.findall(doc_text)), len(CLOSER.findall(doc_text))
-    if opened != len(refreshed) or closed != len(refreshed):
-        raise ValueError(f"the page has {opened} opening and {closed} closing report.md markers, {len(refreshed)} "
+    if opened != blocks or closed != blocks:
+        raise ValueError(f"the page has {opened} opening and {closed} closing report.md markers, {blocks} "
                          "of them in pairs (each '<!-- report.md: TITLE -->' needs one '<!-- /report.md -->' after it)")
     return result, refreshed
 
@@ -125,14 +158,21 @@ def main(argv=None):
     if crlf and "\n" in page.replace("\r\n", ""):
         sys.exit(f"sync_doc.py: {args.doc} mixes CRLF and LF line endings: make them one kind first (the blocks "
                  "would be written in one of them)")
+    page = page.replace("\r\n", "\n") if crlf else page
+    for named in named_reports(page):
+        if not (ROOT / named).is_file():
+            sys.exit(f"sync_doc.py: {args.doc}: a block names the report {named}, which is not a file (FILE#SECTION: "
+                     f"FILE relative to the repository's root, {ROOT})")
+    report = args.report.resolve()
+    report_name = str(report.relative_to(ROOT)) if report.is_relative_to(ROOT) else str(report)
     try:
-        prefix = os.path.relpath(args.report.resolve().parent, args.doc.resolve().parent)
-        text, refreshed = sync(args.report.read_text(), page.replace("\r\n", "\n") if crlf else page,
-                               "" if prefix == "." else prefix)
+        prefix = os.path.relpath(report.parent, args.doc.resolve().parent)
+        text, refreshed = sync(args.report.read_text(), page, "" if prefix == "." else prefix, report_name)
     except ValueError as error:
         sys.exit(f"sync_doc.py: {args.doc}: {error}")
     if not refreshed:
-        sys.exit(f"sync_doc.py: {args.doc} has no '<!-- report.md: TITLE -->' blocks")
+        sys.exit(f"sync_doc.py: {args.doc} has no blocks for {args.report}: neither '<!-- report.md: TITLE -->' "
+                 f"blocks nor '<!-- report.md: {report_name}#TITLE -->' ones")
     with open(args.doc, "w", newline="") as f:
         f.write(text.replace("\n", "\r\n") if crlf else text)
     print(f"{args.doc}: refreshed {', '.join(refreshed)} from {args.report}")

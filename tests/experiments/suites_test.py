@@ -779,7 +779,34 @@ class SyncDoc(unittest.TestCase):
             done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report), str(page)],
                                   capture_output=True, text=True)
             self.assertNotEqual(done.returncode, 0)
-            self.assertIn("has no '<!-- report.md: TITLE -->' blocks", done.stderr)
+            self.assertIn("has no blocks for", done.stderr)
+            # A block naming a report that is not a file is refused, naming it.
+            page.write_text("<!-- report.md: results/nowhere/report/report.md#Cells -->\nold\n<!-- /report.md -->\n")
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report), str(page)],
+                                  capture_output=True, text=True)
+            self.assertNotEqual(done.returncode, 0)
+            self.assertIn("names the report results/nowhere/report/report.md, which is not a file", done.stderr)
+
+    def test_blocks_naming_their_report_take_only_that_reports_sections(self):
+        """A page showing two suites: its plain blocks are one report's, the blocks naming FILE#SECTION the other's;
+        syncing either leaves the other's blocks as they are."""
+        import sync_doc
+        other = "## Cells\n\n| b |\n|---|\n| 2 |\n"
+        page = ("# Page\n\n## First\n\n<!-- report.md: Cells -->\nold\n<!-- /report.md -->\n\n## Second\n\n"
+                "<!-- report.md: results/other/report/report.md#Cells -->\nold\n<!-- /report.md -->\n")
+        for name in (None, "results/x/report/report.md"):
+            text, refreshed = sync_doc.sync(self.REPORT, page, report_name=name)
+            self.assertEqual(refreshed, ["Cells"])
+            self.assertEqual(text, page.replace("Cells -->\nold", "Cells -->\n| a |\n|---|\n| 1 |", 1))
+        text, refreshed = sync_doc.sync(other, page, report_name="results/other/report/report.md")
+        self.assertEqual(refreshed, ["results/other/report/report.md#Cells"])
+        self.assertEqual(text, page.replace("report.md#Cells -->\nold", "report.md#Cells -->\n| b |\n|---|\n| 2 |"))
+        both = sync_doc.sync(self.REPORT, text)[0]
+        self.assertEqual(sync_doc.sync(other, both, report_name="results/other/report/report.md")[0], both)
+        self.assertEqual(sync_doc.named_reports(page), ["results/other/report/report.md"])
+        with self.assertRaisesRegex(ValueError, "block 'results/other/report/report.md#Fig. 9' has no section "
+                                                "'## Fig. 9'"):
+            sync_doc.sync(other, page.replace("#Cells", "#Fig. 9"), report_name="results/other/report/report.md")
 
 
 class BesideTheStudy(unittest.TestCase):
