@@ -216,6 +216,9 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
               std::max(1.0, gail_train["iterations"].get<double>() * adversarial::GailConfig().discriminator_updates);
           method["gail_env_step_seconds"] = gail_train["seconds_this_process"].get<double>() / env_steps;
           method["gail_discriminator_update_seconds"] = gail_train["discriminator_seconds"].get<double>() / updates;
+          method["gail_policy_env_step_seconds"] =
+              (gail_train["rollout_policy_seconds"].get<double>() + gail_train["ppo_seconds"].get<double>()) /
+              env_steps;
           std::printf("calibrate: %s: %.1f us per env step by GAIL\n", cell.name.c_str(),
                       1e6 * method["gail_env_step_seconds"].get<double>());
           std::fflush(stdout);
@@ -265,7 +268,8 @@ int run_suite_calibrate(const SuiteCalibrateOptions& options) {
       "one thread per cell, one cell at a time; step_seconds is a training step alone, validation_seconds one "
       "scoring of the validation states, checkpoint_seconds one checkpoint written; step_seconds_bf16 a step with "
       "train.precision bf16 (CPUs with AVX512-BF16); gail_env_step_seconds an env step of a GAIL run (all its parts, "
-      "at the default gail settings, warm-up off) and gail_discriminator_update_seconds one discriminator step; "
+      "at the default gail settings, warm-up off), gail_policy_env_step_seconds its policy's part (rollout calls and "
+      "PPO, the part that grows with the policy's size) and gail_discriminator_update_seconds one discriminator step; "
       "evaluation_work an evaluation step's policy calls relative to one (the method's own measure); a key "
       "method/choice prices one choice of the method's cost option (diffusion_policy/mlp: the MLP denoiser); cpu and "
       "measured say where and when each entry was timed, command the last calibration's";

@@ -115,17 +115,18 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
     rows += r["maml"]["query_per_task"].get<double>();
     measured_rows += cost("query_per_task", false);
   }
-  // The model's size against the measured one's: a step and a validation grow with it.
-  double model_scale = 1.0;
+  // The policy's size against the measured one's: a step and a validation grow with it.
+  double policy_scale = 1.0;
   if (method == "maps") {
-    model_scale *= r["maps"]["modules"].get<double>() / cost("modules", true);
+    policy_scale = r["maps"]["modules"].get<double>() / cost("modules", true);
   } else {
     // A baseline's products grow with the square of its width (measured at 3 x 128).
     double width = 0.0;
     for (const auto& h : r["baselines"]["hidden"]) width += h.get<double>();
     width /= static_cast<double>(std::max<std::size_t>(1, r["baselines"]["hidden"].size()));
-    model_scale *= std::max(1.0, (width / 128.0) * (width / 128.0));
+    policy_scale = std::max(1.0, (width / 128.0) * (width / 128.0));
   }
+  double model_scale = policy_scale;
   // Measured with every task of the set in each batch and evaluated; data.tasks and data.holdout keep fewer.
   const auto set_tasks = envs::task_names(cell.set);
   double tasks = 0.0;
@@ -140,7 +141,9 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
   const auto& scored = r["eval"].value("tasks", Json::array());
   const double evaluated_tasks = scored.empty() ? tasks : static_cast<double>(scored.size());
   // A GAIL cell: its env steps at the measured cost of one (rollout, discriminator, PPO, validation: every part grows
-  // with the env steps at the default gail settings), plus the warm-up's extra discriminator steps.
+  // with the env steps at the default gail settings), plus the warm-up's extra discriminator steps. Of an env step,
+  // only the policy's part (its calls in the rollouts and PPO's epochs) grows with the policy's size: the physics and
+  // the discriminator stay; a table measured before that part was recorded prices every size as the measured one.
   if (r.value("imitation", std::string("bc")) == "gail") {
     if (!entry->contains("gail_env_step_seconds"))
       throw std::runtime_error(path + " has no GAIL cost for " + method + " on " + cell.set + " (cell " + cell.name +
@@ -149,7 +152,9 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
     const double warmup_updates =
         g["discriminator_warmup_iterations"].get<double>() *
         std::max(0.0, g["discriminator_warmup_updates"].get<double>() - g["discriminator_updates"].get<double>());
-    const double training = g["env_steps_per_task"].get<double>() * tasks * cost("gail_env_step_seconds", true) +
+    const double env_step =
+        cost("gail_env_step_seconds", true) + (policy_scale - 1.0) * cost("gail_policy_env_step_seconds", false, 0.0);
+    const double training = g["env_steps_per_task"].get<double>() * tasks * env_step +
                             warmup_updates * cost("gail_discriminator_update_seconds", false, 0.0);
     return {.overhead = cost("overhead_seconds", false),
             .training = training,

@@ -349,6 +349,9 @@ class SuiteTest(unittest.TestCase):
             self.assertGreater(gravity[key]["episode_seconds"], 0, key)
         # Diffusion Policy's chunks do not train by GAIL: said, not a failed calibration; MT-BC's are timed.
         self.assertGreater(gravity["mt_bc"]["gail_env_step_seconds"], 0)
+        # The policy's part of an env step (rollout calls and PPO): some of it, not all (physics and discriminator).
+        self.assertGreater(gravity["mt_bc"]["gail_policy_env_step_seconds"], 0)
+        self.assertLess(gravity["mt_bc"]["gail_policy_env_step_seconds"], gravity["mt_bc"]["gail_env_step_seconds"])
         for d in denoisers:
             self.assertEqual(gravity[f"diffusion_policy/{d}"]["evaluation_work"], 1.0)  # 8 sampling steps per 8
             self.assertNotIn("gail_env_step_seconds", gravity[f"diffusion_policy/{d}"])
@@ -391,6 +394,16 @@ class SuiteTest(unittest.TestCase):
         # 1000 env steps on each of Gravity's 5 tasks at 1e-4 s, and the warm-up's 10 iterations of 100 - 5 extra
         # discriminator steps at 0.01 s.
         self.assertAlmostEqual(priced["cpu_seconds_parts"]["steps"], 1000 * 5 * 1e-4 + 10 * 95 * 0.01, places=6)
+        # A wider policy: only the policy's part of an env step grows, with the square of the width (3 x 256: 4x);
+        # a table without that part prices it as the measured width.
+        config["variants"]["gail"]["baselines"] = {"hidden": [256, 256, 256]}
+        wide = write_config(self.dir, config, "gail_wide_suite.json")
+        self.assertAlmostEqual(plan(wide, "--costs", self.dir / "gail_costs.json")["cpu_seconds_parts"]["steps"],
+                               1000 * 5 * 1e-4 + 10 * 95 * 0.01, places=6)
+        gravity.update(gail_policy_env_step_seconds=0.4e-4)
+        priced = plan(wide, "--costs", write_config(self.dir, costs, "gail_policy_costs.json"))
+        self.assertAlmostEqual(priced["cpu_seconds_parts"]["steps"],
+                               1000 * 5 * (1e-4 + 3 * 0.4e-4) + 10 * 95 * 0.01, places=6)
 
     def test_the_precision_option_sets_every_cells_precision_and_its_step_cost(self):
         costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
