@@ -25,8 +25,8 @@ import matplotlib.ticker as ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from suite_results import (METHOD_NAMES, METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups, groups,  # noqa: E402
-                           maps_reference, module_sweep_cells, order, score_name, short_task, success_scored,
-                           task_names, task_score)
+                           is_keep_only, maps_reference, method_rank, module_sweep_cells, order, score_name,
+                           short_task, success_scored, task_names, task_score)
 from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, span, usage_distances,  # noqa: E402
                          vs_single_bc)
 
@@ -57,8 +57,45 @@ def base_cells(cells):
     return [c for c in cells if c.label == c.method]
 
 
+def compared_cells(cells, variants_are_methods=False):
+    """The cells Fig. 2 draws, one line per label: the methods themselves, or, in a suite whose variants are methods
+    of their own (report.holm "set": zoo-modern's denoisers and action chunks), every variant too but the keep-only
+    ones (their training is the base's)."""
+    if not variants_are_methods:
+        return base_cells(cells)
+    return [c for c in cells if c.label == c.method or not is_keep_only(c.variant)]
+
+
 def methods_of(cells):
-    return order(METHOD_ORDER, {c.method for c in cells})
+    """The cells' labels (a method, or "method (variant)"), by method in the report's order, each method's own cells
+    before its variants'."""
+    return sorted({c.label for c in cells}, key=lambda label: (method_rank(method_of(label)), method_of(label),
+                                                              label != method_of(label), label))
+
+
+def method_of(label):
+    return label.split(" (", 1)[0]
+
+
+def label_name(label):
+    """A label's name in a figure: the method's ("MAPS"), with its variant ("Diffusion Policy (dp_mlp_h16)")."""
+    method = method_of(label)
+    return name(method) + label[len(method):]
+
+
+def label_style(label, labels):
+    """Colour, line and marker of a label among the figure's `labels`: a method its own colour; a variant of a method
+    drawn beside it that colour, dashed, with squares (and hatched bars); a variant of a method that has no line of
+    its own (Diffusion Policy's denoisers) a colour of its own, in order."""
+    method = method_of(label)
+    if label == method:
+        return {"color": color(method)}
+    if method in labels:
+        return {"color": color(method), "linestyle": "--", "marker": "s", "hatch": "//"}
+    taken = {color(m) for m in labels if m == method_of(m)}
+    free = [c for c in VARIANT_COLORS + SPARE if c not in taken]
+    alone = [other for other in labels if other != method_of(other) and method_of(other) not in labels]
+    return {"color": free[alone.index(label) % len(free)]}
 
 
 def stats(values):
@@ -159,11 +196,11 @@ def legend_below(fig, axes, columns):
                frameon=False)
 
 
-def fig2_scores(cells, out, study=None):
+def fig2_scores(cells, out, study=None, variants_are_methods=False):
     """One panel per set: each method's mean score over tasks against demos per task, band: 95% CI over seeds; with
     `study` (the study's cells beside a quick-scale suite), the study's scores of the same methods, hollow and
-    dashed."""
-    cells = base_cells(cells)
+    dashed. `variants_are_methods` (report.holm "set"): every variant a line of its own (compared_cells)."""
+    cells = compared_cells(cells, variants_are_methods)
     sets = order(SET_ORDER, {c.set for c in cells})
     if not sets:
         return []
@@ -179,16 +216,20 @@ def fig2_scores(cells, out, study=None):
         here = [c for c in study if c.set == set_name and c.label in {key.label for key in by_key}
                 and c.subsample in {key.subsample for key in by_key}]
         apart = dodge_unit(mine + here)
-        for i, method in enumerate(methods_of(mine)):
+        labels = methods_of(mine)
+        for i, method in enumerate(labels):
+            style = label_style(method, labels)
+            style.pop("hatch", None)
             for k in sorted({key.subsample for key in by_key if key.label == method}):
                 keys = [key for key in by_key if key.label == method and key.subsample == k]
-                label = name(method) + (f", k = {k}" if several_k else "")
-                dodge = apart * (i - (len(methods_of(mine)) - 1) / 2) if lone else 0.0
+                label = label_name(method) + (f", k = {k}" if several_k else "")
+                dodge = apart * (i - (len(labels) - 1) / 2) if lone else 0.0
                 points = line_with_band(ax, [key.demos for key in keys], [by_key[key] for key in keys],
-                                        lambda c: c.mean_score, dodge=dodge, color=color(method), label=label)
-                rows += [[set_name, method, "base", x, k, n, m, h] for x, n, m, h in points]
+                                        lambda c: c.mean_score, dodge=dodge, label=label, **style)
+                variant = by_key[keys[0]][0].variant if method != method_of(method) else "base"
+                rows += [[set_name, method_of(method), variant, x, k, n, m, h] for x, n, m, h in points]
                 means += [m for _, _, m, _ in points]
-                theirs = study_line(ax, study, set_name, method, k, color(method))
+                theirs = study_line(ax, study, set_name, method, k, style["color"])
                 study_rows += [[set_name, method, "base", x, k, n, m, h] for x, n, m, h in theirs]
                 means += [m for _, _, m, _ in theirs]
         drawn += here
@@ -200,18 +241,26 @@ def fig2_scores(cells, out, study=None):
         ax.grid(alpha=0.3)
     if drawn:
         study_legend(axes[0][0], cells, drawn)
-    legend_below(fig, axes[0], 6 if not drawn else 4)
+    entries = len({text for ax in axes[0] for text in ax.get_legend_handles_labels()[1]})
+    columns = 6 if not drawn and entries <= 6 else 3 if variants_are_methods else 4
+    legend_rows = -(-entries // columns)
+    # Room below the panels for the legend's rows (one row fits the 0.07 of a figure 5 inches tall).
+    fig.set_figheight(5.0 + 0.25 * max(0, legend_rows - 1))
+    legend_below(fig, axes[0], columns)
     fig.suptitle("Fig. 2: mean score over tasks against demos per task\n(mean over seeds, band: 95% CI)" if not drawn
                  else "Fig. 2: mean score over tasks against demos per task (mean over seeds, 95% CI)\nfilled: this"
                  f" suite at {'/'.join(str(s) for s in sorted({c.steps for c in cells}))} steps; hollow, dashed: the"
                  f" study at {'/'.join(str(s) for s in sorted({c.steps for c in drawn}))} steps, whose ranking this"
                  " is not")
-    fig.tight_layout(rect=(0, 0.07 if not drawn else 0.12, 1, 1))
+    fig.tight_layout(rect=(0, (0.07 if not drawn else 0.12) + 0.05 * max(0, legend_rows - 1), 1, 1))
     save(fig, out, "fig2_scores.png")
     header = ["set", "method", "variant", "demos", "subsample", "seeds", "mean", "ci95"]
     write_csv(out / "fig2_scores.csv", header, rows)
+    drawn_as = ("each method and each of its variants (this suite's variants are methods of their own:"
+                " report.holm \"set\"; a variant of a method drawn beside it is dashed, with squares)"
+                if variants_are_methods else "each method (base variants)")
     caption = ("Fig. 2: each set's mean score over its tasks against the number of"
-               f" demonstrations per task, for each method (base variants); points are means over seeds, the band"
+               f" demonstrations per task, for {drawn_as}; points are means over seeds, the band"
                f" the 95% CI over seeds (none where one seed ran). {describe_n(cells)}. Cheetah sets:"
                f" {score_name('gravity')}; MT10: {score_name('mt10')}.")
     if drawn:
@@ -222,9 +271,10 @@ def fig2_scores(cells, out, study=None):
     return [Figure("fig2_scores.png", caption)]
 
 
-def fig2_tasks(cells, out):
-    """Per set: one panel per (demos, k), each task's mean score per method with 95% CI error bars."""
-    cells = base_cells(cells)
+def fig2_tasks(cells, out, variants_are_methods=False):
+    """Per set: one panel per (demos, k), each task's mean score per method with 95% CI error bars;
+    `variants_are_methods` as in fig2_scores."""
+    cells = compared_cells(cells, variants_are_methods)
     figures, rows = [], []
     for set_name in order(SET_ORDER, {c.set for c in cells}):
         mine = [c for c in cells if c.set == set_name]
@@ -243,9 +293,11 @@ def fig2_tasks(cells, out):
                 scores = [[s for s in (task_score(c, t) for c in runs) if s is not None] for t in tasks]
                 xs = np.arange(len(tasks)) - 0.4 + width * (j + 0.5)
                 errors = [ci95(v) for v in scores]
+                style = label_style(method, methods)
                 ax.bar(xs, [mean(v) for v in scores], width, capsize=2,
-                       yerr=errors if any(np.isfinite(errors)) else None,
-                       color=color(method), label=f"{name(method)} ({seeds(len(runs))})", error_kw={"lw": 0.8})
+                       yerr=errors if any(np.isfinite(errors)) else None, color=style["color"],
+                       hatch=style.get("hatch"), edgecolor="white" if "hatch" in style else None,
+                       label=f"{label_name(method)} ({seeds(len(runs))})", error_kw={"lw": 0.8})
                 means += [mean(v) for v in scores]
                 for t in tasks:
                     vals = [s for s in (task_score(c, t) for c in runs) if s is not None]

@@ -334,10 +334,10 @@ def report_lines(suite, draw, beside=None):
         main = (["Mean score over tasks, mean +- 95% CI over seeds; beside it the study's for the same set, method and"
                  " demos (mean +- 95% CI over its n seeds; where the study did not run this count, at its nearest"
                  " count, named; ties: the larger):", ""] + main_results_beside(cells, beside)
-                + embed(draw("fig2_scores", study=beside.cells)))
+                + embed(draw("fig2_scores", study=beside.cells, variants_are_methods=holm == "set")))
     else:
         main = ["Mean score over tasks, mean +- 95% CI over seeds:", ""] + tables.main_results(cells) + embed(
-            draw("fig2_scores"))
+            draw("fig2_scores", variants_are_methods=holm == "set"))
     lines += section("Main results", main, "")
 
     fig3 = vs_single_bc(cells)
@@ -373,7 +373,7 @@ def report_lines(suite, draw, beside=None):
     lines += section("Aggregate statistics: IQM and probability of improvement",
                      per_set(suite, aggregates.aggregate_table, []), "No cells with a score for every task.")
 
-    task_figures = {f.file: f for f in draw("fig2_tasks")}
+    task_figures = {f.file: f for f in draw("fig2_tasks", variants_are_methods=holm == "set")}
     for set_name in suite.sets():
         mine = suite.cells_of(set_name)
         lines += ["", f"## Set {set_name}", "", f"Score: {score_name(set_name, mine)}.", "", "### Scores", ""]

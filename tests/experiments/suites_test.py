@@ -665,6 +665,51 @@ class ControlCells(unittest.TestCase):
         self.assertEqual(sorted(c.variant for c in suite_results.control_cells(cells[1:5] + cells[6:7])), [])
 
 
+class VariantsAsMethodsInFigures(unittest.TestCase):
+    """Fig. 2 in a suite whose variants are methods of their own (report.holm "set", zoo-modern.json): every variant a
+    line and a bar group of its own, keep-only variants not (their training is the base's); otherwise the base
+    methods only, as before."""
+
+    def test_fig2_draws_every_variant_only_when_variants_are_methods(self):
+        import figures
+        cells = suite_results.load_suite(FIXTURE).cells
+        variants = {c.label for c in cells if c.label != c.method}
+        self.assertTrue(variants)
+        with tempfile.TemporaryDirectory() as tmp:
+            out = pathlib.Path(tmp)
+            for as_methods in (False, True):
+                figures.fig2_scores(cells, out, variants_are_methods=as_methods)
+                figures.fig2_tasks(cells, out, variants_are_methods=as_methods)
+                with (out / "fig2_scores.csv").open() as f:
+                    drawn = {(r["method"], r["variant"]) for r in csv.DictReader(f)}
+                with (out / "fig2_tasks.csv").open() as f:
+                    bars = {r["method"] for r in csv.DictReader(f)}
+                labels = {suite_results.label(m, v) for m, v in drawn}
+                if as_methods:
+                    self.assertEqual(labels, {c.label for c in cells})
+                    self.assertEqual(bars, labels)
+                else:
+                    self.assertEqual(labels, {c.method for c in cells})
+                    self.assertEqual({v for _, v in drawn}, {"base"})
+                    self.assertEqual(bars, {c.method for c in cells})
+        # A keep-only variant beside its base cells is not a line of its own.
+        keep = [c for c in cells if c.label == c.method][0]
+        kept = suite_results.Cell(**{**keep.__dict__, "variant": "keep2500", "stands_for_base": False})
+        self.assertNotIn(kept, figures.compared_cells([keep, kept], variants_are_methods=True))
+
+    def test_a_variants_style_follows_its_method_or_takes_a_colour_of_its_own(self):
+        import figures
+        labels = ["maps", "maps (chunk16)", "diffusion_policy (dp_mlp_h16)", "diffusion_policy (dp_maps_h16)"]
+        self.assertEqual(figures.methods_of([type("C", (), {"label": label})() for label in labels]),
+                         ["maps", "maps (chunk16)", "diffusion_policy (dp_maps_h16)", "diffusion_policy (dp_mlp_h16)"])
+        chunked = figures.label_style("maps (chunk16)", labels)
+        self.assertEqual((chunked["color"], chunked["linestyle"]), (figures.color("maps"), "--"))
+        mlp, denoiser = (figures.label_style(label, labels)["color"] for label in labels[2:])
+        self.assertNotEqual(mlp, denoiser)
+        self.assertNotIn(figures.color("maps"), (mlp, denoiser))
+        self.assertEqual(figures.label_name("diffusion_policy (dp_mlp_h16)"), "Diffusion Policy (dp_mlp_h16)")
+
+
 class Statistics(unittest.TestCase):
     def test_ci95_uses_the_t_distribution(self):
         self.assertTrue(math.isnan(suite_stats.ci95([1.0])))
