@@ -541,20 +541,21 @@ def fig6_module_usage(cells, out):
                    f" indices mean nothing across seeds. n = one seed, {describe_n(mine).split(', ', 1)[1]}.")]
 
 
-def zoo_routing(cells, out):
+def zoo_routing(cells, out, variants_are_methods=False):
     """Every routing method's per-task module usage as a heatmap (tasks x modules), one seed each (module indices
     mean nothing across seeds), on MT10 (else the first set that has them) at the largest demonstration count: the
-    task division of MAPS and of the zoo's methods side by side. Drawn only when a method other than MAPS routes."""
-    usable = [c for c in cells if c.label == c.method and c.has_usage]
-    if not any(c.method != "maps" for c in usable):
+    task division of MAPS and of the zoo's methods side by side. Drawn only when a method other than MAPS routes.
+    `variants_are_methods` (report.holm "set"): a variant that routes (the modular denoisers) is a panel of its own."""
+    usable = [c for c in compared_cells(cells, variants_are_methods) if c.has_usage]
+    if not any(c.label != "maps" for c in usable):
         return []
-    sets = order(SET_ORDER, {c.set for c in usable if c.method != "maps"})
+    sets = order(SET_ORDER, {c.set for c in usable if c.label != "maps"})
     set_name = "mt10" if "mt10" in sets else sets[0]
     mine = [c for c in usable if c.set == set_name]
     methods = methods_of(mine)
     panels = []
     for method in methods:
-        runs = [c for c in mine if c.method == method]
+        runs = [c for c in mine if c.label == method]
         demos = max(c.demos for c in runs)
         runs = sorted((c for c in runs if c.demos == demos), key=lambda c: c.seed)
         panels.append((method, demos, runs[0]))
@@ -570,7 +571,8 @@ def zoo_routing(cells, out):
     rows = []
     for ax, (method, demos, run), usage, scaled in zip(axes[0], panels, usages, relative):
         image = ax.imshow(scaled, norm=norm, cmap="RdBu_r", aspect="auto")
-        ax.set_title(f"{name(method)}\n{demos} demos, seed {run.seed}", fontsize=9)
+        title = label_name(method).replace(" (", "\n(")  # a variant's name on a line of its own
+        ax.set_title(f"{title}\n{demos} demos, seed {run.seed}", fontsize=9)
         per_layer = int(run.config.get("soft_modularization", {}).get("modules", 0)) if method == \
             "soft_modularization" else 0
         ticks = ([f"{m // per_layer}.{m % per_layer}" for m in range(usage.shape[1])] if per_layer
@@ -585,7 +587,9 @@ def zoo_routing(cells, out):
                  label="usage / uniform share (1: uniform; 4: 4x or more)")
     fig.suptitle(f"Module usage per task on {set_name}, each routing method (one seed): MAPS's selector scores,\n"
                  "MOORE's and PaCo's task-weight shares, the CARE-style attention, the top-k gates, Soft"
-                 " Modularization's per-layer use; red above the uniform share, blue below", fontsize=9)
+                 " Modularization's per-layer use" + (", the modular denoisers' scores and gates" if any(
+                     c.label != c.method for c in mine) else "") + "; red above the uniform share, blue below",
+                 fontsize=9)
     save(fig, out, "zoo_routing.png")
     write_csv(out / "zoo_routing.csv", ["set", "method", "demos", "seed", "task", "module", "usage"], rows)
     return [Figure("zoo_routing.png", f"Module usage per task on {set_name} for every method that routes, each at its"
@@ -593,7 +597,10 @@ def zoo_routing(cells, out):
                    " seeds): a column used by every task is a shared module, one used by few tasks a specific one."
                    " Usage is what each method records (docs/zoo.md): MAPS's mean selector score, MOORE's and PaCo's"
                    " |w| shares (constant within a task), the mean CARE-style attention, the mean top-k gate, Soft"
-                   " Modularization's mean per-layer use (columns layer.module). Colours are usage over the uniform"
+                   " Modularization's mean per-layer use (columns layer.module)"
+                   + ("; Diffusion Policy's denoiser with MAPS's modules its mean selector score, its MoE denoiser"
+                      " each state's kept gates scaled to sum 1" if any(c.label != c.method for c in mine) else "")
+                   + ". Colours are usage over the uniform"
                    " share (usage x the method's module count; red above 1, blue below, the darkest red 4x or more),"
                    " one scale for every panel; zoo_routing.csv has the usage itself.")]
 

@@ -391,7 +391,7 @@ def report_lines(suite, draw, beside=None):
             pooling or ["Nothing to pair with Single BC (no Single BC cells, or none at the same demos and seeds)."])
         figure = task_figures.get(f"fig2_tasks_{set_name}.png")
         lines += embed([figure] if figure else [])
-        usage = tables.usage_tables(mine)
+        usage = tables.usage_tables(mine, holm == "set")
         lines += ["", "### Module usage and routing (MAPS, and the zoo's methods that route)"] + (
             usage or ["", "No cells with module usage."])
 
@@ -415,8 +415,8 @@ def report_lines(suite, draw, beside=None):
                      "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
                      "No MAPS cells with module usage in this suite.")
-    summary = routing_summary(cells, seeds_added=bool(added))
-    zoo = draw("zoo_routing")
+    summary = routing_summary(cells, seeds_added=bool(added), variants_are_methods=holm == "set")
+    zoo = draw("zoo_routing", variants_are_methods=holm == "set")
     if zoo or summary:
         lines += section("Routing of every method (the zoo)", summary + embed(zoo), "")
     lines += section("Validation curves", embed(draw("validation")), "No validation curves (curve.csv) in this suite.")

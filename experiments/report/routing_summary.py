@@ -3,7 +3,7 @@ the per-set usage tables of tables.usage_tables give the per-task detail this su
 import math
 
 from suite_stats import fmt, mean, span, usage_distances
-from tables import ROUTED_NAMES, division_counts, routed, routing_note, table
+from tables import ROUTED_NAMES, division_counts, routed, routed_name, routing_note, table
 
 
 def per_seed_mean(runs, value):
@@ -35,11 +35,12 @@ def summary_rows(runs, modules):
             f"{span(sorted(specific))} of {modules}", f"{span(sorted(both))} of {tasks}"]
 
 
-def routing_summary(cells, seeds_added=False):
+def routing_summary(cells, seeds_added=False, variants_are_methods=False):
     """Per set: a row per (routing method, demos) with seeds, M and the routing measures over seeds; the caveats of
     the methods present after the table. [] without two or more routing methods (MAPS alone: the usage tables
-    say it all). seeds_added: more_seeds.py added seeds to some settings (the rows' seed counts then differ)."""
-    by_key = routed(cells)
+    say it all). seeds_added: more_seeds.py added seeds to some settings (the rows' seed counts then differ).
+    variants_are_methods: a variant that routes is a row of its own (tables.routed)."""
+    by_key = routed(cells, variants_are_methods)
     if len({key.label for key in by_key}) < 2:
         return []
     rows, notes = [], {}  # notes: each distinct text once (a method at two settings, e.g. two k, may need two)
@@ -48,9 +49,9 @@ def routing_summary(cells, seeds_added=False):
                                               order.index(k.label) if k.label in order else len(order), k.label)):
         runs = by_key[key]
         modules = len(runs[0].tasks[0].usage)
-        rows.append([key.set, key.demos, key.subsample, ROUTED_NAMES.get(key.label, key.label), len(runs), modules]
+        rows.append([key.set, key.demos, key.subsample, routed_name(key.label), len(runs), modules]
                     + summary_rows(runs, modules))
-        note = routing_note(key.label, runs[0])
+        note = routing_note(runs[0])
         if note:
             notes[note] = None
     lines = ["Each method's routing per setting, over its seeds: the tasks' usage distance from their mean usage (TV,"

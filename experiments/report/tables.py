@@ -3,8 +3,8 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import (METHOD_NAMES, ablation_groups, control_cells, groups, maps_partner, module_sweep_cells,
-                           score_name, short_task, task_names, task_score)
+from suite_results import (METHOD_NAMES, ablation_groups, control_cells, groups, is_keep_only, maps_partner,
+                           module_sweep_cells, score_name, short_task, task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
                          paired_p, routing, span, span_fixed, top_share, usage_distances)
 
@@ -196,30 +196,59 @@ ROUTING_NOTE = {"soft_modularization": "Soft Modularization's modules are its L 
                 " parameter sets start identical, so shares say little until training has set them apart."}
 
 
-def routing_note(method, cell):
-    """ROUTING_NOTE's text, and for the top-k MoE the bounds its gate sets (from the cell's config)."""
-    if method == "top_k_moe":
-        k = int(cell.config.get("top_k_moe", {}).get("top_k", 2))
-        return (f"The top-k MoE's gate keeps k = {k} experts per state (the others' gate is 0): a state's entropy is at"
+def denoiser_of(cell):
+    """Diffusion Policy's denoiser ("maps", "moe", ...; the config's, default unet); None for other methods."""
+    if cell.method != "diffusion_policy":
+        return None
+    return str(cell.config.get("diffusion_policy", {}).get("denoiser", "unet"))
+
+
+def routing_note(cell):
+    """ROUTING_NOTE's text, and for a top-k gate (the top-k MoE's, the MoE denoiser's) the bounds it sets (from the
+    cell's config)."""
+    if cell.method == "top_k_moe" or denoiser_of(cell) == "moe":
+        section = "top_k_moe" if cell.method == "top_k_moe" else "diffusion_policy"
+        k = int(cell.config.get(section, {}).get("top_k", 2))
+        who = "The top-k MoE's gate" if cell.method == "top_k_moe" else "The MoE denoiser's router"
+        return (f"{who} keeps k = {k} experts per state (the others' gate is 0): a state's entropy is at"
                 f" most ln {k} = {math.log(k):.2f} and its top score at least 1/{k} = {1 / k:.2f} however it routes;"
                 " uniform over the kept experts is its reference, not uniform over all of them.")
-    return ROUTING_NOTE.get(method, "")
+    return ROUTING_NOTE.get(cell.method, "")
 
 
-def routed(cells):
-    """{GroupKey: the cells with module usage} of the base methods (no variants) that record it, in report order."""
+def usage_meaning(cell):
+    """What a cell's module usage is, per method (Diffusion Policy: per denoiser)."""
+    denoiser = denoiser_of(cell)
+    if denoiser == "maps":
+        return "mean selector score"
+    if denoiser == "moe":
+        return "mean of each state's kept gates scaled to sum 1"
+    return USAGE_MEANING.get(cell.method, "mean routing share")
+
+
+def routed_name(label):
+    """A routing row's name: the method's ("MAPS"), with its variant where it is one ("Diffusion Policy
+    (dp_maps_h16)")."""
+    method = label.split(" (", 1)[0]
+    return METHOD_NAMES.get(method, method) + label[len(method):]
+
+
+def routed(cells, variants_are_methods=False):
+    """{GroupKey: the cells with module usage} of the base methods (no variants) that record it, in report order;
+    with `variants_are_methods` (report.holm "set": zoo-modern's denoisers) every variant's too but the keep-only
+    ones'."""
     return {key: [c for c in runs if c.has_usage] for key, runs in groups(cells).items()
-            if key.label == runs[0].method and any(c.has_usage for c in runs)}
+            if (key.label == runs[0].method or (variants_are_methods and not is_keep_only(runs[0].variant)))
+            and any(c.has_usage for c in runs)}
 
 
-def usage_tables(cells):
+def usage_tables(cells, variants_are_methods=False):
     """Every routing method's per-task module usage (lowest seed) and routing (per seed, then mean +- CI): MAPS's,
-    and the zoo's (docs/zoo.md), base methods only (no variants)."""
+    and the zoo's (docs/zoo.md), base methods only (no variants) unless `variants_are_methods` (routed)."""
     lines = []
-    for key, runs in routed(cells).items():
-        method = runs[0].method
-        who = ROUTED_NAMES.get(method, method)
-        meaning = USAGE_MEANING.get(method, "mean routing share")
+    for key, runs in routed(cells, variants_are_methods).items():
+        who = routed_name(key.label)
+        meaning = usage_meaning(runs[0])
         tasks = task_names(runs)
         modules = len(runs[0].tasks[0].usage)
         lines += ["", f"{who}, {key.demos} demos, k = {key.subsample}: module usage ({meaning} over the"
@@ -233,7 +262,7 @@ def usage_tables(cells):
                         + ([span_fixed(tops, 2, collapse=False)] if len(runs) > 1 else []))
         lines += table(["task"] + [f"m{i}" for i in range(modules)]
                        + (["top module, all seeds"] if len(runs) > 1 else []), rows)
-        note = routing_note(method, runs[0])
+        note = routing_note(runs[0])
         over = (f"{len(runs)} seeds, each computed per seed, then mean +- 95% CI" if len(runs) > 1
                 else f"seed {runs[0].seed} only")
         lines += ["", f"Routing ({over}; uniform over {modules} modules: entropy {math.log(modules):.2f}, top score"

@@ -665,10 +665,10 @@ class ControlCells(unittest.TestCase):
         self.assertEqual(sorted(c.variant for c in suite_results.control_cells(cells[1:5] + cells[6:7])), [])
 
 
-class VariantsAsMethodsInFigures(unittest.TestCase):
-    """Fig. 2 in a suite whose variants are methods of their own (report.holm "set", zoo-modern.json): every variant a
-    line and a bar group of its own, keep-only variants not (their training is the base's); otherwise the base
-    methods only, as before."""
+class VariantsAsMethods(unittest.TestCase):
+    """Fig. 2 and the routing tables in a suite whose variants are methods of their own (report.holm "set", zoo-modern.json): every variant a
+    line and a bar group of its own (and a routing row where it routes), keep-only variants not (their training is the
+    base's); otherwise the base methods only, as before."""
 
     def test_fig2_draws_every_variant_only_when_variants_are_methods(self):
         import figures
@@ -708,6 +708,35 @@ class VariantsAsMethodsInFigures(unittest.TestCase):
         self.assertNotEqual(mlp, denoiser)
         self.assertNotIn(figures.color("maps"), (mlp, denoiser))
         self.assertEqual(figures.label_name("diffusion_policy (dp_mlp_h16)"), "Diffusion Policy (dp_mlp_h16)")
+
+    def test_routing_tables_take_the_variants_that_route(self):
+        """The modular denoisers record module usage: with variants as methods they are rows of the routing summary
+        and usage tables, named by method and variant, their usage's meaning and the MoE's top-k bounds said."""
+        import routing_summary
+
+        def cell(variant, denoiser, seed, usage):
+            config = {"method": "diffusion_policy", "seed": seed, "data": {"demos_per_task": 2},
+                      "train": {"steps": 100}, "diffusion_policy": {"denoiser": denoiser, "top_k": 2}}
+            tasks = [suite_results.TaskResult(f"mt10/{t}", 0.5, 0.5, 0.5, 0.5, usage=u, entropy=0.6, top_score=0.6)
+                     for t, u in zip(("reach", "push"), usage)]
+            return suite_results.Cell(pathlib.Path("."), f"mt10/{variant}_{seed}", "g", "mt10", "diffusion_policy",
+                                      variant, 2, 1, seed, config, 100, 50, 10, 1.0, tasks)
+
+        moe = [cell("dp_moe_h16", "moe", s, [[0.5, 0.5, 0, 0], [0, 0, 0.5, 0.5]]) for s in (0, 1)]
+        gated = [cell("dp_maps_h16", "maps", s, [[0.7, 0.1, 0.1, 0.1], [0.1, 0.7, 0.1, 0.1]]) for s in (0, 1)]
+        mlp = [cell("dp_mlp_h16", "mlp", 0, [None, None])]
+        cells = moe + gated + mlp
+        self.assertEqual(tables.routed(cells), {})
+        self.assertEqual(sorted(key.label for key in tables.routed(cells, variants_are_methods=True)),
+                         ["diffusion_policy (dp_maps_h16)", "diffusion_policy (dp_moe_h16)"])
+        summary = "\n".join(routing_summary.routing_summary(cells, variants_are_methods=True))
+        self.assertEqual(row_of(summary, ["mt10", "2", "1", "Diffusion Policy (dp_moe_h16)"])[4:6], ["2", "4"])
+        self.assertIn("The MoE denoiser's router keeps k = 2 experts per state", summary)
+        self.assertEqual(routing_summary.routing_summary(cells), [])
+        usage = "\n".join(tables.usage_tables(cells, variants_are_methods=True))
+        self.assertIn("Diffusion Policy (dp_maps_h16), 2 demos, k = 1: module usage (mean selector score", usage)
+        self.assertIn("Diffusion Policy (dp_moe_h16), 2 demos, k = 1: module usage (mean of each state's kept gates",
+                      usage)
 
 
 class Statistics(unittest.TestCase):
