@@ -9,7 +9,8 @@ A quoted number carries, right after it, an HTML comment (invisible in the rende
     quote: SECTION | FILTERS | COLUMN
 
 - SECTION: a `<!-- report.md: SECTION -->` block of the same page (sync_doc.py's), or FILE#SECTION: the `## SECTION`
-  of a report file, FILE relative to the repository's root (results/transfer/report/transfer.md#The comparison).
+  of a report file, FILE a .md path relative to the repository's root (results/transfer/report/transfer.md#The
+  comparison), as sync_doc.py's blocks name a report.
 - FILTERS: `column=value` or `column!=value` tests separated by `;` (a cell's text, exactly; `a/b` for either;
   `heading=gravity` matches the tables under the section's sub-heading "gravity"), or `*` for every row. Every table
   of the section is searched.
@@ -30,7 +31,7 @@ import pathlib
 import re
 import sys
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+from sync_doc import NAMED, ROOT  # one reading of FILE#SECTION and of the repository's root for both scripts
 QUOTE = re.compile(r"<!--\s*quote:\s*(?P<body>.*?)-->", re.S)
 BLOCK = re.compile(r"^<!-- report\.md: (?P<title>[^>\n]*?) -->[ \t]*\n(?P<body>.*?)^<!-- /report\.md -->", re.S | re.M)
 NUMBER = r"[+-]?\d+(?:\.\d+)?"
@@ -68,8 +69,8 @@ def tables(text):
 
 def section_text(page_text, where, page):
     """The text of the section a quote names: a block of the page, or FILE#SECTION's `## SECTION`."""
-    if "#" in where:
-        file, _, title = where.partition("#")
+    if named := NAMED.match(where):  # FILE#SECTION as sync_doc.py's blocks name a report
+        file, title = named.group("file"), named.group("section")
         path = ROOT / file
         if not path.is_file():
             raise QuoteError(f"no file {file}")

@@ -24,9 +24,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.ticker as ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
-from suite_results import (METHOD_NAMES, METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups, groups,  # noqa: E402
-                           is_keep_only, maps_reference, method_rank, module_sweep_cells, order, score_name,
-                           short_task, success_scored, task_names, task_score)
+from suite_results import (METHOD_NAMES, METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups,  # noqa: E402
+                           display_label as label_name, groups, is_keep_only, maps_reference, method_of_label,
+                           method_rank, module_sweep_cells, order, score_name, short_task, success_scored, task_names,
+                           task_score)
 from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, span, usage_distances,  # noqa: E402
                          vs_single_bc)
 
@@ -34,10 +35,13 @@ Figure = namedtuple("Figure", "file caption")
 DPI = 120
 COLORS = {"maps": "tab:blue", "maml": "tab:orange", "mt_bc": "m", "mt_mh_bc": "tab:red", "single_bc": "tab:green",
           "transfer": "tab:cyan", "moore": "tab:purple", "paco": "tab:brown", "care": "tab:olive",
-          "top_k_moe": "tab:gray", "soft_modularization": "tab:pink"}
+          "top_k_moe": "tab:gray", "soft_modularization": "tab:pink", "diffusion_policy": "darkgoldenrod"}
 SPARE = ["tab:purple", "tab:brown", "tab:gray", "tab:olive", "tab:cyan", "k"]
 # MAPS's variants in Fig. 4 (base MAPS keeps its blue): colours no method has.
 VARIANT_COLORS = ["tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:gray", "tab:pink", "k", "gold"]
+# For a figure whose variants are lines of their own beside many methods (label_style): distinct named colours.
+MORE_COLORS = ["teal", "navy", "crimson", "darkorange", "slateblue", "sienna", "orchid", "turquoise", "indigo",
+               "chartreuse", "salmon", "olivedrab"]
 
 plt.rcParams.update({"font.size": 10, "axes.titlesize": 10, "legend.fontsize": 9, "figure.titlesize": 11})
 
@@ -69,32 +73,25 @@ def compared_cells(cells, variants_are_methods=False):
 def methods_of(cells):
     """The cells' labels (a method, or "method (variant)"), by method in the report's order, each method's own cells
     before its variants'."""
-    return sorted({c.label for c in cells}, key=lambda label: (method_rank(method_of(label)), method_of(label),
-                                                              label != method_of(label), label))
-
-
-def method_of(label):
-    return label.split(" (", 1)[0]
-
-
-def label_name(label):
-    """A label's name in a figure: the method's ("MAPS"), with its variant ("Diffusion Policy (dp_mlp_h16)")."""
-    method = method_of(label)
-    return name(method) + label[len(method):]
+    return sorted({c.label for c in cells}, key=lambda label: (method_rank(method_of_label(label)),
+                                                              method_of_label(label),
+                                                              label != method_of_label(label), label))
 
 
 def label_style(label, labels):
-    """Colour, line and marker of a label among the figure's `labels`: a method its own colour; a variant of a method
-    drawn beside it that colour, dashed, with squares (and hatched bars); a variant of a method that has no line of
-    its own (Diffusion Policy's denoisers) a colour of its own, in order."""
-    method = method_of(label)
+    """Colour, line and marker of a label among `labels` (all of a figure's, so that a label looks the same in every
+    panel): a method its own colour; a variant of a method among them that colour, dashed, with squares (and hatched
+    bars); a variant whose method is not among them (Diffusion Policy's denoisers) a colour no method there has, in
+    order."""
+    method = method_of_label(label)
     if label == method:
         return {"color": color(method)}
     if method in labels:
         return {"color": color(method), "linestyle": "--", "marker": "s", "hatch": "//"}
-    taken = {color(m) for m in labels if m == method_of(m)}
-    free = [c for c in VARIANT_COLORS + SPARE if c not in taken]
-    alone = [other for other in labels if other != method_of(other) and method_of(other) not in labels]
+    taken = {color(m) for m in labels if m == method_of_label(m)}
+    palette = list(dict.fromkeys(VARIANT_COLORS + SPARE + MORE_COLORS))
+    free = [c for c in palette if c not in taken]
+    alone = [other for other in labels if other != method_of_label(other) and method_of_label(other) not in labels]
     return {"color": free[alone.index(label) % len(free)]}
 
 
@@ -207,6 +204,7 @@ def fig2_scores(cells, out, study=None, variants_are_methods=False):
     study = base_cells(study or [])
     fig, axes = plt.subplots(1, len(sets), figsize=(max(6.5, 5.2 * len(sets)), 5.0), squeeze=False)
     rows, study_rows, drawn = [], [], []
+    every_label = methods_of(cells)
     for ax, set_name in zip(axes[0], sets):
         mine = [c for c in cells if c.set == set_name]
         by_key = groups(mine)
@@ -218,7 +216,7 @@ def fig2_scores(cells, out, study=None, variants_are_methods=False):
         apart = dodge_unit(mine + here)
         labels = methods_of(mine)
         for i, method in enumerate(labels):
-            style = label_style(method, labels)
+            style = label_style(method, every_label)
             style.pop("hatch", None)
             for k in sorted({key.subsample for key in by_key if key.label == method}):
                 keys = [key for key in by_key if key.label == method and key.subsample == k]
@@ -226,8 +224,8 @@ def fig2_scores(cells, out, study=None, variants_are_methods=False):
                 dodge = apart * (i - (len(labels) - 1) / 2) if lone else 0.0
                 points = line_with_band(ax, [key.demos for key in keys], [by_key[key] for key in keys],
                                         lambda c: c.mean_score, dodge=dodge, label=label, **style)
-                variant = by_key[keys[0]][0].variant if method != method_of(method) else "base"
-                rows += [[set_name, method_of(method), variant, x, k, n, m, h] for x, n, m, h in points]
+                variant = by_key[keys[0]][0].variant if method != method_of_label(method) else "base"
+                rows += [[set_name, method_of_label(method), variant, x, k, n, m, h] for x, n, m, h in points]
                 means += [m for _, _, m, _ in points]
                 theirs = study_line(ax, study, set_name, method, k, style["color"])
                 study_rows += [[set_name, method, "base", x, k, n, m, h] for x, n, m, h in theirs]
@@ -242,17 +240,18 @@ def fig2_scores(cells, out, study=None, variants_are_methods=False):
     if drawn:
         study_legend(axes[0][0], cells, drawn)
     entries = len({text for ax in axes[0] for text in ax.get_legend_handles_labels()[1]})
-    columns = 6 if not drawn and entries <= 6 else 3 if variants_are_methods else 4
-    legend_rows = -(-entries // columns)
-    # Room below the panels for the legend's rows (one row fits the 0.07 of a figure 5 inches tall).
-    fig.set_figheight(5.0 + 0.25 * max(0, legend_rows - 1))
+    columns = 3 if variants_are_methods else 6 if not drawn else 4
+    extra_rows = max(0, -(-entries // columns) - (1 if not drawn else 2))
+    # Room below the panels for the legend: 0.35 inches (0.6 with the study's two entries) and 0.25 a row more.
+    height = 5.0 + 0.25 * extra_rows
+    fig.set_figheight(height)
     legend_below(fig, axes[0], columns)
     fig.suptitle("Fig. 2: mean score over tasks against demos per task\n(mean over seeds, band: 95% CI)" if not drawn
                  else "Fig. 2: mean score over tasks against demos per task (mean over seeds, 95% CI)\nfilled: this"
                  f" suite at {'/'.join(str(s) for s in sorted({c.steps for c in cells}))} steps; hollow, dashed: the"
                  f" study at {'/'.join(str(s) for s in sorted({c.steps for c in drawn}))} steps, whose ranking this"
                  " is not")
-    fig.tight_layout(rect=(0, (0.07 if not drawn else 0.12) + 0.05 * max(0, legend_rows - 1), 1, 1))
+    fig.tight_layout(rect=(0, ((0.35 if not drawn else 0.6) + 0.25 * extra_rows) / height, 1, 1))
     save(fig, out, "fig2_scores.png")
     header = ["set", "method", "variant", "demos", "subsample", "seeds", "mean", "ci95"]
     write_csv(out / "fig2_scores.csv", header, rows)
@@ -279,6 +278,7 @@ def fig2_tasks(cells, out, variants_are_methods=False):
     for set_name in order(SET_ORDER, {c.set for c in cells}):
         mine = [c for c in cells if c.set == set_name]
         tasks, methods, by_key = task_names(mine), methods_of(mine), groups(mine)
+        every_label = methods_of(cells)
         settings = sorted({(k.demos, k.subsample) for k in by_key})
         width = 0.8 / len(methods)
         fig, axes = plt.subplots(len(settings), 1, figsize=(max(7.0, 0.22 * len(tasks) * len(methods) + 2.5),
@@ -293,7 +293,7 @@ def fig2_tasks(cells, out, variants_are_methods=False):
                 scores = [[s for s in (task_score(c, t) for c in runs) if s is not None] for t in tasks]
                 xs = np.arange(len(tasks)) - 0.4 + width * (j + 0.5)
                 errors = [ci95(v) for v in scores]
-                style = label_style(method, methods)
+                style = label_style(method, every_label)
                 ax.bar(xs, [mean(v) for v in scores], width, capsize=2,
                        yerr=errors if any(np.isfinite(errors)) else None, color=style["color"],
                        hatch=style.get("hatch"), edgecolor="white" if "hatch" in style else None,
@@ -301,7 +301,8 @@ def fig2_tasks(cells, out, variants_are_methods=False):
                 means += [mean(v) for v in scores]
                 for t in tasks:
                     vals = [s for s in (task_score(c, t) for c in runs) if s is not None]
-                    rows.append([set_name, method, demos, k, t, len(vals), mean(vals), ci95(vals)])
+                    rows.append([set_name, method_of_label(method), runs[0].variant if method != method_of_label(
+                        method) else "base", demos, k, t, len(vals), mean(vals), ci95(vals)])
             ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
             ax.set_xticks(range(len(tasks)), [short_task(t) for t in tasks], rotation=30 if len(tasks) > 5 else 0,
                           ha="right" if len(tasks) > 5 else "center")
@@ -318,7 +319,8 @@ def fig2_tasks(cells, out, variants_are_methods=False):
         figures.append(Figure(file, f"Per-task scores on {set_name}: each task's mean over seeds per method and demo"
                               f" count, error bars the 95% CI over seeds (none where one seed ran; clipped at the"
                               f" top). {describe_n(mine)}. Score: {score_name(set_name, mine)}."))
-    write_csv(out / "fig2_tasks.csv", ["set", "method", "demos", "subsample", "task", "seeds", "mean", "ci95"], rows)
+    write_csv(out / "fig2_tasks.csv", ["set", "method", "variant", "demos", "subsample", "task", "seeds", "mean", "ci95"],
+              rows)
     return figures
 
 
@@ -544,7 +546,7 @@ def fig6_module_usage(cells, out):
 def zoo_routing(cells, out, variants_are_methods=False):
     """Every routing method's per-task module usage as a heatmap (tasks x modules), one seed each (module indices
     mean nothing across seeds), on MT10 (else the first set that has them) at the largest demonstration count: the
-    task division of MAPS and of the zoo's methods side by side. Drawn only when a method other than MAPS routes.
+    task division of MAPS and of the zoo's methods side by side. Drawn only when something besides base MAPS routes.
     `variants_are_methods` (report.holm "set"): a variant that routes (the modular denoisers) is a panel of its own."""
     usable = [c for c in compared_cells(cells, variants_are_methods) if c.has_usage]
     if not any(c.label != "maps" for c in usable):
@@ -573,7 +575,7 @@ def zoo_routing(cells, out, variants_are_methods=False):
         image = ax.imshow(scaled, norm=norm, cmap="RdBu_r", aspect="auto")
         title = label_name(method).replace(" (", "\n(")  # a variant's name on a line of its own
         ax.set_title(f"{title}\n{demos} demos, seed {run.seed}", fontsize=9)
-        per_layer = int(run.config.get("soft_modularization", {}).get("modules", 0)) if method == \
+        per_layer = int(run.config.get("soft_modularization", {}).get("modules", 0)) if run.method == \
             "soft_modularization" else 0
         ticks = ([f"{m // per_layer}.{m % per_layer}" for m in range(usage.shape[1])] if per_layer
                  else [str(m) for m in range(usage.shape[1])])
@@ -582,7 +584,8 @@ def zoo_routing(cells, out, variants_are_methods=False):
         ax.set_xlabel("layer.module" if per_layer else "module")
         ax.set_yticks(range(len(tasks)), [short_task(t) for t in tasks] if ax is axes[0, 0] else [], fontsize=8)
         for task, values in zip(tasks, usage):
-            rows += [[set_name, method, demos, run.seed, task, m, float(u)] for m, u in enumerate(values)]
+            rows += [[set_name, run.method, run.variant if method != run.method else "base", demos, run.seed, task, m,
+                      float(u)] for m, u in enumerate(values)]
     fig.colorbar(image, ax=list(axes[0]), fraction=0.03, pad=0.02, extend="max",
                  label="usage / uniform share (1: uniform; 4: 4x or more)")
     fig.suptitle(f"Module usage per task on {set_name}, each routing method (one seed): MAPS's selector scores,\n"
@@ -591,7 +594,7 @@ def zoo_routing(cells, out, variants_are_methods=False):
                      c.label != c.method for c in mine) else "") + "; red above the uniform share, blue below",
                  fontsize=9)
     save(fig, out, "zoo_routing.png")
-    write_csv(out / "zoo_routing.csv", ["set", "method", "demos", "seed", "task", "module", "usage"], rows)
+    write_csv(out / "zoo_routing.csv", ["set", "method", "variant", "demos", "seed", "task", "module", "usage"], rows)
     return [Figure("zoo_routing.png", f"Module usage per task on {set_name} for every method that routes, each at its"
                    " largest demonstration count and lowest finished seed (module indices mean nothing across"
                    " seeds): a column used by every task is a shared module, one used by few tasks a specific one."

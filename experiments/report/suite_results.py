@@ -231,6 +231,18 @@ def label(method, variant):
     return method if variant in ("", "base", None) else f"{method} ({variant})"
 
 
+def method_of_label(row_label):
+    """The method of a row's name: "maps" of "maps (no_share)"."""
+    return row_label.split(" (", 1)[0]
+
+
+def display_label(row_label, names=None):
+    """A row's name for a reader: the method's name (METHOD_NAMES, or `names`) with the variant as written
+    ("Diffusion Policy (dp_mlp_h16)")."""
+    method = method_of_label(row_label)
+    return (METHOD_NAMES if names is None else names).get(method, method) + row_label[len(method):]
+
+
 def is_keep_only(variant):
     """Whether a variant only keeps more checkpoints (named keep<N>: train.keep_every N, evaluated by the paper's
     rule too): its training and best-validation checkpoint are the base's."""

@@ -100,26 +100,39 @@ def named_reports(doc_text):
     return found
 
 
+def names_report(report):
+    """A test of a block's FILE: whether it names `report` (a path): the same file from the repository's root, or,
+    for a report in another checkout, a path ending in FILE's parts ("results/zoo-modern/report/report.md")."""
+    report = Path(report).resolve()
+
+    def test(file):
+        parts = [part for part in Path(file).parts if part not in (".", "")]
+        return (ROOT / file).resolve() == report or (bool(parts) and list(report.parts[-len(parts):]) == parts)
+    return test
+
+
 def sync(report_text, doc_text, link_prefix="", report_name=None):
     """Return (new doc text, titles of the blocks refreshed). `link_prefix` is the path from the page's folder to
-    report.md's ("../results/study/report"): relative link targets in the sections get it. `report_name` is the
-    report's path relative to the repository's root: where blocks name it (FILE#SECTION), only they are refreshed,
-    else only the blocks that name no report. Raises ValueError naming a block whose section report.md lacks, or a
-    page with an opening marker that is never closed."""
+    report.md's ("../results/study/report"): relative link targets in the sections get it. `report_name` says which
+    blocks are this report's: a test of a block's FILE (names_report) or a FILE to compare with as written; where
+    blocks name it (FILE#SECTION) only they are refreshed, else only the blocks that name no report. Raises
+    ValueError naming a block whose section report.md lacks, or a page with an opening marker that is never
+    closed."""
+    is_report = report_name if callable(report_name) else (lambda file: report_name is not None and file == report_name)
     available = sections(report_text)
     if link_prefix:
         prefix = link_prefix.rstrip("/") + "/"
         available = {title: RELATIVE_LINK.sub(lambda m: m.group(1) + prefix + m.group(2) + m.group(3), body)
                      for title, body in available.items()}
     refreshed, blocks = [], 0
-    mine = report_name is not None and report_name in named_reports(doc_text)
+    mine = any(is_report(file) for file in named_reports(doc_text))
 
     def replace(match):
         nonlocal blocks
         blocks += 1
         title = match.group("title").strip()
         named = NAMED.match(title)
-        if named and named.group("file") == report_name:
+        if named and is_report(named.group("file")):
             section = named.group("section").strip()
         elif not named and not mine:
             section = title
@@ -167,7 +180,7 @@ def main(argv=None):
     report_name = str(report.relative_to(ROOT)) if report.is_relative_to(ROOT) else str(report)
     try:
         prefix = os.path.relpath(report.parent, args.doc.resolve().parent)
-        text, refreshed = sync(args.report.read_text(), page, "" if prefix == "." else prefix, report_name)
+        text, refreshed = sync(args.report.read_text(), page, "" if prefix == "." else prefix, names_report(report))
     except ValueError as error:
         sys.exit(f"sync_doc.py: {args.doc}: {error}")
     if not refreshed:

@@ -3,7 +3,7 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import (METHOD_NAMES, ablation_groups, control_cells, groups, is_keep_only, maps_partner,
+from suite_results import (ablation_groups, control_cells, display_label, groups, is_keep_only, maps_partner,
                            module_sweep_cells, score_name, short_task, task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
                          paired_p, routing, span, span_fixed, top_share, usage_distances)
@@ -180,9 +180,6 @@ def pooling_table(cells):
              " p is below 0.05):", ""]
             + table(["method", "demos", "k", "pairs", "difference", "p", "p (Holm)"], rows))
 
-# Display names of the methods that route (their usage is a share per module, summing to 1 over a task's states).
-ROUTED_NAMES = {method: METHOD_NAMES[method]
-                for method in ("maps", "moore", "paco", "care", "top_k_moe", "soft_modularization")}
 USAGE_MEANING = {"maps": "mean selector score", "moore": "share |w_k,i| / sum |w_k|", "paco": "share |w_k,p| / sum |w_k|",
                  "care": "mean attention", "top_k_moe": "mean gate", "soft_modularization": "mean use per layer / L"}
 # Where a method's routing measures cannot reach what another's can.
@@ -226,13 +223,6 @@ def usage_meaning(cell):
     return USAGE_MEANING.get(cell.method, "mean routing share")
 
 
-def routed_name(label):
-    """A routing row's name: the method's ("MAPS"), with its variant where it is one ("Diffusion Policy
-    (dp_maps_h16)")."""
-    method = label.split(" (", 1)[0]
-    return METHOD_NAMES.get(method, method) + label[len(method):]
-
-
 def routed(cells, variants_are_methods=False):
     """{GroupKey: the cells with module usage} of the base methods (no variants) that record it, in report order;
     with `variants_are_methods` (report.holm "set": zoo-modern's denoisers) every variant's too but the keep-only
@@ -247,7 +237,7 @@ def usage_tables(cells, variants_are_methods=False):
     and the zoo's (docs/zoo.md), base methods only (no variants) unless `variants_are_methods` (routed)."""
     lines = []
     for key, runs in routed(cells, variants_are_methods).items():
-        who = routed_name(key.label)
+        who = display_label(key.label)
         meaning = usage_meaning(runs[0])
         tasks = task_names(runs)
         modules = len(runs[0].tasks[0].usage)

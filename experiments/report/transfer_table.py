@@ -25,7 +25,8 @@ from collections import namedtuple
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, load_suite, order, read_cell, METHOD_ORDER  # noqa: E402
+from suite_results import (SuiteError, display_label, load_suite, order, read_cell, METHOD_ORDER,  # noqa: E402
+                           method_of_label as base_of)
 from suite_stats import ci95, fmt, fmt_p, holm, mean, paired, paired_p, total_variation  # noqa: E402
 from tables import compute_table, machines_line  # noqa: E402
 
@@ -53,13 +54,8 @@ def label_of(cell, task):
     return f"{cell.method} ({prefix})" if prefix else cell.method
 
 
-def base_of(label):
-    return label.split(" (", 1)[0]
-
-
 def name_of(label):
-    base = base_of(label)
-    return NAMES.get(base, base) + label[len(base):]
+    return display_label(label, NAMES)
 
 
 def ordered(labels):

@@ -666,9 +666,9 @@ class ControlCells(unittest.TestCase):
 
 
 class VariantsAsMethods(unittest.TestCase):
-    """Fig. 2 and the routing tables in a suite whose variants are methods of their own (report.holm "set", zoo-modern.json): every variant a
-    line and a bar group of its own (and a routing row where it routes), keep-only variants not (their training is the
-    base's); otherwise the base methods only, as before."""
+    """Fig. 2 and the routing tables in a suite whose variants are methods of their own (report.holm "set",
+    zoo-modern.json): every variant a line and a bar group of its own (and a routing row and panel where it routes),
+    keep-only variants not (their training is the base's); otherwise the base methods only, as before."""
 
     def test_fig2_draws_every_variant_only_when_variants_are_methods(self):
         import figures
@@ -683,7 +683,7 @@ class VariantsAsMethods(unittest.TestCase):
                 with (out / "fig2_scores.csv").open() as f:
                     drawn = {(r["method"], r["variant"]) for r in csv.DictReader(f)}
                 with (out / "fig2_tasks.csv").open() as f:
-                    bars = {r["method"] for r in csv.DictReader(f)}
+                    bars = {suite_results.label(r["method"], r["variant"]) for r in csv.DictReader(f)}
                 labels = {suite_results.label(m, v) for m, v in drawn}
                 if as_methods:
                     self.assertEqual(labels, {c.label for c in cells})
@@ -707,6 +707,11 @@ class VariantsAsMethods(unittest.TestCase):
         mlp, denoiser = (figures.label_style(label, labels)["color"] for label in labels[2:])
         self.assertNotEqual(mlp, denoiser)
         self.assertNotIn(figures.color("maps"), (mlp, denoiser))
+        # Never a colour twice among variants that need their own, however many (until the palette's end).
+        many = [f"diffusion_policy (v{i})" for i in range(12)] + [m for m in figures.COLORS if m != "diffusion_policy"]
+        colours = [figures.label_style(label, many)["color"] for label in many[:12]]
+        self.assertEqual(len(set(colours)), 12)
+        self.assertFalse(set(colours) & set(figures.COLORS.values()))
         self.assertEqual(figures.label_name("diffusion_policy (dp_mlp_h16)"), "Diffusion Policy (dp_mlp_h16)")
 
     def test_routing_tables_take_the_variants_that_route(self):
@@ -737,6 +742,42 @@ class VariantsAsMethods(unittest.TestCase):
         self.assertIn("Diffusion Policy (dp_maps_h16), 2 demos, k = 1: module usage (mean selector score", usage)
         self.assertIn("Diffusion Policy (dp_moe_h16), 2 demos, k = 1: module usage (mean of each state's kept gates",
                       usage)
+        # A keep-only variant of a routing method is not a row of its own.
+        keep = [cell("keep2500", "maps", s, [[0.7, 0.1, 0.1, 0.1], [0.1, 0.7, 0.1, 0.1]]) for s in (0, 1)]
+        self.assertNotIn("diffusion_policy (keep2500)", {key.label for key in tables.routed(cells + keep, True)})
+        import figures
+        with tempfile.TemporaryDirectory() as tmp:
+            self.assertEqual(figures.zoo_routing(cells, pathlib.Path(tmp)), [])  # nothing routes but variants
+            self.assertEqual(len(figures.zoo_routing(cells, pathlib.Path(tmp), variants_are_methods=True)), 1)
+            with (pathlib.Path(tmp) / "zoo_routing.csv").open() as f:
+                panels = {(r["method"], r["variant"]) for r in csv.DictReader(f)}
+            self.assertEqual(panels, {("diffusion_policy", "dp_maps_h16"), ("diffusion_policy", "dp_moe_h16")})
+
+    def test_the_report_passes_report_holm_set_to_the_figures_and_routing_tables(self):
+        """report_lines: with report.holm "set" Fig. 2, the per-task bars and the routing figure are drawn with
+        variants_are_methods, and the routing summary has the fixture's MAPS variants as rows; without it, not."""
+        import report
+        suite = suite_results.load_suite(FIXTURE)
+        calls = {}
+
+        class Recorder:
+            failed = []
+
+            def __call__(self, name, **extra):
+                calls[name] = extra.get("variants_are_methods")
+                return []
+
+        plain = "\n".join(report.report_lines(suite, Recorder()))
+        self.assertEqual({calls[n] for n in ("fig2_scores", "fig2_tasks", "zoo_routing")}, {False})
+        suite.config["report"] = {"holm": "set"}
+        as_methods = "\n".join(report.report_lines(suite, Recorder()))
+        self.assertEqual({calls[n] for n in ("fig2_scores", "fig2_tasks", "zoo_routing")}, {True})
+        routed_variants = {c.label for c in suite.cells if c.label != c.method and c.has_usage}
+        self.assertTrue(routed_variants)
+        routing = between(as_methods, "## Routing of every method (the zoo)", "## Validation")
+        for label in routed_variants:
+            self.assertIn(f"| {suite_results.display_label(label)} |", routing)
+        self.assertNotIn("## Routing of every method (the zoo)", plain)
 
 
 class Statistics(unittest.TestCase):
@@ -881,6 +922,35 @@ class SyncDoc(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "block 'results/other/report/report.md#Fig. 9' has no section "
                                                 "'## Fig. 9'"):
             sync_doc.sync(other, page.replace("#Cells", "#Fig. 9"), report_name="results/other/report/report.md")
+        # A title with '#' that is not FILE.md#SECTION names no report.
+        self.assertEqual(sync_doc.named_reports("<!-- report.md: Set #1 -->\nx\n<!-- /report.md -->\n"), [])
+
+    def test_a_report_is_known_by_its_file_however_the_block_spells_it(self):
+        """names_report: the same file from the repository's root ("./results/..." too), or a report of another
+        checkout whose path ends in the block's FILE; so the unnamed blocks keep their own report's sections."""
+        import sync_doc
+        here = sync_doc.ROOT / "results" / "zoo-modern" / "report" / "report.md"
+        for spelling in ("results/zoo-modern/report/report.md", "./results/zoo-modern/report/report.md",
+                         "results/../results/zoo-modern/report/report.md"):
+            self.assertTrue(sync_doc.names_report(here)(spelling), spelling)
+        self.assertTrue(sync_doc.names_report("/elsewhere/checkout/results/zoo-modern/report/report.md")(
+            "./results/zoo-modern/report/report.md"))
+        self.assertFalse(sync_doc.names_report(here)("results/zoo/report/report.md"))
+        self.assertFalse(sync_doc.names_report("/elsewhere/modern/report/report.md")(
+            "results/zoo-modern/report/report.md"))
+        with tempfile.TemporaryDirectory() as tmp:
+            report = pathlib.Path(tmp, "results", "zoo-modern", "report", "report.md")
+            report.parent.mkdir(parents=True)
+            report.write_text("## Cells\n\n| b |\n")
+            page = pathlib.Path(tmp, "page.md")
+            text = ("<!-- report.md: Cells -->\nzoo's\n<!-- /report.md -->\n"
+                    "<!-- report.md: ./results/zoo-modern/report/report.md#Cells -->\nold\n<!-- /report.md -->\n")
+            page.write_bytes(text.replace("\n", "\r\n").encode())
+            done = subprocess.run([sys.executable, str(REPORT_DIR / "sync_doc.py"), str(report), str(page)],
+                                  capture_output=True, text=True)
+            self.assertEqual(done.returncode, 0, done.stderr)
+            self.assertEqual(page.read_bytes().decode(),
+                             text.replace("Cells -->\nold", "Cells -->\n| b |").replace("\n", "\r\n"))
 
 
 class BesideTheStudy(unittest.TestCase):
