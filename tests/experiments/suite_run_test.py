@@ -377,7 +377,8 @@ class SuiteTest(unittest.TestCase):
         costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
         for methods in (costs["sets"][s]["methods"] for s in costs["sets"]):
             for m in methods.values():
-                m.pop("gail_env_step_seconds", None), m.pop("gail_discriminator_update_seconds", None)
+                for key in ("gail_env_step_seconds", "gail_discriminator_update_seconds", "gail_policy_env_step_seconds"):
+                    m.pop(key, None)
         config = json.loads(TINY.read_text())
         config["variants"]["gail"] = {"imitation": "gail", "gail": {"env_steps_per_task": 1000}}
         config["grids"] = [{"name": "gail", "sets": ["gravity"], "methods": ["mt_bc"], "variants": ["gail"],
@@ -404,6 +405,17 @@ class SuiteTest(unittest.TestCase):
         priced = plan(wide, "--costs", write_config(self.dir, costs, "gail_policy_costs.json"))
         self.assertAlmostEqual(priced["cpu_seconds_parts"]["steps"],
                                1000 * 5 * (1e-4 + 3 * 0.4e-4) + 10 * 95 * 0.01, places=6)
+        # MAPS with 5 modules where the table measured 10: its policy's part halves (a ratio below 1 lowers it).
+        costs["sets"]["gravity"]["methods"]["maps"].update(gail_env_step_seconds=3e-4,
+                                                           gail_policy_env_step_seconds=2e-4,
+                                                           gail_discriminator_update_seconds=0.01, modules=10)
+        config["variants"]["gail"] = {"imitation": "gail", "gail": {"env_steps_per_task": 1000}, "maps": {"modules": 5}}
+        config["grids"] = [{"name": "gail", "sets": ["gravity"], "methods": ["maps"], "variants": ["gail"],
+                            "seeds": [0]}]
+        maps_suite = write_config(self.dir, config, "gail_maps_suite.json")
+        priced = plan(maps_suite, "--costs", write_config(self.dir, costs, "gail_maps_costs.json"))
+        self.assertAlmostEqual(priced["cpu_seconds_parts"]["steps"],
+                               1000 * 5 * (3e-4 - 0.5 * 2e-4) + 10 * 95 * 0.01, places=6)
 
     def test_the_precision_option_sets_every_cells_precision_and_its_step_cost(self):
         costs = json.loads((ROOT / "experiments" / "suites" / "costs.json").read_text())
