@@ -79,7 +79,9 @@ std::vector<io::Field> make_schema() {
       "the families `maps report` adjusts the paired differences from MAPS within (Holm): `variant`, the comparisons "
       "made under one variant (a variant that asks its own question, such as a control); `set`, every row of a "
       "set's paired differences from MAPS (MAPS's own variants stay in their table's families), for a suite whose "
-      "variants are methods of their own (experiments/suites/zoo-modern.json)"));
+      "variants are methods of their own (experiments/suites/zoo-modern.json); `set` also draws every variant (but "
+      "keep-only ones) as a line of its own in Fig. 2 and a bar group in the per-task bars, and gives each variant "
+      "that routes a row in the routing tables and a panel in the routing figure"));
   s.push_back(make("report.compare", ValueKind::kStringList, "string list",
                    "comparisons `maps report` makes directly, beside those with MAPS: each \"A - B\", A and B a row "
                    "of the report (a method, or `method (variant)`, each of some cell of the suite), e.g. "
