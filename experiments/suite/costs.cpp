@@ -156,6 +156,7 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
         cost("gail_env_step_seconds", true) + (policy_scale - 1.0) * cost("gail_policy_env_step_seconds", false, 0.0);
     const double training = g["env_steps_per_task"].get<double>() * tasks * env_step +
                             warmup_updates * cost("gail_discriminator_update_seconds", false, 0.0);
+    const bool size_unpriced = policy_scale != 1.0 && !entry->contains("gail_policy_env_step_seconds");
     return {.overhead = cost("overhead_seconds", false),
             .training = training,
             .evaluation = r["eval"]["episodes"].get<double>() * evaluated_tasks * episode_seconds,
@@ -163,7 +164,8 @@ CostTable::CellCost CostTable::cell_cost(const SuiteCell& cell) const {
             .checkpointing = 0.0,
             .estimated_as = estimated_as,
             .key = candidates.front(),
-            .cpu = cpu};
+            .cpu = cpu,
+            .size_unpriced = size_unpriced};
   }
   // A bf16 cell's steps at their own measured cost (validation and evaluation run float32 in both).
   const bool bf16 = r["train"].value("precision", std::string("float32")) == "bf16";

@@ -42,6 +42,9 @@ struct CostTable {
     std::string key;
     // The CPU the entry used was timed on (its own "cpu", else the table's).
     std::string cpu;
+    // A GAIL cell whose policy's size differs from the measured one, priced at the measured size because the entry
+    // has no policy part (gail_policy_env_step_seconds: timed before it was recorded).
+    bool size_unpriced = false;
     double total() const { return overhead + training + evaluation; }
   };
   // Throws naming the set and method when the table lacks them.

@@ -19,6 +19,18 @@
 namespace maps::experiments {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// One line saying what the plan's estimate rests on: `what`, then the entries (none: no line).
+void print_named(const char* what, const std::set<std::string>& entries) {
+  if (entries.empty()) return;
+  std::string named;
+  for (const auto& entry : entries) named += (named.empty() ? "" : ", ") + entry;
+  std::printf("%s: %s\n", what, named.c_str());
+}
+
+}  // namespace
 using Json = nlohmann::json;
 
 int run_suite_plan(const SuitePlanOptions& options) {
@@ -49,8 +61,11 @@ int run_suite_plan(const SuitePlanOptions& options) {
   // resting on a stand-in is not read as measured.
   std::set<std::string> unmeasured;
   std::set<std::string> cpus;  // where the entries the plan used were timed
+  // "method on set" of GAIL cells of another policy size priced at the measured one (CellCost::size_unpriced).
+  std::set<std::string> size_unpriced;
   for (const auto* cell : cells) {
     const CostTable::CellCost cost = costs.cell_cost(*cell);
+    if (cost.size_unpriced) size_unpriced.insert(cost.key + " on " + cell->set);
     if (!cost.estimated_as.empty())
       unmeasured.insert(cost.key + " on " + cell->set +
                         (cost.estimated_as == "maps" ? "" : " (as " + cost.estimated_as + ")"));
@@ -113,6 +128,7 @@ int run_suite_plan(const SuitePlanOptions& options) {
                       {"wall_seconds", total / jobs + collect},
                       {"costs", costs.path},
                       {"unmeasured", unmeasured},
+                      {"gail_size_unpriced", size_unpriced},
                       {"measured_on", cpus}}
                      .dump(1)
               << "\n";
@@ -161,14 +177,14 @@ int run_suite_plan(const SuitePlanOptions& options) {
   if (measured_on.empty()) measured_on = recorded_cpu(costs.json);
   std::printf("\ncosts: %s (measured on %s; `maps suite calibrate` re-measures on this machine)\n", costs.path.c_str(),
               measured_on.c_str());
-  if (!unmeasured.empty()) {
-    std::string named;
-    for (const auto& entry : unmeasured) named += (named.empty() ? "" : ", ") + entry;
-    std::printf(
-        "not measured, estimated at MAPS's cost per step and episode unless another is named (the table predates "
-        "them: maps suite calibrate --methods NAME adds them): %s\n",
-        named.c_str());
-  }
+  print_named(
+      "not measured, estimated at MAPS's cost per step and episode unless another is named (the table predates "
+      "them: maps suite calibrate --methods NAME adds them)",
+      unmeasured);
+  print_named(
+      "GAIL cells of another width or module count priced at the measured size (the entry has no policy part, "
+      "gail_policy_env_step_seconds: maps suite calibrate --gail-env-steps N --methods NAME adds it)",
+      size_unpriced);
   return 0;
 }
 

@@ -399,10 +399,13 @@ class SuiteTest(unittest.TestCase):
         # a table without that part prices it as the measured width.
         config["variants"]["gail"]["baselines"] = {"hidden": [256, 256, 256]}
         wide = write_config(self.dir, config, "gail_wide_suite.json")
-        self.assertAlmostEqual(plan(wide, "--costs", self.dir / "gail_costs.json")["cpu_seconds_parts"]["steps"],
-                               1000 * 5 * 1e-4 + 10 * 95 * 0.01, places=6)
+        unscaled = plan(wide, "--costs", self.dir / "gail_costs.json")
+        self.assertAlmostEqual(unscaled["cpu_seconds_parts"]["steps"], 1000 * 5 * 1e-4 + 10 * 95 * 0.01, places=6)
+        self.assertEqual(unscaled["gail_size_unpriced"], ["mt_bc on gravity"])  # said, not silent
+        self.assertEqual(priced["gail_size_unpriced"], [])
         gravity.update(gail_policy_env_step_seconds=0.4e-4)
         priced = plan(wide, "--costs", write_config(self.dir, costs, "gail_policy_costs.json"))
+        self.assertEqual(priced["gail_size_unpriced"], [])
         self.assertAlmostEqual(priced["cpu_seconds_parts"]["steps"],
                                1000 * 5 * (1e-4 + 3 * 0.4e-4) + 10 * 95 * 0.01, places=6)
         # MAPS with 5 modules where the table measured 10: its policy's part halves (a ratio below 1 lowers it).
