@@ -25,9 +25,9 @@ import matplotlib.ticker as ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from suite_results import (METHOD_NAMES, METHOD_ORDER, SET_ORDER, ablation_cells, ablation_groups,  # noqa: E402
-                           display_label as label_name, groups, is_keep_only, maps_reference, method_of_label,
-                           method_rank, module_sweep_cells, order, score_name, short_task, success_scored, task_names,
-                           task_score)
+                           compared_cells, display_label as label_name, groups, label_rank, maps_reference,
+                           method_of_label, module_sweep_cells, order, score_name, short_task, shown_variant,
+                           success_scored, task_names, task_score)
 from suite_stats import (MUCH_BETTER, ci95, describe_n, mean, sorted_usage, span, usage_distances,  # noqa: E402
                          vs_single_bc)
 
@@ -61,21 +61,10 @@ def base_cells(cells):
     return [c for c in cells if c.label == c.method]
 
 
-def compared_cells(cells, variants_are_methods=False):
-    """The cells Fig. 2 draws, one line per label: the methods themselves, or, in a suite whose variants are methods
-    of their own (report.holm "set": zoo-modern's denoisers and action chunks), every variant too but the keep-only
-    ones (their training is the base's)."""
-    if not variants_are_methods:
-        return base_cells(cells)
-    return [c for c in cells if c.label == c.method or not is_keep_only(c.variant)]
-
-
 def methods_of(cells):
     """The cells' labels (a method, or "method (variant)"), by method in the report's order, each method's own cells
     before its variants'."""
-    return sorted({c.label for c in cells}, key=lambda label: (method_rank(method_of_label(label)),
-                                                              method_of_label(label),
-                                                              label != method_of_label(label), label))
+    return sorted({c.label for c in cells}, key=label_rank)
 
 
 def label_style(label, labels):
@@ -224,7 +213,7 @@ def fig2_scores(cells, out, study=None, variants_are_methods=False):
                 dodge = apart * (i - (len(labels) - 1) / 2) if lone else 0.0
                 points = line_with_band(ax, [key.demos for key in keys], [by_key[key] for key in keys],
                                         lambda c: c.mean_score, dodge=dodge, label=label, **style)
-                variant = by_key[keys[0]][0].variant if method != method_of_label(method) else "base"
+                variant = shown_variant(by_key[keys[0]][0])
                 rows += [[set_name, method_of_label(method), variant, x, k, n, m, h] for x, n, m, h in points]
                 means += [m for _, _, m, _ in points]
                 theirs = study_line(ax, study, set_name, method, k, style["color"])
@@ -301,8 +290,8 @@ def fig2_tasks(cells, out, variants_are_methods=False):
                 means += [mean(v) for v in scores]
                 for t in tasks:
                     vals = [s for s in (task_score(c, t) for c in runs) if s is not None]
-                    rows.append([set_name, method_of_label(method), runs[0].variant if method != method_of_label(
-                        method) else "base", demos, k, t, len(vals), mean(vals), ci95(vals)])
+                    rows.append([set_name, method_of_label(method), shown_variant(runs[0]), demos, k, t, len(vals),
+                                 mean(vals), ci95(vals)])
             ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
             ax.set_xticks(range(len(tasks)), [short_task(t) for t in tasks], rotation=30 if len(tasks) > 5 else 0,
                           ha="right" if len(tasks) > 5 else "center")
@@ -555,6 +544,7 @@ def zoo_routing(cells, out, variants_are_methods=False):
     set_name = "mt10" if "mt10" in sets else sets[0]
     mine = [c for c in usable if c.set == set_name]
     methods = methods_of(mine)
+    with_variants = any(c.label != c.method for c in mine)
     panels = []
     for method in methods:
         runs = [c for c in mine if c.label == method]
@@ -584,14 +574,14 @@ def zoo_routing(cells, out, variants_are_methods=False):
         ax.set_xlabel("layer.module" if per_layer else "module")
         ax.set_yticks(range(len(tasks)), [short_task(t) for t in tasks] if ax is axes[0, 0] else [], fontsize=8)
         for task, values in zip(tasks, usage):
-            rows += [[set_name, run.method, run.variant if method != run.method else "base", demos, run.seed, task, m,
-                      float(u)] for m, u in enumerate(values)]
+            rows += [[set_name, run.method, shown_variant(run), demos, run.seed, task, m, float(u)]
+                     for m, u in enumerate(values)]
     fig.colorbar(image, ax=list(axes[0]), fraction=0.03, pad=0.02, extend="max",
                  label="usage / uniform share (1: uniform; 4: 4x or more)")
     fig.suptitle(f"Module usage per task on {set_name}, each routing method (one seed): MAPS's selector scores,\n"
                  "MOORE's and PaCo's task-weight shares, the CARE-style attention, the top-k gates, Soft"
-                 " Modularization's per-layer use" + (", the modular denoisers' scores and gates" if any(
-                     c.label != c.method for c in mine) else "") + "; red above the uniform share, blue below",
+                 " Modularization's per-layer use" + (", the modular denoisers' scores and gates" if with_variants else "")
+                 + "; red above the uniform share, blue below",
                  fontsize=9)
     save(fig, out, "zoo_routing.png")
     write_csv(out / "zoo_routing.csv", ["set", "method", "variant", "demos", "seed", "task", "module", "usage"], rows)
@@ -602,7 +592,7 @@ def zoo_routing(cells, out, variants_are_methods=False):
                    " |w| shares (constant within a task), the mean CARE-style attention, the mean top-k gate, Soft"
                    " Modularization's mean per-layer use (columns layer.module)"
                    + ("; Diffusion Policy's denoiser with MAPS's modules its mean selector score, its MoE denoiser"
-                      " each state's kept gates scaled to sum 1" if any(c.label != c.method for c in mine) else "")
+                      " each state's kept gates scaled to sum 1" if with_variants else "")
                    + ". Colours are usage over the uniform"
                    " share (usage x the method's module count; red above 1, blue below, the darkest red 4x or more),"
                    " one scale for every panel; zoo_routing.csv has the usage itself.")]

@@ -3,7 +3,7 @@ the per-set usage tables of tables.usage_tables give the per-task detail this su
 import math
 
 from suite_stats import fmt, mean, span, usage_distances
-from suite_results import display_label, method_of_label, method_rank
+from suite_results import display_label, label_rank
 from tables import division_counts, routed, routing_note, table
 
 
@@ -45,10 +45,7 @@ def routing_summary(cells, seeds_added=False, variants_are_methods=False):
     if len({key.label for key in by_key}) < 2:
         return []
     rows, notes = [], {}  # notes: each distinct text once (a method at two settings, e.g. two k, may need two)
-    # A method's rows in the report's order, each method's own before its variants'.
-    for key in sorted(by_key, key=lambda k: (k.set, k.demos, k.subsample, method_rank(method_of_label(k.label)),
-                                              method_of_label(k.label), k.label != method_of_label(k.label),
-                                              k.label)):
+    for key in sorted(by_key, key=lambda k: (k.set, k.demos, k.subsample, label_rank(k.label))):
         runs = by_key[key]
         modules = len(runs[0].tasks[0].usage)
         rows.append([key.set, key.demos, key.subsample, display_label(key.label), len(runs), modules]

@@ -267,6 +267,24 @@ def method_rank(method):
     return METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER)
 
 
+def label_rank(row_label):
+    """A sort key of row names: by method in the report's order, each method's own row before its variants'."""
+    method = method_of_label(row_label)
+    return method_rank(method), method, row_label != method, row_label
+
+
+def compared_cells(cells, variants_are_methods=False):
+    """The cells compared as methods: the methods themselves (no variants), or, in a suite whose variants are methods
+    of their own (report.holm "set": zoo-modern's denoisers and action chunks), every variant too but the keep-only
+    ones (their training is the base's)."""
+    return [c for c in cells if c.label == c.method or (variants_are_methods and not is_keep_only(c.variant))]
+
+
+def shown_variant(cell):
+    """The variant a cell is shown as: "base" where it stands for its method (its label is the method's)."""
+    return "base" if cell.label == cell.method else cell.variant
+
+
 def key_sort(key):
     """Sorting GroupKeys: set, then method in the paper's order, base variant first, then demos and k."""
     method, _, variant = key.label.partition(" ")

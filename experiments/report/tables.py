@@ -3,7 +3,7 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import (ablation_groups, control_cells, display_label, groups, is_keep_only, maps_partner,
+from suite_results import (ablation_groups, compared_cells, control_cells, display_label, groups, maps_partner,
                            module_sweep_cells, score_name, short_task, task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
                          paired_p, routing, span, span_fixed, top_share, usage_distances)
@@ -227,9 +227,9 @@ def routed(cells, variants_are_methods=False):
     """{GroupKey: the cells with module usage} of the base methods (no variants) that record it, in report order;
     with `variants_are_methods` (report.holm "set": zoo-modern's denoisers) every variant's too but the keep-only
     ones'."""
-    return {key: [c for c in runs if c.has_usage] for key, runs in groups(cells).items()
-            if (key.label == runs[0].method or (variants_are_methods and not is_keep_only(runs[0].variant)))
-            and any(c.has_usage for c in runs)}
+    return {key: [c for c in runs if c.has_usage]
+            for key, runs in groups(compared_cells(cells, variants_are_methods)).items()
+            if any(c.has_usage for c in runs)}
 
 
 def usage_tables(cells, variants_are_methods=False):
