@@ -93,11 +93,13 @@ class PythonRun {
     check_tasks(tasks, raw.size(0), "forward");
     for (double v : raw.to_vector())
       if (!std::isfinite(v)) throw std::invalid_argument("forward: observations hold NaN or inf");
-    // (x - mean) / std in float64, as Standardizer::apply computes it, then the policy's dtype.
+    // (x - mean) / std in float64, clamped, as Standardizer::apply computes it, then the policy's dtype.
     const core::Standardizer& standardizer = data.standardizer();
     const ag::Tensor mean = ag::from_eigen(Eigen::MatrixXd(standardizer.mean.transpose()));
     const ag::Tensor scale = ag::from_eigen(Eigen::MatrixXd(standardizer.std.transpose()));
-    const ag::Tensor input = ((raw.to(ag::Dtype::Float64) - mean) / scale).to(policy_dtype());
+    ag::Tensor input = (raw.to(ag::Dtype::Float64) - mean) / scale;
+    if (standardizer.clip > 0.0) input = ag::clamp(input, -standardizer.clip, standardizer.clip);
+    input = input.to(policy_dtype());
     return run_.policy->act(input, tasks);
   }
 

@@ -19,7 +19,7 @@ import math
 from collections import namedtuple
 
 from suite_results import METHOD_NAMES, SET_ORDER, method_rank, order, success_scored
-from suite_stats import USED_FACTOR, ci95, division, fmt, holm, mean, paired, paired_p, usage_distances
+from suite_stats import USED_FACTOR, division, fmt, holm, mean, paired, paired_p, usage_distances
 from tables import against_columns, holm_columns, table
 
 Setting = namedtuple("Setting", "set method variant demos subsample")
@@ -32,21 +32,25 @@ def objective(cell):
 
 
 def network(cell):
-    """What a cell's network is and what it learns: MAPS's module count and widths, or a baseline's hidden widths,
-    and the tasks it trains on (data.tasks: [] for all of the set's)."""
-    tasks = tuple(cell.config.get("data", {}).get("tasks", []) or [])
+    """What a cell's network is, what it sees and what it learns: MAPS's module count and widths, or a baseline's
+    hidden widths, the bound its standardised inputs are clamped to (data.observation_clip: 0, none, for a config
+    written before the key), and the tasks it trains on (data.tasks: [] for all of the set's)."""
+    data = cell.config.get("data", {})
+    tasks = tuple(data.get("tasks", []) or [])
+    clip = float(data.get("observation_clip", 0) or 0)
     if cell.method == "maps":
         maps = cell.config.get("maps", {})
         return ("maps", cell.modules, tuple(maps.get("module_hidden", ())), tuple(maps.get("selector_hidden", ())),
-                tasks)
-    return (cell.method, cell.hidden, tasks)
+                clip, tasks)
+    return (cell.method, cell.hidden, clip, tasks)
 
 
 def bc_partner(bc_cells, gail_cells, base_networks):
     """The BC cells a GAIL setting is paired with, among one set, method, demos and k's BC cells (bc_cells): where the
     GAIL run has a network the method's base cells have anywhere on the set (base_networks), the base cells of that
-    network; where its network is another (a width control), the cells of the one BC variant that has it ("mt_bc
-    (w430)" for a GAIL run at 3 x 430); [] where none or several do. So a variant of the BC protocol (an ablation, the
+    network; where its network is another (a width control, or inputs clamped otherwise), the cells of the one BC
+    variant that has it ("mt_bc (w430)" for a GAIL run at 3 x 430, "mt_bc (clip10)" for one on clamped inputs); []
+    where none or several do. So a variant of the BC protocol (an ablation, the
     paper's options) is never the partner: its network is the base's."""
     shape = network(gail_cells[0])
     method = gail_cells[0].method

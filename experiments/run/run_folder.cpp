@@ -104,6 +104,11 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
     throw std::runtime_error(loaded.config.data_file + " is not the demo file " + run +
                              " was trained on (its observation statistics differ from those " + best_path +
                              " records)");
+  if (record.standardizer.clip != standardizer.clip)
+    throw std::runtime_error(
+        "checkpoint " + best_path + " was trained on inputs clamped to " +
+        (record.standardizer.clip > 0.0 ? "+-" + std::to_string(record.standardizer.clip) : std::string("no bound")) +
+        ", " + run + "'s config.json says data.observation_clip " + std::to_string(standardizer.clip));
   loaded.policy->eval();
   loaded.policy->prepare_for_evaluation(data);
   return loaded;

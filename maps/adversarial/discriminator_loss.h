@@ -11,8 +11,8 @@
 namespace maps::adversarial {
 
 struct DiscriminatorLossConfig {
-  // lambda E[(||grad_x D(x)|| - 1)^2] at points x mixed uniformly between a demonstration pair and a policy pair of
-  // the same task (WGAN-GP's penalty, as ikostrikov's GAIL uses on the logit with lambda 10). 0: off.
+  // lambda E[(||grad_x logit D(x)|| - 1)^2] at points x mixed uniformly between a demonstration pair and a policy pair
+  // of the same task (WGAN-GP's penalty, as ikostrikov's GAIL uses on the logit with lambda 10). 0: off.
   double gradient_penalty = 0.0;
   // Subtracts this times the mean Bernoulli entropy of D over both halves (baselines' adversary_entcoeff, 1e-3): keeps
   // D from saturating. 0: off.
@@ -26,7 +26,7 @@ struct DiscriminatorLoss {
   ag::Tensor total;              // cross_entropy - entropy_bonus * entropy + gradient_penalty * penalty
   ag::Tensor cross_entropy;      // binary, demonstrations labelled 1 and the policy's pairs 0, mean over all 2n rows
   ag::Tensor entropy;            // mean Bernoulli entropy of D (nats) over all 2n rows
-  ag::Tensor penalty;            // E[(||grad D|| - 1)^2], before its weight; undefined when the weight is 0
+  ag::Tensor penalty;            // E[(||grad logit D|| - 1)^2], before its weight; undefined when the weight is 0
   double expert_accuracy = 0.0;  // share of demonstration rows with D > 1/2
   double policy_accuracy = 0.0;  // share of the policy's rows with D < 1/2
 };

@@ -29,9 +29,9 @@ struct GailConfig : rl::PPOUpdateConfig {
   std::string reward = "gail";  // gail_reward_kinds()
 
   DiscriminatorConfig discriminator;
-  // The gradient penalty at ikostrikov's 10 and the warm-up below: the pilot (docs/adversarial.md) without them left
-  // the discriminator saturated (accuracy 1.0, reward ~0.01) and the policy at a fifth of the expert's return after
-  // 600,000 env steps, where with them it reached two thirds.
+  // The gradient penalty at ikostrikov's 10 and the warm-up below: in the pilot (docs/adversarial.md, A against B)
+  // without them the discriminator won within ten iterations and the policy scored 0.26 of the expert's return after
+  // 10^6 env steps, with them 0.93.
   DiscriminatorLossConfig discriminator_loss{10.0, 0.0};
   double discriminator_learning_rate = 3e-4;
   int discriminator_updates = 5;                    // Adam steps per iteration (ikostrikov's gail-epoch)

@@ -160,6 +160,8 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
     int threads;
     ~RestoreThreads() { ag::set_num_threads(threads); }
   } restore_threads{previous_threads};
+  // A policy on raw inputs (MAPS's "raw_clipped") undoes the standardisation with these, as under BC (train_policy).
+  policy.set_observation_statistics(data.standardizer().mean, data.standardizer().std);
 
   // Everything the run draws derives from its seed, each stream its own.
   ag::Generator init_gen(seed ^ 0x5A17A17ULL);

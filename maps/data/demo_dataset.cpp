@@ -1,6 +1,7 @@
 #include "maps/data/demo_dataset.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <utility>
 
@@ -78,6 +79,9 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
     : task_set_(file.task_set), config_(config) {
   if (config.action_horizon < 1 || config.action_horizon > 1000)
     throw std::invalid_argument("data: action horizon must be 1 to 1000, got " + std::to_string(config.action_horizon));
+  if (!std::isfinite(config.observation_clip) || config.observation_clip < 0.0)
+    throw std::invalid_argument("data: observation_clip must be finite and >= 0 (0: no clamp), got " +
+                                std::to_string(config.observation_clip));
   if (config.subsample < 1)
     throw std::invalid_argument("data: subsample must be >= 1, got " + std::to_string(config.subsample));
   if (config.demos_per_task < 0)
@@ -146,6 +150,7 @@ DemoDataset::DemoDataset(const envs::DemoFile& file, const DataConfig& config)
     training_seeds_.push_back(std::move(seeds));
   }
   standardizer_ = Standardizer::fit(all_train_obs);
+  standardizer_.clip = config.observation_clip;
 }
 
 void DemoDataset::use_standardizer(const Standardizer& standardizer) {
@@ -153,6 +158,7 @@ void DemoDataset::use_standardizer(const Standardizer& standardizer) {
     throw std::invalid_argument("data: a standardizer of " + std::to_string(standardizer.mean.size()) +
                                 " dimensions for observations of " + std::to_string(standardizer_.size()));
   standardizer_ = standardizer;
+  standardizer_.clip = config_.observation_clip;
 }
 
 Batch DemoDataset::make_batch(const std::vector<std::pair<int, std::int64_t>>& picks, ag::Dtype dtype, bool validation,

@@ -38,6 +38,9 @@ struct DataConfig {
   // demonstration, time-major, the last action repeated past the demonstration's end (Diffusion Policy's padding);
   // 1: [n, A]. Set from the method's chunking, not by a config key of its own.
   std::int64_t action_horizon = 1;
+  // > 0: standardised observations are clamped to [-clip, clip] wherever the run standardises (batches, validation,
+  // rollouts, evaluation; Standardizer::clip); 0: not clamped.
+  double observation_clip = 0.0;
 };
 
 // data.draws must be "sequential" or "per_task": an error naming it otherwise.
@@ -66,8 +69,9 @@ class DemoDataset {
   const DataConfig& config() const { return config_; }
   // Fitted to the kept training states of all tasks, unless replaced.
   const Standardizer& standardizer() const { return standardizer_; }
-  // Standardise with these statistics instead (transfer: the ones the reused modules were trained with). A size
-  // other than the observations' is an error.
+  // Standardise with these statistics instead (transfer: the ones the reused modules were trained with), clamped
+  // as this run's config says (data.observation_clip, not the standardizer's own). A size other than the
+  // observations' is an error.
   void use_standardizer(const Standardizer& standardizer);
   // The reset seeds of the demos drawn for training, per task (what a run used, for its record).
   const std::vector<std::vector<std::uint64_t>>& training_demo_seeds() const { return training_seeds_; }

@@ -24,15 +24,17 @@ Eigen::VectorXd Standardizer::apply(const Eigen::VectorXd& observation) const {
   if (observation.size() != mean.size())
     throw std::invalid_argument("Standardizer: observation has " + std::to_string(observation.size()) +
                                 " entries, expected " + std::to_string(mean.size()));
-  return (observation - mean).cwiseQuotient(std);
+  const Eigen::VectorXd standardised = (observation - mean).cwiseQuotient(std);
+  return clip > 0.0 ? Eigen::VectorXd(standardised.cwiseMax(-clip).cwiseMin(clip)) : standardised;
 }
 
 ag::Tensor Standardizer::apply(const Eigen::MatrixXd& observations, ag::Dtype dtype) const {
   if (observations.cols() != mean.size())
     throw std::invalid_argument("Standardizer: observations have " + std::to_string(observations.cols()) +
                                 " columns, expected " + std::to_string(mean.size()));
-  const Eigen::MatrixXd standardised =
+  Eigen::MatrixXd standardised =
       (observations.rowwise() - mean.transpose()).array().rowwise() / std.transpose().array();
+  if (clip > 0.0) standardised = standardised.cwiseMax(-clip).cwiseMin(clip);
   const ag::Tensor out = ag::from_eigen(standardised);
   return out.to(dtype);
 }

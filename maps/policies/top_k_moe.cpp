@@ -138,6 +138,20 @@ LossTerms TopKMoE::loss(const Batch& batch) {
                    {{"bc", bc}, {"importance", importance}, {"load", load}}};
 }
 
+PolicyForward TopKMoE::forward_terms(const Batch& batch) {
+  detail::check_batch("TopKMoE::forward_terms", shape(), batch);
+  const ag::Tensor inputs =
+      ag::concat({batch.observations, ag::one_hot(batch.tasks, shape().num_tasks, batch.observations.dtype())}, 1);
+  const Gate clean = gate(inputs, nullptr);
+  const ag::Tensor importance = cv_squared(ag::sum(clean.gates, {0}));
+  const Gate noisy = gate(inputs, &batch.noise_seed);
+  const ag::Tensor load = noisy.load.defined() ? cv_squared(noisy.load) : ag::mul(importance, 0.0);
+  PolicyForward result;
+  result.mean_actions = mixture(inputs, clean);
+  result.regularizer = LossTerms{(importance + load) * config_.balance, {{"importance", importance}, {"load", load}}};
+  return result;
+}
+
 ag::Tensor TopKMoE::routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("TopKMoE::routing", shape(), observations, tasks);
   ag::NoGradGuard no_grad;

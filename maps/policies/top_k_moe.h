@@ -34,6 +34,10 @@ class TopKMoE : public Policy {
   ag::Tensor act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
   // terms {"bc", "importance", "load"}; total = bc + balance * (importance + load).
   LossTerms loss(const Batch& batch) override;
+  // Under PPO (GAIL): the mean actions as act() gives them (the noiseless gate: the rollouts' log-probabilities were
+  // taken there), and the balance terms {"importance", "load"} weighted as loss() weighs them, importance on that
+  // gate and load on the batch's noisy gate (it is the noise's probability; without noise, 0).
+  PolicyForward forward_terms(const Batch& batch) override;
   // The gate G [n, E] without noise (what act() uses).
   ag::Tensor routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) override;
   std::int64_t routed_modules() const override { return config_.experts; }

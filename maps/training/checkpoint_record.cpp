@@ -77,7 +77,9 @@ const std::vector<io::Field>& policy_record_schema() {
                              "the observation standard deviation (Standardizer::fit floors it at 1e-6)");
     stddev.required = true;
     stddev.non_empty = true;
-    return std::vector<io::Field>{format, step, validation, mean, stddev};
+    io::Field clip = field("standardizer.clip", io::ValueKind::kNumber, "float", 0, 1e6,
+                           "the bound the standardised inputs are clamped to (data.observation_clip; absent: none)");
+    return std::vector<io::Field>{format, step, validation, mean, stddev, clip};
   }();
   return schema;
 }
@@ -116,6 +118,7 @@ Json to_json(const PolicyRecord& r) {
                {{"mean", std::vector<double>(s.mean.data(), s.mean.data() + s.mean.size())},
                 {"std", std::vector<double>(s.std.data(), s.std.data() + s.std.size())}}}};
   if (r.validation_bc) record["validation_bc"] = *r.validation_bc;
+  if (s.clip > 0.0) record["standardizer"]["clip"] = s.clip;  // absent when 0: the records of runs before the key
   return record;
 }
 
@@ -147,7 +150,7 @@ PolicyRecord read_policy_record(const std::string& text, const std::string& wher
     if (!s.is_object())
       throw std::runtime_error(where + ": record key standardizer is " + s.dump().substr(0, 80) + ", not an object");
     for (const auto& [key, value] : s.items())
-      if (key != "mean" && key != "std")
+      if (key != "mean" && key != "std" && key != "clip")
         throw std::runtime_error(where + ": unknown key 'standardizer." + key + "' in the record");
   }
   check_fields(record, where, policy_record_schema());
@@ -164,6 +167,7 @@ PolicyRecord read_policy_record(const std::string& text, const std::string& wher
                              " entries, the data's have " + std::to_string(observation_size));
   r.standardizer.mean = Eigen::Map<const Eigen::VectorXd>(mean.data(), static_cast<Eigen::Index>(mean.size()));
   r.standardizer.std = Eigen::Map<const Eigen::VectorXd>(stddev.data(), static_cast<Eigen::Index>(stddev.size()));
+  if (const Json& s = record.at("standardizer"); s.contains("clip")) r.standardizer.clip = s.at("clip").get<double>();
   return r;
 }
 

@@ -234,6 +234,11 @@ std::vector<RunConfigField> make_fields() {
       "keep every k-th state-action pair of each training demo, from an offset drawn in [0, k) (GAIL's "
       "protocol; validation states are never subsampled)");
   add(
+      "data.observation_clip", [](RunConfig & c) -> auto& { return c.data.observation_clip; }, range(0, 1e6),
+      "clamp the standardised observations to [-clip, clip] wherever the run standardises: training, validation, "
+      "GAIL's rollouts and evaluation (0: no clamp). For dimensions the demonstrations barely vary in, such as "
+      "MT10's object quaternion ([adversarial.md](adversarial.md)); RL's usual bound is 10");
+  add(
       "train.steps", [](RunConfig & c) -> auto& { return c.train.steps; }, range(1, kMaxSteps),
       "optimiser steps (the paper's code: 30000; the study: 20000)");
   add(

@@ -150,6 +150,34 @@ class LearningSpeedTest(unittest.TestCase):
                              [])
             self.assertNotIn("| s | MT-BC | 1 |", "\n".join(imitation.objective_table(no_base + gail)))
 
+    def test_gail_on_clamped_inputs_pairs_with_bc_on_the_same_clamp(self):
+        def bc_cell(method, variant, seed, clip, score):
+            config = {"method": method, "data": {"observation_clip": clip}}
+            tasks = [TaskResult(t, score, 0.0, 0.0, 500.0) for t in TASKS]
+            return Cell(pathlib.Path("."), f"s/{method}-{variant}_d1_s{seed}", "bc", "s", method, variant, 1, 10,
+                        seed, config, 100, 100, 10, 1.0, tasks)
+
+        with tempfile.TemporaryDirectory() as root:
+            bc = []
+            for method in ("maps", "mt_bc"):
+                bc += [bc_cell(method, "base", s, 0, 0.1) for s in (0, 1)]  # the study's, written before the key
+                for cell in bc[-2:]:
+                    del cell.config["data"]
+                bc += [bc_cell(method, "clip10", s, 10, 0.4) for s in (0, 1)]
+            gail = []
+            for seed in (0, 1):
+                for method in ("maps", "mt_bc"):
+                    cell = gail_cell(root, f"{method}_c{seed}", seed, [0.5, 1.0])
+                    cell.method, cell.variant = method, "gail_clip"
+                    cell.config.update(method=method, data={"observation_clip": 10})
+                    gail.append(cell)
+            settings = imitation.by_objective(bc + gail)
+            for method in ("maps", "mt_bc"):
+                runs = next(r for s, r in settings.items() if s.method == method)
+                self.assertEqual({c.variant for c in runs["bc"]}, {"clip10"}, method)
+            self.assertIn("| s | MT-BC (gail_clip) | 1 | 10 | 2 | 0.40 +- 0.00 |",
+                          "\n".join(imitation.objective_table(bc + gail)))
+
     def test_no_curves_no_table(self):
         with tempfile.TemporaryDirectory() as root:
             cell = gail_cell(root, "maps", 0, [0.5])

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
@@ -221,6 +222,28 @@ TEST_F(GailTrainer, ResumesExactlyAndDoesNotDependOnTheThreadCount) {
     return kept;
   };
   EXPECT_EQ(without_speed("whole/curve.csv"), without_speed("split/curve.csv"));
+}
+
+// MAPS on raw inputs ("raw_clipped") undoes the standardisation with the data's statistics, as under BC: without
+// them its buffers would stay at mean 0 and std 1 and the run would silently be another method.
+TEST_F(GailTrainer, GivesARawInputPolicyTheDatasStatistics) {
+  ag::Generator gen(3);
+  core::MAPSConfig maps_config;
+  maps_config.modules = 2;
+  maps_config.module_hidden = {32};
+  maps_config.selector_hidden = {16};
+  maps_config.observations = "raw_clipped";
+  core::MAPSPolicy policy(core::PolicyShape{2, 1, 2}, maps_config, gen);
+  GailConfig config = small_config();
+  config.env_steps_per_task = 30 * 4;
+  config.discriminator_warmup_iterations = 0;
+  train_gail(policy, data, reach_envs(), config, 5, path("raw"), nullptr);
+  std::map<std::string, Eigen::VectorXd> buffers;
+  for (const auto& [name, tensor] : policy.named_buffers()) buffers[name] = ag::to_eigen_double(tensor).reshaped();
+  ASSERT_EQ(buffers.count("observation_mean"), 1u);
+  EXPECT_TRUE(buffers["observation_mean"].isApprox(data.standardizer().mean, 1e-6)) << buffers["observation_mean"];
+  EXPECT_TRUE(buffers["observation_std"].isApprox(data.standardizer().std, 1e-6)) << buffers["observation_std"];
+  ASSERT_GT((data.standardizer().std.array() - 1.0).abs().maxCoeff(), 0.01);  // the check can fail
 }
 
 TEST_F(GailTrainer, RefusesABadConfigAndAForeignCheckpoint) {

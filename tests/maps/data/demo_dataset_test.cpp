@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 
 #include "tests/maps/data/synthetic_demos.h"
@@ -113,6 +115,38 @@ TEST(DemoDataset, BadRequestsAreNamed) {
   config.subsample = 0;
   EXPECT_THAT([&] { DemoDataset(file, config); },
               ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("subsample")));
+}
+
+TEST(DemoDataset, ObservationClipClampsEveryStandardisedInputAndRejectsBadBounds) {
+  const envs::DemoFile file = synthetic_demo_file();
+  DataConfig config;
+  const DemoDataset open(file, config);
+  EXPECT_EQ(open.standardizer().clip, 0.0);
+  config.observation_clip = 0.5;
+  const DemoDataset clipped(file, config);
+  EXPECT_EQ(clipped.standardizer().clip, 0.5);
+  EXPECT_EQ(clipped.standardizer().mean, open.standardizer().mean);  // the statistics are the same
+  std::mt19937_64 r1(4), r2(4);
+  const Batch a = open.sample(64, r1, ag::Dtype::Float64), b = clipped.sample(64, r2, ag::Dtype::Float64);
+  const Eigen::MatrixXd raw = a.observations.matrix<double>();
+  ASSERT_GT(raw.cwiseAbs().maxCoeff(), 0.5);  // the batch has inputs the clamp changes
+  EXPECT_EQ(Eigen::MatrixXd(b.observations.matrix<double>()), Eigen::MatrixXd(raw.cwiseMax(-0.5).cwiseMin(0.5)));
+  EXPECT_LE(b.previous_observations.matrix<double>().cwiseAbs().maxCoeff(), 0.5);
+  // A single observation (rollouts, evaluation) is clamped alike.
+  const Eigen::VectorXd far = open.standardizer().mean + 100.0 * open.standardizer().std;
+  EXPECT_EQ(clipped.standardizer().apply(far), Eigen::VectorXd::Constant(far.size(), 0.5));
+  EXPECT_NEAR(open.standardizer().apply(far).minCoeff(), 100.0, 1e-9);
+  // Transfer's statistics from another run keep this run's clamp.
+  DemoDataset replaced(file, config);
+  Standardizer other = open.standardizer();
+  other.clip = 7.0;
+  replaced.use_standardizer(other);
+  EXPECT_EQ(replaced.standardizer().clip, 0.5);
+  for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    config.observation_clip = bad;
+    EXPECT_THAT([&] { DemoDataset(file, config); },
+                ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("observation_clip must be finite and >= 0")));
+  }
 }
 
 // 3 of the 6 training demos of synthetic_demo_file(9)'s tasks, every 5th state.

@@ -499,6 +499,41 @@ TEST(TopKMoE, ImportanceAndLoadAreTheHandComputedOnes) {
               1e-12);
 }
 
+// Under PPO (GAIL) the mean actions are act()'s, whose log-probabilities the rollouts took, and the balancing terms
+// ride along: importance on that noiseless gate, load on the batch's noisy one (as loss() computes it).
+TEST(TopKMoE, ForwardTermsAreActsActionsWithTheBalancingTerms) {
+  ag::Generator gen(24);
+  core::TopKMoE moe(kShape, {.experts = 3, .top_k = 2, .layers = 1, .width = 4}, gen);
+  moe.to(ag::Dtype::Float64);
+  for (auto [name, p] : moe.named_parameters())
+    if (name == "gate_weight" || name == "noise_weight") {
+      ag::NoGradGuard guard;
+      ag::Generator init(name.size() + 3);
+      const auto values = ag::randn(p.shape(), init, ag::Dtype::Float64).to_vector();
+      std::copy(values.begin(), values.end(), p.data<double>());
+    }
+  core::Batch batch = make_batch(4, 3, 25, ag::Dtype::Float64);
+  batch.noise_seed = 11;
+  const core::PolicyForward forward = moe.forward_terms(batch);
+  EXPECT_EQ(max_abs_diff(forward.mean_actions, moe.act(batch.observations, batch.tasks)), 0.0);
+  ASSERT_EQ(forward.regularizer.terms.size(), 2u);
+  EXPECT_EQ(forward.regularizer.terms[0].first, "importance");
+  EXPECT_EQ(forward.regularizer.terms[1].first, "load");
+  const auto gates = moe.routing(batch.observations, batch.tasks).to_vector();  // [12, 3], noiseless
+  std::vector<double> importance(3, 0.0);
+  for (std::size_t r = 0; r < 12; ++r)
+    for (std::size_t i = 0; i < 3; ++i) importance[i] += gates[r * 3 + i];
+  const double m = (importance[0] + importance[1] + importance[2]) / 3.0;
+  double var = 0.0;
+  for (double v : importance) var += (v - m) * (v - m) / 2.0;
+  EXPECT_NEAR(forward.regularizer.terms[0].second.item(), var / (m * m + 1e-10), 1e-12);
+  const core::LossTerms noisy = moe.loss(batch);
+  EXPECT_NEAR(forward.regularizer.terms[1].second.item(), noisy.terms[2].second.item(), 1e-12);
+  EXPECT_GT(forward.regularizer.terms[1].second.item(), 0.0);
+  EXPECT_NEAR(forward.regularizer.total.item(),
+              0.01 * (forward.regularizer.terms[0].second.item() + forward.regularizer.terms[1].second.item()), 1e-12);
+}
+
 // The balancing losses alone (no BC term), their gradient in the gate's weights checked numerically in float64.
 TEST(TopKMoE, GradcheckOfTheBalancingLossesAlone) {
   ag::Generator gen(22);

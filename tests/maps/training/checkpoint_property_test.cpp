@@ -1,5 +1,6 @@
 // Checkpoints damaged at random (issue 41, item 6): the binary container (a checksum over every byte) and the JSON
 // records of best.ckpt and last.ckpt, rewritten with a valid checksum so that only the record's own checks stand.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,6 +31,7 @@ class CheckpointProperty : public TempFolderTest {
     record_.validation_bc = 0.25;
     record_.standardizer.mean = Eigen::VectorXd::LinSpaced(4, -1.0, 1.0);
     record_.standardizer.std = Eigen::VectorXd::Constant(4, 0.5);
+    record_.standardizer.clip = 10.0;  // mutants drop or change it
   }
 
   // What a policy checkpoint's reader does: the container, the record against 4 observations, the tensors.
@@ -75,7 +77,11 @@ bool policy_record_holds(const Json& r, std::string& why) {
                                       !std::isfinite(r["validation_bc"].get<double>())))
     return fail("validation_bc " + r["validation_bc"].dump());
   const Json s = r.value("standardizer", Json());
-  if (!s.is_object() || s.size() != 2 || !s.contains("mean") || !s.contains("std")) return fail("standardizer");
+  if (!s.is_object() || s.size() != (s.contains("clip") ? 3u : 2u) || !s.contains("mean") || !s.contains("std"))
+    return fail("standardizer");
+  if (s.contains("clip") &&
+      (!s["clip"].is_number() || !(s["clip"].get<double>() >= 0.0 && s["clip"].get<double>() <= 1e6)))
+    return fail("standardizer.clip " + s["clip"].dump());
   if (!s["mean"].is_array() || !s["std"].is_array() || s["mean"].size() != 4 || s["std"].size() != 4)
     return fail("standardizer lengths");
   for (std::size_t i = 0; i < 4; ++i)
@@ -155,6 +161,26 @@ TEST_F(CheckpointProperty, ATrainingStateIsAcceptedOnlyWhenEveryKeyIsInRange) {
 
 namespace maps::core {
 namespace {
+
+// The clamp survives a round trip, and a record without it (every run before data.observation_clip) reads as none.
+TEST(CheckpointRecord, TheObservationClipRoundTripsAndIsAbsentWhenNone) {
+  PolicyRecord policy;
+  policy.step = 5;
+  policy.standardizer.mean = Eigen::VectorXd::Zero(2);
+  policy.standardizer.std = Eigen::VectorXd::Ones(2);
+  EXPECT_FALSE(to_json(policy)["standardizer"].contains("clip"));
+  EXPECT_EQ(read_policy_record(to_json(policy).dump(), "best.ckpt", 2).standardizer.clip, 0.0);
+  policy.standardizer.clip = 10.0;
+  EXPECT_EQ(read_policy_record(to_json(policy).dump(), "best.ckpt", 2).standardizer.clip, 10.0);
+  Json negative = to_json(policy);
+  negative["standardizer"]["clip"] = -1.0;
+  EXPECT_THAT([&] { read_policy_record(negative.dump(), "best.ckpt", 2); },
+              ::testing::ThrowsMessage<std::runtime_error>(::testing::HasSubstr("standardizer.clip")));
+  Json unknown = to_json(policy);
+  unknown["standardizer"]["bound"] = 1.0;
+  EXPECT_THAT([&] { read_policy_record(unknown.dump(), "best.ckpt", 2); },
+              ::testing::ThrowsMessage<std::runtime_error>(::testing::HasSubstr("unknown key 'standardizer.bound'")));
+}
 
 // Every key of each record's table tried with the edge values of its type, as the run config's are.
 TEST(CheckpointRecordSchema, EveryKeyTakesTheValuesOfItsRangeAndRefusesEveryOtherByName) {
