@@ -128,5 +128,23 @@ TEST_F(RunFolderProperty, ADamagedCheckpointRecordIsRefusedNamingIt) {
       "best.ckpt");
 }
 
+// A run's inputs are clamped as its checkpoint records: a config.json that says otherwise is refused, naming both.
+TEST_F(RunFolderProperty, AClampOtherThanTheCheckpointsIsRefused) {
+  Json clamped = config_;
+  clamped["data"]["observation_clip"] = 10.0;
+  write_json_file(run_ + "/config.json", clamped);
+  try {
+    load_trained_run(run_);
+    ADD_FAILURE() << "a config clamping inputs the checkpoint did not was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("no bound"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("data.observation_clip 10"), std::string::npos) << e.what();
+  }
+  core::PolicyRecord record = core::read_policy_record(record_.dump(), "best.ckpt", 3);
+  record.standardizer.clip = 10.0;
+  nn::save_tensors(run_ + "/best.ckpt", tensors_, core::to_json(record).dump());
+  EXPECT_EQ(load_trained_run(run_).best.at("standardizer").at("clip"), 10.0);  // both say 10: loads
+}
+
 }  // namespace
 }  // namespace maps::experiments
