@@ -48,14 +48,18 @@ class QuoteError(Exception):
 
 def tables(text):
     """The Markdown tables of a text: lists of {column: cell} rows, each row also holding "heading" (the nearest
-    heading above its table)."""
+    heading above its table). A column name the header repeats names its first column; the later ones are "name (2)",
+    "name (3)", ... (the variant table's "variant" is the row's name, then its score)."""
     found, heading, header, rows = [], "", None, []
     for line in text.splitlines() + [""]:
         match = HEADING.match(line)
         if line.startswith("|"):
             cells = [c.strip() for c in line.strip().strip("|").split("|")]
             if header is None:
-                header = cells
+                header = []
+                for name in cells:
+                    repeats = sum(h == name or h.startswith(name + " (") for h in header)
+                    header.append(f"{name} ({repeats + 1})" if repeats else name)
             elif not all(re.fullmatch(r":?-+:?", c) for c in cells):
                 rows.append(dict(zip(header, cells), heading=heading))
             continue

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """experiments/report/check_quotes.py (issue 46, item 7): a quote that matches its table passes (a mean +- interval,
-a range over rows, one number, a sign, a filter on the sub-heading, a section of another report file); a stale
+a range over rows, one number, a sign, a filter on the sub-heading, a section of another report file, a column name
+the header repeats); a stale
 number, a missing section, column or row fails naming the page's line; and every quote in docs/ holds. Run by ctest
 as: check_quotes_test.py."""
 import itertools
@@ -106,6 +107,13 @@ class CheckQuotes(unittest.TestCase):
         self.assertEqual(self.problems(f"18<!-- quote: {where} -->"), [])
         self.assertIn("quoted 17", self.problems(f"17<!-- quote: {where} -->")[0][1])
         self.assertEqual(check_quotes.main([str(page_with("+0.01<!-- quote: Against MAPS | * | p (Holm) -->"))]), 1)
+
+    def test_a_repeated_column_name_names_its_first_column(self):
+        table = ("\n<!-- report.md: Variants -->\n| variant | demos | base | variant | difference |\n|---|---|---|---|---|\n"
+                 "| maps (h16) | 2 | 0.48 +- 0.17 | 0.58 +- 0.07 | +0.10 +- 0.21 |\n<!-- /report.md -->\n\n")
+        self.assertEqual(self.problems(table + "+0.10 +- 0.21<!-- quote: Variants | variant=maps (h16) | difference -->"),
+                         [])
+        self.assertEqual(self.problems(table + "0.58<!-- quote: Variants | variant=maps (h16) | variant (2) -->"), [])
 
     def test_every_quote_in_the_docs_holds(self):
         pages = sorted((ROOT / "docs").glob("*.md"))
