@@ -57,8 +57,8 @@ def tables(text):
             cells = [c.strip() for c in line.strip().strip("|").split("|")]
             if header is None:
                 header = []
-                for name in cells:
-                    repeats = sum(h == name or h.startswith(name + " (") for h in header)
+                for i, name in enumerate(cells):
+                    repeats = cells[:i].count(name)
                     header.append(f"{name} ({repeats + 1})" if repeats else name)
             elif not all(re.fullmatch(r":?-+:?", c) for c in cells):
                 rows.append(dict(zip(header, cells), heading=heading))

@@ -31,13 +31,18 @@ def objective(cell):
     return str(cell.config.get("imitation", "bc"))
 
 
+def clamp(cell):
+    """The bound a cell's standardised inputs are clamped to (data.observation_clip); 0, none, for a config written
+    before the key."""
+    return float(cell.config.get("data", {}).get("observation_clip", 0) or 0)
+
+
 def network(cell):
     """What a cell's network is, what it sees and what it learns: MAPS's module count and widths, or a baseline's
     hidden widths, the bound its standardised inputs are clamped to (data.observation_clip: 0, none, for a config
     written before the key), and the tasks it trains on (data.tasks: [] for all of the set's)."""
-    data = cell.config.get("data", {})
-    tasks = tuple(data.get("tasks", []) or [])
-    clip = float(data.get("observation_clip", 0) or 0)
+    tasks = tuple(cell.config.get("data", {}).get("tasks", []) or [])
+    clip = clamp(cell)
     if cell.method == "maps":
         maps = cell.config.get("maps", {})
         return ("maps", cell.modules, tuple(maps.get("module_hidden", ())), tuple(maps.get("selector_hidden", ())),
@@ -89,15 +94,16 @@ def by_objective(cells):
 
 def maps_setting(settings, setting):
     """MAPS's setting to pair a GAIL setting with: MAPS under the same GAIL variant, else under the suite's own
-    ("gail") where that ran GAIL alike (the same gail settings: a width control such as gail_w430 has no MAPS of its
-    own); (None, None) otherwise."""
+    ("gail") where that ran GAIL alike (the same gail settings and input clamp: a width control such as gail_w430 has
+    no MAPS of its own); (None, None) otherwise."""
     own = settings.get(setting._replace(method="maps"))
     if own:
         return setting._replace(method="maps"), own
     key = setting._replace(method="maps", variant="gail")
     found = settings.get(key)
     runs = settings.get(setting, {}).get("gail", [])
-    if found and runs and found["gail"] and found["gail"][0].config.get("gail") == runs[0].config.get("gail"):
+    if (found and runs and found["gail"] and found["gail"][0].config.get("gail") == runs[0].config.get("gail")
+            and clamp(found["gail"][0]) == clamp(runs[0])):
         return key, found
     return None, None
 

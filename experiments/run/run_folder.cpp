@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -34,6 +35,16 @@ core::RunConfig read_run_config(const std::string& path) {
   return parse_run_config_from(load_config_plugins(read_json_file(path), folder_of(path), where), where);
 }
 
+namespace {
+// "+-10" or "no bound": a clamp as the errors name it.
+std::string clip_text(double clip) {
+  if (!(clip > 0.0)) return "no bound";
+  std::ostringstream text;
+  text << "+-" << clip;
+  return text.str();
+}
+}  // namespace
+
 std::string init_run_folder(const core::RunConfig& config, const std::string& run_dir) {
   if (config.init_run.empty()) return "";
   const std::filesystem::path folder(config.init_run);
@@ -50,6 +61,10 @@ core::DemoDataset load_run_dataset(const core::RunConfig& config, const std::str
       throw std::runtime_error("init.run: " + path + " does not exist (the run this one starts from)");
     const core::Standardizer standardizer =
         core::read_policy_record(nn::load_tensors(path).config, "init.run: checkpoint " + path, -1).standardizer;
+    if (standardizer.clip != config.data.observation_clip)
+      throw std::runtime_error("init.run: " + path + " was trained on inputs clamped to " +
+                               clip_text(standardizer.clip) + "; this run's data.observation_clip says " +
+                               clip_text(config.data.observation_clip) + " (the reused layers need the same inputs)");
     try {
       data.use_standardizer(standardizer);
     } catch (const std::invalid_argument& e) {
@@ -105,10 +120,9 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
                              " was trained on (its observation statistics differ from those " + best_path +
                              " records)");
   if (record.standardizer.clip != standardizer.clip)
-    throw std::runtime_error(
-        "checkpoint " + best_path + " was trained on inputs clamped to " +
-        (record.standardizer.clip > 0.0 ? "+-" + std::to_string(record.standardizer.clip) : std::string("no bound")) +
-        ", " + run + "'s config.json says data.observation_clip " + std::to_string(standardizer.clip));
+    throw std::runtime_error("checkpoint " + best_path + " was trained on inputs clamped to " +
+                             clip_text(record.standardizer.clip) + ", " + run +
+                             "'s config.json says data.observation_clip " + clip_text(standardizer.clip));
   loaded.policy->eval();
   loaded.policy->prepare_for_evaluation(data);
   return loaded;

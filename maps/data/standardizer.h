@@ -9,7 +9,7 @@ namespace maps::core {
 // Observation standardisation with statistics of the training demonstrations: (x - mean) / std per dimension,
 // where a dimension that never varies gets std 1 (it is then only centred), then, when clip > 0, clamped to
 // [-clip, clip]. Stored in checkpoints. The clamp is for dimensions the demonstrations barely vary in: MT10's object
-// quaternion has a std of 6e-4 over the demonstrations, so a policy that knocks the object over sees inputs in the
+// quaternion has a std of 4e-4 over the demonstrations, so a policy that knocks the object over sees inputs in the
 // hundreds (docs/adversarial.md, "Observations out of the demonstrations' range").
 struct Standardizer {
   Eigen::VectorXd mean;

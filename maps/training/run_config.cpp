@@ -185,6 +185,12 @@ RunConfig parse_run_config(const Json& json) {
   if (c.imitation == "gail" && c.data.action_horizon > 1)
     throw std::invalid_argument("config chunking.horizon: GAIL's PPO acts one step at a time; action chunks (horizon " +
                                 std::to_string(c.data.action_horizon) + ") are for imitation \"bc\"");
+  // MAPS on raw inputs rebuilds them from the standardised ones (z std + mean): from clamped ones it would not see
+  // the raw observations its option promises.
+  if (c.method == "maps" && c.maps.observations == "raw_clipped" && c.data.observation_clip > 0.0)
+    throw std::invalid_argument(
+        "config data.observation_clip: maps.observations \"raw_clipped\" gives MAPS the raw observations (clamped "
+        "to +-5 in its modules), so it cannot take clamped standardised ones too (use one or the other)");
   c.data.seed = c.seed;
   c.train.seed = c.seed;
   c.maml.finetune_seed = c.seed;

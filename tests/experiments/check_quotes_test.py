@@ -114,6 +114,10 @@ class CheckQuotes(unittest.TestCase):
         self.assertEqual(self.problems(table + "+0.10 +- 0.21<!-- quote: Variants | variant=maps (h16) | difference -->"),
                          [])
         self.assertEqual(self.problems(table + "0.58<!-- quote: Variants | variant=maps (h16) | variant (2) -->"), [])
+        # A column named like another's numbered form is not a repeat of it.
+        other = ("\n<!-- report.md: Scores -->\n| method | score (95% CI) | score |\n|---|---|---|\n| maps | 0.1 | 0.7 |\n"
+                 "<!-- /report.md -->\n\n")
+        self.assertEqual(self.problems(other + "0.7<!-- quote: Scores | method=maps | score -->"), [])
 
     def test_every_quote_in_the_docs_holds(self):
         pages = sorted((ROOT / "docs").glob("*.md"))

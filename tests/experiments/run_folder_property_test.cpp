@@ -138,12 +138,27 @@ TEST_F(RunFolderProperty, AClampOtherThanTheCheckpointsIsRefused) {
     ADD_FAILURE() << "a config clamping inputs the checkpoint did not was accepted";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("no bound"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("data.observation_clip 10"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("data.observation_clip +-10"), std::string::npos) << e.what();
   }
   core::PolicyRecord record = core::read_policy_record(record_.dump(), "best.ckpt", 3);
   record.standardizer.clip = 10.0;
   nn::save_tensors(run_ + "/best.ckpt", tensors_, core::to_json(record).dump());
   EXPECT_EQ(load_trained_run(run_).best.at("standardizer").at("clip"), 10.0);  // both say 10: loads
+  // A run that starts from this one (init.run) must clamp its inputs as the reused layers saw them.
+  Json started = config_;
+  started["init"]["run"] = run_;
+  started["data"]["observation_clip"] = 5.0;
+  try {
+    load_run_dataset(core::parse_run_config(started), path("next"));
+    ADD_FAILURE() << "a run starting from one clamped otherwise was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("init.run: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("clamped to +-10; this run's data.observation_clip says +-5"),
+              std::string::npos)
+        << e.what();
+  }
+  started["data"]["observation_clip"] = 10.0;
+  EXPECT_EQ(load_run_dataset(core::parse_run_config(started), path("next")).standardizer().clip, 10.0);
 }
 
 }  // namespace

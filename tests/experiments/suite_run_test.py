@@ -132,7 +132,8 @@ class SuiteTest(unittest.TestCase):
                          {"share": 0, "explore": 0.1, "sparse": 0.5, "smooth": 1})
         self.assertEqual(requests["gravity/maps_d2_s0"]["data"], {"file": "data/tiny/gravity.h5", "demos_per_task": 2,
                                                                   "subsample": 10, "tasks": [], "holdout": [],
-                                                                  "task_demos": {}, "draws": "sequential"})
+                                                                  "task_demos": {}, "draws": "sequential",
+                                                                  "observation_clip": 0.0})
 
     def test_shards_partition_the_cells(self):
         config = json.loads(TINY.read_text())

@@ -32,6 +32,9 @@ def setUpModule():
               "maps": {"modules": 2, "module_hidden": [8, 8], "selector_hidden": [8]}}
     (pathlib.Path(WORK) / "run.json").write_text(json.dumps(config))
     tool("train", "--config", "run.json", "--out", "run")
+    config["data"]["observation_clip"] = 0.5  # a run on clamped inputs (Runs.test_forward_clamps_as_act_does)
+    (pathlib.Path(WORK) / "run_clip.json").write_text(json.dumps(config))
+    tool("train", "--config", "run_clip.json", "--out", "run_clip")
 
 
 def float64(*shape, seed=0):
@@ -482,6 +485,24 @@ class Runs(unittest.TestCase):
             self.trained.forward(maps.tensor(self.obs), 5)
         with self.assertRaisesRegex(ValueError, "NaN"):
             self.trained.forward(maps.tensor(np.full((1, 17), np.nan)), 0)
+
+    def test_forward_clamps_as_act_does(self):
+        """A run on clamped inputs: forward on a tensor (the differentiable path) gives act()'s actions, and an
+        observation entry beyond the clamp has no gradient."""
+        run = maps.load_run(pathlib.Path(WORK) / "run_clip")
+        far = self.obs.copy()
+        far[:, 0] += 1e3  # far beyond 0.5 standard deviations of any demonstration state
+        observations = maps.tensor(far, requires_grad=True)
+        out = run.forward(observations, self.tasks)
+        np.testing.assert_array_equal(out.numpy(), run.act(far, self.tasks))
+        maps.sum(out * out).backward()
+        grad = observations.grad.numpy()
+        np.testing.assert_array_equal(grad[:, 0], 0.0)
+        self.assertGreater(np.abs(grad).max(), 0.0)  # the entries inside the clamp still get one
+        # Moving the clamped entry further changes nothing.
+        further = far.copy()
+        further[:, 0] += 1e3
+        np.testing.assert_array_equal(run.act(further, self.tasks), run.act(far, self.tasks))
 
     def test_forward_gradient_matches_finite_differences_in_float32(self):
         """d sum(forward) / d head.weight[0, 2, 1] by backward, against a central difference through

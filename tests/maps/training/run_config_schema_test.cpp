@@ -89,5 +89,17 @@ TEST(RunConfigSchema, ValuesAcceptedOnPurposeKeepTheirDocumentedMeaning) {
   EXPECT_THROW(parse_run_config(config_with("maps.selector_losses", {{"share", -1}})), std::invalid_argument);
 }
 
+// MAPS on raw inputs rebuilds them from the standardised ones: clamped ones would not be raw, so the pair is refused.
+TEST(RunConfig, RawInputsAndAClampAreRefusedTogether) {
+  Json config = config_with("data.observation_clip", 10);
+  EXPECT_NO_THROW(parse_run_config(config));
+  config["maps"]["observations"] = "raw_clipped";
+  EXPECT_THAT([&] { parse_run_config(config); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr(
+                  "config data.observation_clip: maps.observations \"raw_clipped\" gives MAPS the raw observations")));
+  config["data"]["observation_clip"] = 0;
+  EXPECT_NO_THROW(parse_run_config(config));
+}
+
 }  // namespace
 }  // namespace maps::core
