@@ -68,6 +68,11 @@ void check_balanced_batch(const std::string& where, const PolicyShape& shape, co
   check_batch(where, shape, batch);
 }
 
+ag::Tensor with_task_one_hot(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks,
+                             std::int64_t num_tasks) {
+  return ag::concat({observations, ag::one_hot(tasks, num_tasks, observations.dtype())}, 1);
+}
+
 LossTerms bc_terms(const ag::Tensor& bc) { return LossTerms{bc, {{"bc", bc}}}; }
 
 ag::Tensor task_weight_shares(const ag::Tensor& weights, const std::vector<std::int64_t>& tasks) {

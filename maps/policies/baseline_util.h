@@ -36,6 +36,10 @@ void check_batch(const std::string& where, const PolicyShape& shape, const Batch
 // check_batch and per_task > 0.
 void check_balanced_batch(const std::string& where, const PolicyShape& shape, const Batch& batch);
 
+// [observations, one_hot(tasks)] [n, S + K]: the input of the methods told their task beside the state.
+ag::Tensor with_task_one_hot(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks,
+                             std::int64_t num_tasks);
+
 // The BC loss as the only term.
 LossTerms bc_terms(const ag::Tensor& bc);
 

@@ -15,8 +15,7 @@ MTBC::MTBC(PolicyShape shape, ag::Generator& gen, const std::vector<std::int64_t
 }
 
 ag::Tensor MTBC::forward(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
-  const ag::Tensor onehot = ag::one_hot(tasks, shape().num_tasks, observations.dtype());
-  return child_at<nn::MLP>(mlp_).forward(ag::concat({observations, onehot}, 1));
+  return child_at<nn::MLP>(mlp_).forward(detail::with_task_one_hot(observations, tasks, shape().num_tasks));
 }
 
 ag::Tensor MTBC::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {

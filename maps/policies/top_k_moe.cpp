@@ -122,14 +122,13 @@ ag::Tensor TopKMoE::mixture(const ag::Tensor& inputs, const Gate& g) {
 ag::Tensor TopKMoE::act(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("TopKMoE::act", shape(), observations, tasks);
   if (observations.size(0) == 0) return ag::zeros({0, shape().action_size}, observations.dtype());
-  const ag::Tensor inputs = ag::concat({observations, ag::one_hot(tasks, shape().num_tasks, observations.dtype())}, 1);
+  const ag::Tensor inputs = detail::with_task_one_hot(observations, tasks, shape().num_tasks);
   return mixture(inputs, gate(inputs, nullptr));
 }
 
 LossTerms TopKMoE::loss(const Batch& batch) {
   detail::check_batch("TopKMoE::loss", shape(), batch);
-  const ag::Tensor inputs =
-      ag::concat({batch.observations, ag::one_hot(batch.tasks, shape().num_tasks, batch.observations.dtype())}, 1);
+  const ag::Tensor inputs = detail::with_task_one_hot(batch.observations, batch.tasks, shape().num_tasks);
   const Gate g = gate(inputs, &batch.noise_seed);
   const ag::Tensor bc = bc_loss(mixture(inputs, g), batch);
   const ag::Tensor importance = cv_squared(ag::sum(g.gates, {0}));
@@ -140,8 +139,7 @@ LossTerms TopKMoE::loss(const Batch& batch) {
 
 PolicyForward TopKMoE::forward_terms(const Batch& batch) {
   detail::check_batch("TopKMoE::forward_terms", shape(), batch);
-  const ag::Tensor inputs =
-      ag::concat({batch.observations, ag::one_hot(batch.tasks, shape().num_tasks, batch.observations.dtype())}, 1);
+  const ag::Tensor inputs = detail::with_task_one_hot(batch.observations, batch.tasks, shape().num_tasks);
   const Gate clean = gate(inputs, nullptr);
   const ag::Tensor importance = cv_squared(ag::sum(clean.gates, {0}));
   const Gate noisy = gate(inputs, &batch.noise_seed);
@@ -155,8 +153,7 @@ PolicyForward TopKMoE::forward_terms(const Batch& batch) {
 ag::Tensor TopKMoE::routing(const ag::Tensor& observations, const std::vector<std::int64_t>& tasks) {
   detail::check_observations("TopKMoE::routing", shape(), observations, tasks);
   ag::NoGradGuard no_grad;
-  return gate(ag::concat({observations, ag::one_hot(tasks, shape().num_tasks, observations.dtype())}, 1), nullptr)
-      .gates;
+  return gate(detail::with_task_one_hot(observations, tasks, shape().num_tasks), nullptr).gates;
 }
 
 double top_k_moe_parameter_count(const PolicyShape& shape, const TopKMoEConfig& c) {

@@ -392,6 +392,21 @@ TEST(CARE, DotAttentionFollowsTheStateTaskAttentionOnlyTheTask) {
   }
 }
 
+// A float64 MoE's gate and noise weights [S + K, E] (zero at construction) set to standard normal draws seeded by each
+// name's length plus `seed`, so that the gate depends on the input; returns the two, for gradcheck.
+std::vector<ag::Tensor> randomize_gate(core::TopKMoE& moe, std::size_t seed) {
+  std::vector<ag::Tensor> gate_parameters;
+  for (auto [name, p] : moe.named_parameters())
+    if (name == "gate_weight" || name == "noise_weight") {
+      ag::NoGradGuard guard;
+      ag::Generator init(name.size() + seed);
+      const auto values = ag::randn(p.shape(), init, ag::Dtype::Float64).to_vector();
+      std::copy(values.begin(), values.end(), p.data<double>());
+      gate_parameters.push_back(p);
+    }
+  return gate_parameters;
+}
+
 // Top-k: each row's gate keeps k experts, and the balancing losses spread the load. Trained with fresh gate noise
 // every step (as maps train draws it), at the default weight 0.01 the squared coefficient of variation of the
 // experts' gate mass (noise-free, over the batch) is a tenth or less of what it is without the losses (measured:
@@ -505,13 +520,7 @@ TEST(TopKMoE, ForwardTermsAreActsActionsWithTheBalancingTerms) {
   ag::Generator gen(24);
   core::TopKMoE moe(kShape, {.experts = 3, .top_k = 2, .layers = 1, .width = 4}, gen);
   moe.to(ag::Dtype::Float64);
-  for (auto [name, p] : moe.named_parameters())
-    if (name == "gate_weight" || name == "noise_weight") {
-      ag::NoGradGuard guard;
-      ag::Generator init(name.size() + 3);
-      const auto values = ag::randn(p.shape(), init, ag::Dtype::Float64).to_vector();
-      std::copy(values.begin(), values.end(), p.data<double>());
-    }
+  randomize_gate(moe, 3);
   core::Batch batch = make_batch(4, 3, 25, ag::Dtype::Float64);
   batch.noise_seed = 11;
   const core::PolicyForward forward = moe.forward_terms(batch);
@@ -541,15 +550,7 @@ TEST(TopKMoE, GradcheckOfTheBalancingLossesAlone) {
   moe.to(ag::Dtype::Float64);
   core::Batch batch = make_batch(4, 3, 23, ag::Dtype::Float64);
   batch.noise_seed = 9;
-  std::vector<ag::Tensor> parameters;
-  for (auto [name, p] : moe.named_parameters())
-    if (name == "gate_weight" || name == "noise_weight") {
-      ag::NoGradGuard guard;
-      ag::Generator init(name.size() + 1);
-      const auto values = ag::randn(p.shape(), init, ag::Dtype::Float64).to_vector();
-      std::copy(values.begin(), values.end(), p.data<double>());
-      parameters.push_back(p);
-    }
+  const std::vector<ag::Tensor> parameters = randomize_gate(moe, 1);
   const auto result = ag::gradcheck(
       "top-k MoE importance + load",
       [&](const std::vector<ag::Tensor>&) {
@@ -569,16 +570,7 @@ TEST(TopKMoE, GradcheckThroughTheGateAndTheLoad) {
   core::Batch batch = make_batch(4, 2, 17, ag::Dtype::Float64);
   batch.noise_seed = 5;
   // Non-zero gate weights, so that the gate depends on the input.
-  for (auto [name, p] : moe.named_parameters())
-    if (name == "gate_weight" || name == "noise_weight") {
-      ag::NoGradGuard guard;
-      ag::Generator init(name.size());
-      const auto values = ag::randn(p.shape(), init, ag::Dtype::Float64).to_vector();
-      std::copy(values.begin(), values.end(), p.data<double>());
-    }
-  std::vector<ag::Tensor> parameters;
-  for (const auto& [name, p] : moe.named_parameters())
-    if (name == "gate_weight" || name == "noise_weight") parameters.push_back(p);
+  const std::vector<ag::Tensor> parameters = randomize_gate(moe, 0);
   const auto result = ag::gradcheck(
       "top-k MoE loss", [&](const std::vector<ag::Tensor>&) { return moe.loss(batch).total; }, parameters);
   EXPECT_TRUE(result.ok) << result.message;
