@@ -22,11 +22,15 @@ void add_eval(CLI::App& tool, Commands& commands) {
   command->add_flag(
       "--checkpoints", options->checkpoints,
       "Also evaluate every kept step_<N>.ckpt (train.keep_every): the paper's best-over-checkpoints rule");
+  auto* last = command->add_flag("--last", options->last,
+                                 "Also evaluate the policy after the last training step (last.ckpt; with "
+                                 "train.ema_power, its average of the weights): the final-checkpoint rule");
   command
       ->add_flag("--each-module", options->each_module,
                  "MAPS: score every task with the selector forced onto each module in turn, into eval_modules.json "
                  "(eval.json is left alone)")
-      ->excludes("--checkpoints");
+      ->excludes("--checkpoints")
+      ->excludes(last);
   commands.push_back({command, [options] { return run_eval(*options); }});
 }
 

@@ -13,6 +13,9 @@ struct EvalRunOptions {
   // Also evaluate every step_<N>.ckpt the run kept (train.keep_every), into eval.json's "checkpoints" and
   // "best_over_checkpoints" (the paper's rule: the best test score over checkpoints, an optimistic one).
   bool checkpoints = false;
+  // Also evaluate the policy after the last training step (last.ckpt; with train.ema_power its average of the
+  // weights), into eval.json's "last": the final-checkpoint rule, beside the best-validation one.
+  bool last = false;
   // MAPS only: instead of eval.json, evaluate the policy once with its selector and once with every score forced
   // onto each module in turn (Fig. 6: what each module does alone), into DIR/eval_modules.json.
   bool each_module = false;

@@ -1,5 +1,6 @@
 #include "experiments/run/run_folder.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -125,6 +126,46 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
                              "'s config.json says data.observation_clip " + clip_text(standardizer.clip));
   loaded.policy->eval();
   loaded.policy->prepare_for_evaluation(data);
+  return loaded;
+}
+
+TrainedRun load_final_policy(const std::string& run) {
+  namespace fs = std::filesystem;
+  TrainedRun loaded = load_trained_run(run);
+  const std::string path = (fs::path(run) / run_files::kLastCheckpoint).string();
+  if (!fs::exists(path))
+    throw std::runtime_error(run + " has no " + run_files::kLastCheckpoint +
+                             " (the trainer's state after its last step)");
+  const nn::Checkpoint saved = nn::load_tensors(path);
+  if (core::record_format(saved.config) != core::kTrainingStateFormat)
+    throw std::runtime_error(path + " is not a training state (\"" + core::kTrainingStateFormat +
+                             "\" record), as the trainer writes " + run_files::kLastCheckpoint);
+  const core::TrainingState state = core::read_training_state(saved.config, "training checkpoint " + path);
+  nn::NamedTensors tensors = nn::strip_prefix(saved.tensors, core::kTrainingStatePolicyPrefix);
+  const nn::NamedTensors averaged = nn::strip_prefix(saved.tensors, core::kTrainingStateAveragePrefix);
+  const bool averages = loaded.config.train.ema_power > 0.0;
+  if (averaged.empty() == averages)
+    throw std::runtime_error("training checkpoint " + path + (averages ? " holds no" : " holds an") +
+                             " average of the weights, and " + run + "'s config.json has train.ema_power " +
+                             nlohmann::json(loaded.config.train.ema_power).dump());
+  // The average replaces the trained parameters; buffers (not averaged) stay the trained ones, as in best.ckpt.
+  for (const auto& [name, value] : averaged) {
+    const auto it = std::find_if(tensors.begin(), tensors.end(), [&name](const auto& t) { return t.name == name; });
+    if (it == tensors.end())
+      throw std::runtime_error("training checkpoint " + path + " averages " + name + ", which its policy lacks");
+    it->tensor = value;
+  }
+  const core::DemoDataset& data = *loaded.data;
+  auto policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
+  try {
+    policy->load_state_dict(tensors);
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error("training checkpoint " + path + " does not fit " + run + "'s policy: " + e.what());
+  }
+  policy->eval();
+  policy->prepare_for_evaluation(data);
+  loaded.policy = std::move(policy);
+  loaded.best = {{"step", state.step}};
   return loaded;
 }
 

@@ -53,4 +53,11 @@ struct TrainedRun {
 TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint = run_files::kBestCheckpoint,
                             const std::string& data_file = "");
 
+// The policy after the run's last training step, read from last.ckpt (the trainer's resume state) and ready to act
+// as load_trained_run's: with train.ema_power above 0 its average of the weights (what best.ckpt and the kept steps
+// hold), else the trained weights. best.ckpt must exist too (it checks the demo file against the run's standardizer);
+// `best` holds {"step": the last step}. Throws naming the file when last.ckpt is missing, is not a training state, or
+// does not fit the run's policy, and when its average of the weights disagrees with the run config's.
+TrainedRun load_final_policy(const std::string& run);
+
 }  // namespace maps::experiments

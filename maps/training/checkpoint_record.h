@@ -35,6 +35,11 @@ struct TrainingState {
 
 inline constexpr const char* kPolicyRecordFormat = "maps-policy 1";
 inline constexpr const char* kTrainingStateFormat = "maps-train 1";
+// last.ckpt's tensors: the policy's state dict, Adam's state and (train.ema_power > 0) the average of the parameters,
+// each under its prefix.
+inline constexpr const char* kTrainingStatePolicyPrefix = "policy.";
+inline constexpr const char* kTrainingStateAdamPrefix = "adam.";
+inline constexpr const char* kTrainingStateAveragePrefix = "ema.";
 
 nlohmann::json to_json(const PolicyRecord& record);
 nlohmann::json to_json(const TrainingState& state);

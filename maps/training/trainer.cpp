@@ -31,9 +31,9 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-constexpr const char* kPolicyPrefix = "policy.";
-constexpr const char* kAdamPrefix = "adam.";
-constexpr const char* kAveragePrefix = "ema.";
+constexpr const char* kPolicyPrefix = kTrainingStatePolicyPrefix;
+constexpr const char* kAdamPrefix = kTrainingStateAdamPrefix;
+constexpr const char* kAveragePrefix = kTrainingStateAveragePrefix;
 
 struct Progress {
   std::int64_t step = 0;

@@ -872,6 +872,54 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("kept no step_<N>.ckpt", proc.stderr)
 
     @heavy
+    def test_last_step_is_evaluated(self):
+        """maps eval --last scores the policy after the last training step from last.ckpt (the trainer's state), with
+        train.ema_power its average of the weights: the same policy as the kept checkpoint of that step, so the same
+        score; a run without last.ckpt, or whose last.ckpt is no training state, is named."""
+        config = json.loads(TINY.read_text())
+        config["defaults"]["train"]["keep_every"] = 60
+        config["variants"] = {"ema": {"train": {"ema_power": 0.75},
+                                      "diffusion_policy": {"denoiser": "mlp", "horizon": 1, "execute": 1}}}
+        config["grids"] = [{"name": "last", "sets": ["gravity"], "methods": ["mt_bc"], "seeds": [0]},
+                           {"name": "ema", "sets": ["gravity"], "methods": ["diffusion_policy"], "variants": ["ema"],
+                            "seeds": [0]}]
+        path = write_config(self.dir, config)
+        out = self.dir / "last"
+        maps("suite", "run", path, "--out", out, "--jobs", "2")
+        for name in ("mt_bc_d2_s0", "diffusion_policy-ema_d2_s0"):
+            cell = out / "cells/gravity" / name
+            maps("eval", "--run", cell, "--checkpoints", "--last")
+            evaluation = json.loads((cell / "eval.json").read_text())
+            kept = evaluation["checkpoints"]
+            self.assertEqual([c["step"] for c in kept], [60])
+            self.assertEqual(evaluation["last"]["step"], 60)
+            self.assertEqual(evaluation["last"]["mean_score"], kept[0]["mean_score"], name)
+            self.assertEqual(evaluation["last"]["scores"], kept[0]["scores"], name)
+        # last.ckpt and the run config must agree on the average (else which weights are "the last" is unclear).
+        cell = out / "cells/gravity/diffusion_policy-ema_d2_s0"
+        bare = self.dir / "bare"
+        shutil.copytree(cell, bare)
+        config_file = bare / "config.json"
+        run_config = json.loads(config_file.read_text())
+        run_config["train"]["ema_power"] = 0
+        config_file.write_text(json.dumps(run_config))
+        proc = maps("eval", "--run", bare, "--last", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("holds an average of the weights", proc.stderr)
+        # Checked before any evaluation: no last.ckpt, or a policy checkpoint in its place.
+        broken = self.dir / "broken"
+        shutil.copytree(out / "cells/gravity/mt_bc_d2_s0", broken)
+        (broken / "last.ckpt").unlink()
+        proc = maps("eval", "--run", broken, "--last", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("has no last.ckpt", proc.stderr)
+        self.assertNotIn("maps eval:", proc.stdout)
+        shutil.copy(broken / "best.ckpt", broken / "last.ckpt")
+        proc = maps("eval", "--run", broken, "--last", check=False)
+        self.assertNotEqual(proc.returncode, 0)
+        self.assertIn("last.ckpt is not a training state", proc.stderr)
+
+    @heavy
     def test_maps_on_raw_clipped_observations(self):
         """maps.observations "raw_clipped" (the paper's code's inputs): its statistics travel in the checkpoints, so
         an evaluation of best.ckpt by a fresh process scores what the suite's did."""
