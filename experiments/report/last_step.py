@@ -1,0 +1,165 @@
+#!/usr/bin/python3
+"""The final-checkpoint rule beside a suite's headline one: each finished cell's policy after its last training step,
+scored by `maps eval --last` (eval.json's "last"), against the same cell's best-validation checkpoint and against the
+base method's headline score, paired by seed.
+
+A suite's cells keep no checkpoints in the repository, so the evaluations are made where training left last.ckpt and
+kept as files of their own, one per cell, named <set>-<cell>.json (the eval.json of a copy of the cell folder):
+
+    for d in results/zoo-modern/cells/gravity/diffusion_policy-*_d5_s*; do
+      t=/tmp/last/$(basename $d); mkdir -p $t; cp $d/config.json $d/best.ckpt $d/last.ckpt $t/
+      build/bin/maps eval --run $t --last && cp $t/eval.json results/zoo-modern/last-checkpoint/gravity-$(basename $d).json
+    done
+    python3 experiments/report/last_step.py results/zoo-modern results/zoo-modern/last-checkpoint \\
+        --out results/zoo-modern/last-checkpoint/report.md
+
+Every file is checked against its cell before it is used: the cell exists and has finished, the file's method, seed
+and demonstrations are the cell's, its best-checkpoint score is the cell's headline score (the same checkpoint
+evaluated on the same episodes: evaluation is deterministic), and its last step is the cell's last training step.
+Per (set, method, demonstrations): both rules' mean scores (mean +- 95% t interval over seeds), last - best validation
+paired by seed, and last - the base method (its headline checkpoint) paired by seed, with the paired t test and Holm
+over each set's rows."""
+import argparse
+import math
+import pathlib
+import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from suite_results import SuiteError, groups, load_suite, read_json  # noqa: E402
+from suite_stats import fmt, fmt_p, holm_within, paired_p  # noqa: E402
+
+SECTION = "The last step against the best-validation checkpoint"
+# The file's best-checkpoint score must be the cell's to this precision (both printed from the same double).
+SAME_SCORE = 1e-9
+
+
+class EvalFileError(Exception):
+    pass
+
+
+def finite(value, where):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise EvalFileError(f"{where} is {value!r}; expected a finite number")
+    return float(value)
+
+
+def read_last(path, cells_by_folder):
+    """(cell, last step's mean score) from one `maps eval --last` file, checked against its cell."""
+    name = path.stem
+    set_name, dash, cell_name = name.partition("-")
+    if not dash:
+        raise EvalFileError(f"{path}: the name is not <set>-<cell>.json")
+    cell = cells_by_folder.get((set_name, cell_name))
+    if cell is None:
+        raise EvalFileError(f"{path}: the suite has no finished cell {set_name}/{cell_name}")
+    try:
+        record = read_json(path)
+    except Exception as e:  # unreadable, not JSON, nested too deep: named, never trusted
+        raise EvalFileError(f"{path}: {e}") from e
+    if not isinstance(record, dict):
+        raise EvalFileError(f"{path}: expected a JSON object (maps eval's eval.json)")
+    for key, expected in (("method", cell.method), ("seed", cell.seed), ("demos_per_task", cell.demos)):
+        if record.get(key) != expected or isinstance(record.get(key), bool):
+            raise EvalFileError(f"{path}: {key} is {record.get(key)!r}; cell {set_name}/{cell_name} has {expected!r}")
+    best = finite(record.get("mean_score"), f"{path}: mean_score")
+    if abs(best - cell.mean_score) > SAME_SCORE:
+        raise EvalFileError(f"{path}: best.ckpt scored {best!r} here and {cell.mean_score!r} in the cell's result.json:"
+                            " not the same checkpoint or not the same evaluation")
+    last = record.get("last")
+    if not isinstance(last, dict):
+        raise EvalFileError(f"{path}: no \"last\" object (evaluate with maps eval --last)")
+    step = last.get("step")
+    if isinstance(step, bool) or not isinstance(step, int) or step != cell.steps:
+        raise EvalFileError(f"{path}: last.step is {step!r}; the cell trained {cell.steps} steps")
+    score = finite(last.get("mean_score"), f"{path}: last.mean_score")
+    scores = last.get("scores")
+    if not isinstance(scores, list) or len(scores) != len(cell.tasks):
+        raise EvalFileError(f"{path}: last.scores is not a list of {len(cell.tasks)} task scores")
+    for i, value in enumerate(scores):
+        finite(value, f"{path}: last.scores[{i}]")
+    if abs(sum(scores) / len(scores) - score) > 1e-6:
+        raise EvalFileError(f"{path}: last.mean_score {score!r} is not the mean of last.scores")
+    return cell, score
+
+
+def rows_of(suite, files, base):
+    cells_by_folder = {(c.set, c.folder.name): c for c in suite.cells}
+    last_score = {}
+    for path in files:
+        cell, score = read_last(path, cells_by_folder)
+        last_score[id(cell)] = score
+    grouped = groups(suite.cells)
+    rows = []
+    for key, cells in grouped.items():
+        with_last = [c for c in cells if id(c) in last_score]
+        if not with_last:
+            continue
+        base_cells = next((g for k, g in grouped.items()
+                           if k.set == key.set and k.label == base and k.demos == key.demos
+                           and k.subsample == key.subsample), [])
+        base_by_seed = {c.seed: c.mean_score for c in base_cells}
+        rows.append(dict(set=key.set, method=key.label, demos=key.demos, k=key.subsample, seeds=len(with_last),
+                         best=[c.mean_score for c in with_last], last=[last_score[id(c)] for c in with_last],
+                         gain=[last_score[id(c)] - c.mean_score for c in with_last],
+                         headline_vs_base=[c.mean_score - base_by_seed[c.seed] for c in with_last
+                                           if c.seed in base_by_seed],
+                         vs_base=[last_score[id(c)] - base_by_seed[c.seed] for c in with_last
+                                  if c.seed in base_by_seed]))
+    for row in rows:
+        row["gain_p"] = paired_p(row["gain"])
+        row["p"] = paired_p(row["vs_base"])
+    for row, adjusted in zip(rows, holm_within([r["p"] for r in rows], [r["set"] for r in rows])):
+        row["holm"] = adjusted
+    return rows
+
+
+def table(rows, base):
+    lines = [f"| set | method | demos | k | seeds | best validation | last step | last - best validation | p "
+             f"| pairs with {base} | best validation - {base} | last step - {base} | p (last) | p (last, Holm) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['seeds']} | {fmt(r['best'])} "
+                     f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} "
+                     f"| {len(r['vs_base'])} | {fmt(r['headline_vs_base'], signed=True) if r['vs_base'] else '-'} "
+                     f"| {fmt(r['vs_base'], signed=True) if r['vs_base'] else '-'} | {fmt_p(r['p'])} "
+                     f"| {fmt_p(r['holm'])} |")
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("suite", help="the suite folder whose cells were evaluated")
+    parser.add_argument("evals", help="folder of <set>-<cell>.json files written by maps eval --last")
+    parser.add_argument("--base", default="maps", help="the method each row is paired with (default: maps)")
+    parser.add_argument("--out", help="also write the markdown here")
+    args = parser.parse_args()
+    try:
+        suite = load_suite(args.suite)
+    except SuiteError as e:
+        print(f"last_step.py: {e}", file=sys.stderr)
+        return 2
+    files = sorted(pathlib.Path(args.evals).glob("*.json"))
+    if not files:
+        print(f"last_step.py: {args.evals}: no <set>-<cell>.json files (maps eval --last's eval.json)", file=sys.stderr)
+        return 2
+    try:
+        rows = rows_of(suite, files, args.base)
+    except EvalFileError as e:
+        print(f"last_step.py: {e}", file=sys.stderr)
+        return 2
+    text = "\n".join([
+        f"## {SECTION}", "",
+        f"{len(files)} cells of {args.suite} scored at their last training step (maps eval --last, the same episodes as"
+        " their headline evaluation) beside their best-validation checkpoint (the suite's headline rule), mean +- 95%"
+        f" CI over seeds; last - best validation paired by seed; against {args.base}: each method's seeds paired with"
+        f" {args.base}'s headline cells (its best-validation checkpoint); p: paired t test; Holm over each set's rows.",
+        "", table(rows, args.base), ""])
+    print(text)
+    if args.out:
+        pathlib.Path(args.out).write_text(f"# The final-checkpoint rule: {args.suite}\n\n{text}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,95 @@
+#!/usr/bin/python3
+"""Tests of the final-checkpoint table (experiments/report/last_step.py): on the committed results/zoo-modern and its
+last-checkpoint evaluations it writes the committed report.md; every way an evaluation file can disagree with its
+cell (another seed, another checkpoint's score, a step short of training's end, no "last", a non-finite or
+inconsistent score, a cell the suite lacks, a file that is not JSON) is refused with the file named, never used.
+Run by ctest (tests/CMakeLists.txt)."""
+import json
+import pathlib
+import shutil
+import subprocess
+import tempfile
+import unittest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "experiments" / "report" / "last_step.py"
+SUITE = ROOT / "results" / "zoo-modern"
+EVALS = SUITE / "last-checkpoint"
+
+
+def run(evals, *extra):
+    """The script as docs/zoo.md runs it: from the repository's root, the suite named relative to it."""
+    return subprocess.run(["/usr/bin/python3", str(SCRIPT), str(SUITE.relative_to(ROOT)), str(evals), *extra],
+                          capture_output=True, text=True, cwd=ROOT)
+
+
+class LastStepTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.evals = pathlib.Path(self.tmp.name) / "evals"
+        shutil.copytree(EVALS, self.evals, ignore=shutil.ignore_patterns("*.md"))
+        self.files = sorted(self.evals.glob("*.json"))
+        self.assertTrue(self.files, f"no evaluations under {EVALS}")
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def test_the_committed_table_is_recomputed(self):
+        out = pathlib.Path(self.tmp.name) / "report.md"
+        proc = run(EVALS, "--out", str(out))
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        committed = (EVALS / "report.md").read_text()
+        self.assertEqual(out.read_text(), committed)
+        self.assertIn("| gravity | diffusion_policy (dp_mlp_h1) | 5 | 10 |", proc.stdout)
+
+    def damaged(self, change):
+        """The first file changed by `change` (a function of its JSON); returns the script's run on the folder."""
+        path = self.files[0]
+        record = json.loads(path.read_text())
+        change(record)
+        path.write_text(json.dumps(record))
+        return run(self.evals), path
+
+    def assert_refused(self, proc, path, message):
+        self.assertEqual(proc.returncode, 2, proc.stdout)
+        self.assertIn(path.name, proc.stderr)
+        self.assertIn(message, proc.stderr)
+        self.assertEqual(proc.stdout, "")
+
+    def test_a_file_that_disagrees_with_its_cell_is_refused(self):
+        cases = [
+            (lambda r: r.update(seed=r["seed"] + 1), "seed is"),
+            (lambda r: r.update(demos_per_task=True), "demos_per_task is True"),
+            (lambda r: r.update(mean_score=r["mean_score"] + 0.01), "not the same checkpoint"),
+            (lambda r: r.update(mean_score=float("nan")), "expected a finite number"),
+            (lambda r: r.pop("last"), "no \"last\" object"),
+            (lambda r: r["last"].update(step=r["last"]["step"] - 1), "the cell trained"),
+            (lambda r: r["last"].update(mean_score=r["last"]["mean_score"] + 0.5), "not the mean of last.scores"),
+            (lambda r: r["last"]["scores"].pop(), "task scores"),
+            (lambda r: r["last"]["scores"].__setitem__(0, "0.5"), "last.scores[0]"),
+        ]
+        original = self.files[0].read_text()
+        for change, message in cases:
+            with self.subTest(message=message):
+                self.files[0].write_text(original)
+                proc, path = self.damaged(change)
+                self.assert_refused(proc, path, message)
+
+    def test_a_file_naming_no_cell_or_not_json_is_refused(self):
+        stray = self.evals / "gravity-maps_d5_s9.json"
+        shutil.copy(self.files[0], stray)
+        self.assert_refused(run(self.evals), stray, "no finished cell gravity/maps_d5_s9")
+        stray.unlink()
+        self.files[0].write_text("{\"mean_score\": ")
+        self.assert_refused(run(self.evals), self.files[0], self.files[0].name)
+        self.files[0].write_text("[1, 2]")
+        self.assert_refused(run(self.evals), self.files[0], "expected a JSON object")
+        empty = pathlib.Path(self.tmp.name) / "empty"
+        empty.mkdir()
+        proc = run(empty)
+        self.assertEqual(proc.returncode, 2)
+        self.assertIn("no <set>-<cell>.json files", proc.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main()
