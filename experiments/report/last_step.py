@@ -18,7 +18,8 @@ and demonstrations are the cell's, its best-checkpoint score is the cell's headl
 evaluated on the same episodes: evaluation is deterministic), and its last step is the cell's last training step.
 Per (set, method, demonstrations): both rules' mean scores (mean +- 95% t interval over seeds), last - best validation
 paired by seed, and last - the base method (its headline checkpoint) paired by seed, with the paired t test and Holm
-over each set's rows."""
+over each set's rows (each comparison a family). The base method's own cells are not evaluated so (they are what
+every row is paired with)."""
 import argparse
 import math
 import pathlib
@@ -59,9 +60,12 @@ def read_last(path, cells_by_folder):
         raise EvalFileError(f"{path}: {e}") from e
     if not isinstance(record, dict):
         raise EvalFileError(f"{path}: expected a JSON object (maps eval's eval.json)")
-    for key, expected in (("method", cell.method), ("seed", cell.seed), ("demos_per_task", cell.demos)):
-        if record.get(key) != expected or isinstance(record.get(key), bool):
-            raise EvalFileError(f"{path}: {key} is {record.get(key)!r}; cell {set_name}/{cell_name} has {expected!r}")
+    # The same cell and the same evaluation: identity, the checkpoint's step and the episodes, each of its type.
+    for key, expected in (("method", cell.method), ("seed", cell.seed), ("demos_per_task", cell.demos),
+                          ("subsample", cell.subsample), ("best_step", cell.best_step), ("episodes", cell.episodes)):
+        value = record.get(key)
+        if type(value) is not type(expected) or value != expected:
+            raise EvalFileError(f"{path}: {key} is {value!r}; cell {set_name}/{cell_name} has {expected!r}")
     best = finite(record.get("mean_score"), f"{path}: mean_score")
     if abs(best - cell.mean_score) > SAME_SCORE:
         raise EvalFileError(f"{path}: best.ckpt scored {best!r} here and {cell.mean_score!r} in the cell's result.json:"
@@ -70,7 +74,7 @@ def read_last(path, cells_by_folder):
     if not isinstance(last, dict):
         raise EvalFileError(f"{path}: no \"last\" object (evaluate with maps eval --last)")
     step = last.get("step")
-    if isinstance(step, bool) or not isinstance(step, int) or step != cell.steps:
+    if type(step) is not int or step != cell.steps:
         raise EvalFileError(f"{path}: last.step is {step!r}; the cell trained {cell.steps} steps")
     score = finite(last.get("mean_score"), f"{path}: last.mean_score")
     scores = last.get("scores")
@@ -88,6 +92,9 @@ def rows_of(suite, files, base):
     last_score = {}
     for path in files:
         cell, score = read_last(path, cells_by_folder)
+        if cell.label == base:
+            raise EvalFileError(f"{path}: a cell of {base}, the method every row is paired with at its headline "
+                                "checkpoint (evaluate the others)")
         last_score[id(cell)] = score
     grouped = groups(suite.cells)
     rows = []
@@ -99,7 +106,8 @@ def rows_of(suite, files, base):
                            if k.set == key.set and k.label == base and k.demos == key.demos
                            and k.subsample == key.subsample), [])
         base_by_seed = {c.seed: c.mean_score for c in base_cells}
-        rows.append(dict(set=key.set, method=key.label, demos=key.demos, k=key.subsample, seeds=len(with_last),
+        rows.append(dict(set=key.set, method=key.label, demos=key.demos, k=key.subsample,
+                         seeds=f"{len(with_last)} of {len(cells)}",
                          best=[c.mean_score for c in with_last], last=[last_score[id(c)] for c in with_last],
                          gain=[last_score[id(c)] - c.mean_score for c in with_last],
                          headline_vs_base=[c.mean_score - base_by_seed[c.seed] for c in with_last
@@ -109,18 +117,21 @@ def rows_of(suite, files, base):
     for row in rows:
         row["gain_p"] = paired_p(row["gain"])
         row["p"] = paired_p(row["vs_base"])
-    for row, adjusted in zip(rows, holm_within([r["p"] for r in rows], [r["set"] for r in rows])):
+    sets = [r["set"] for r in rows]
+    for row, adjusted in zip(rows, holm_within([r["gain_p"] for r in rows], sets)):
+        row["gain_holm"] = adjusted
+    for row, adjusted in zip(rows, holm_within([r["p"] for r in rows], sets)):
         row["holm"] = adjusted
     return rows
 
 
 def table(rows, base):
-    lines = [f"| set | method | demos | k | seeds | best validation | last step | last - best validation | p "
+    lines = [f"| set | method | demos | k | seeds | best validation | last step | last - best validation | p | p (Holm) "
              f"| pairs with {base} | best validation - {base} | last step - {base} | p (last) | p (last, Holm) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['seeds']} | {fmt(r['best'])} "
-                     f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} "
+                     f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} | {fmt_p(r['gain_holm'])} "
                      f"| {len(r['vs_base'])} | {fmt(r['headline_vs_base'], signed=True) if r['vs_base'] else '-'} "
                      f"| {fmt(r['vs_base'], signed=True) if r['vs_base'] else '-'} | {fmt_p(r['p'])} "
                      f"| {fmt_p(r['holm'])} |")
@@ -152,8 +163,9 @@ def main():
         f"## {SECTION}", "",
         f"{len(files)} cells of {args.suite} scored at their last training step (maps eval --last, the same episodes as"
         " their headline evaluation) beside their best-validation checkpoint (the suite's headline rule), mean +- 95%"
-        f" CI over seeds; last - best validation paired by seed; against {args.base}: each method's seeds paired with"
-        f" {args.base}'s headline cells (its best-validation checkpoint); p: paired t test; Holm over each set's rows.",
+        " CI over seeds (seeds: the group's cells evaluated so, of its finished ones); last - best validation paired"
+        f" by seed; against {args.base}: each method's seeds paired with {args.base}'s headline cells (its"
+        " best-validation checkpoint); p: paired t test; Holm over each set's rows, each column a family.",
         "", table(rows, args.base), ""])
     print(text)
     if args.out:

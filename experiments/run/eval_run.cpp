@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include "envs/task_sets.h"
@@ -108,13 +109,13 @@ int run_eval(const EvalRunOptions& options) {
     if (kept.empty())
       throw std::runtime_error(options.run + " kept no step_<N>.ckpt (train it with train.keep_every > 0)");
   }
-  if (options.last && fs::is_directory(dir) && !fs::exists(dir / run_files::kLastCheckpoint))
-    throw std::runtime_error(options.run + " has no " + run_files::kLastCheckpoint +
-                             " (the trainer's state after its last step) for --last");
   // A missing folder is load_trained_run's to name; an existing one must take the results before any work.
   if (fs::is_directory(dir))
     io::check_output_files_in("--run", options.run, {run_files::kEval, run_files::kEvalModules});
   TrainedRun run = load_trained_run(options.run);
+  // last.ckpt is read and checked before any evaluation, so that a wrong one costs nothing.
+  std::optional<FinalPolicy> final_policy;
+  if (options.last) final_policy = load_final_policy(options.run, run);
   const core::RunConfig& config = run.config;
   const core::DemoDataset& data = *run.data;
   const auto& policy = run.policy;
@@ -220,16 +221,14 @@ int run_eval(const EvalRunOptions& options) {
     std::printf("best over %zu checkpoints and best.ckpt (the paper's rule): %.3f at step %lld\n", kept.size(),
                 best_over["mean_score"].get<double>(), best_over["step"].get<long long>());
   }
-  if (options.last) {
-    const TrainedRun final_run = load_final_policy(options.run);
+  if (final_policy) {
     const core::EvaluationResult r =
-        core::evaluate(*final_run.policy, final_run.data->standardizer(), names, expert_returns, eval, nullptr);
+        core::evaluate(*final_policy->policy, standardizer, names, expert_returns, eval, nullptr);
     std::vector<double> scores;
     for (const auto& t : r.tasks) scores.push_back(t.score);
-    const long long step = final_run.best.at("step").get<long long>();
-    record["last"] = {{"step", step}, {"mean_score", r.mean_score}, {"scores", scores}};
-    std::printf("last step %lld (%s): mean score %.3f (%.1f s)\n", step, run_files::kLastCheckpoint, r.mean_score,
-                r.seconds);
+    record["last"] = {{"step", final_policy->step}, {"mean_score", r.mean_score}, {"scores", scores}};
+    std::printf("last step %lld (%s): mean score %.3f (%.1f s)\n", static_cast<long long>(final_policy->step),
+                run_files::kLastCheckpoint, r.mean_score, r.seconds);
   }
   write_json_file((dir / run_files::kEval).string(), record);
   return 0;

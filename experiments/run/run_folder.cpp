@@ -1,6 +1,5 @@
 #include "experiments/run/run_folder.h"
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +12,7 @@
 #include "io/atomic_file.h"
 #include "io/json_input.h"
 #include "maps/training/checkpoint_record.h"
+#include "maps/training/weight_average.h"
 #include "nn/serialize.h"
 
 namespace maps::experiments {
@@ -129,10 +129,14 @@ TrainedRun load_trained_run(const std::string& run, const std::string& checkpoin
   return loaded;
 }
 
-TrainedRun load_final_policy(const std::string& run) {
+FinalPolicy load_final_policy(const std::string& run, const TrainedRun& trained) {
   namespace fs = std::filesystem;
-  TrainedRun loaded = load_trained_run(run);
+  const core::RunConfig& config = trained.config;
   const std::string path = (fs::path(run) / run_files::kLastCheckpoint).string();
+  if (config.imitation != "bc")
+    throw std::runtime_error(run + " was trained by " + config.imitation + ", whose " + run_files::kBestCheckpoint +
+                             " is its last iteration's policy already (its " + run_files::kLastCheckpoint +
+                             " is that trainer's own state)");
   if (!fs::exists(path))
     throw std::runtime_error(run + " has no " + run_files::kLastCheckpoint +
                              " (the trainer's state after its last step)");
@@ -141,32 +145,48 @@ TrainedRun load_final_policy(const std::string& run) {
     throw std::runtime_error(path + " is not a training state (\"" + core::kTrainingStateFormat +
                              "\" record), as the trainer writes " + run_files::kLastCheckpoint);
   const core::TrainingState state = core::read_training_state(saved.config, "training checkpoint " + path);
-  nn::NamedTensors tensors = nn::strip_prefix(saved.tensors, core::kTrainingStatePolicyPrefix);
+  if (state.step != config.train.steps)
+    throw std::runtime_error("training checkpoint " + path + " is at step " + std::to_string(state.step) + " of " +
+                             std::to_string(config.train.steps) + ": training has not finished (maps train --out " +
+                             run + " resumes it)");
+  const std::int64_t best_step = trained.best.at("step").get<std::int64_t>();
+  if (state.best_step != best_step)
+    throw std::runtime_error("training checkpoint " + path + " records its best step as " +
+                             std::to_string(state.best_step) + ", " + run_files::kBestCheckpoint + " is of step " +
+                             std::to_string(best_step) + ": the two files are not of one run");
   const nn::NamedTensors averaged = nn::strip_prefix(saved.tensors, core::kTrainingStateAveragePrefix);
-  const bool averages = loaded.config.train.ema_power > 0.0;
+  const bool averages = config.train.ema_power > 0.0;
   if (averaged.empty() == averages)
     throw std::runtime_error("training checkpoint " + path + (averages ? " holds no" : " holds an") +
                              " average of the weights, and " + run + "'s config.json has train.ema_power " +
-                             nlohmann::json(loaded.config.train.ema_power).dump());
-  // The average replaces the trained parameters; buffers (not averaged) stay the trained ones, as in best.ckpt.
-  for (const auto& [name, value] : averaged) {
-    const auto it = std::find_if(tensors.begin(), tensors.end(), [&name](const auto& t) { return t.name == name; });
-    if (it == tensors.end())
-      throw std::runtime_error("training checkpoint " + path + " averages " + name + ", which its policy lacks");
-    it->tensor = value;
-  }
-  const core::DemoDataset& data = *loaded.data;
-  auto policy = core::make_policy(loaded.config, {data.observation_size(), data.action_size(), data.num_tasks()});
+                             nlohmann::json(config.train.ema_power).dump());
+  if (averages && ((state.ema_power && *state.ema_power != config.train.ema_power) ||
+                   (state.ema_max_decay && *state.ema_max_decay != config.train.ema_max_decay)))
+    throw std::runtime_error("training checkpoint " + path + " averages the weights with train.ema_power " +
+                             nlohmann::json(state.ema_power.value_or(config.train.ema_power)).dump() +
+                             " and ema_max_decay " +
+                             nlohmann::json(state.ema_max_decay.value_or(config.train.ema_max_decay)).dump() + ", " +
+                             run + "'s config.json with " + nlohmann::json(config.train.ema_power).dump() + " and " +
+                             nlohmann::json(config.train.ema_max_decay).dump());
+  const core::DemoDataset& data = *trained.data;
+  auto policy = core::make_policy(config, {data.observation_size(), data.action_size(), data.num_tasks()});
   try {
-    policy->load_state_dict(tensors);
+    policy->load_state_dict(nn::strip_prefix(saved.tensors, core::kTrainingStatePolicyPrefix));
+    if (averages) {
+      // The average replaces the trained parameters (buffers are not averaged), as best.ckpt and the kept steps hold
+      // them; WeightAverage::load holds it to the policy's parameters, name by name, shape and dtype.
+      core::WeightAverage average(policy->named_parameters(), config.train.ema_power, config.train.ema_max_decay);
+      average.load(averaged, "training checkpoint " + path);
+      nn::NamedTensors parameters = policy->named_parameters();
+      ag::NoGradGuard no_grad;
+      for (std::size_t i = 0; i < parameters.size(); ++i) parameters[i].tensor.copy_(average.values()[i].tensor);
+    }
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("training checkpoint " + path + " does not fit " + run + "'s policy: " + e.what());
   }
   policy->eval();
   policy->prepare_for_evaluation(data);
-  loaded.policy = std::move(policy);
-  loaded.best = {{"step", state.step}};
-  return loaded;
+  return {std::move(policy), state.step};
 }
 
 }  // namespace maps::experiments

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -53,11 +54,17 @@ struct TrainedRun {
 TrainedRun load_trained_run(const std::string& run, const std::string& checkpoint = run_files::kBestCheckpoint,
                             const std::string& data_file = "");
 
-// The policy after the run's last training step, read from last.ckpt (the trainer's resume state) and ready to act
-// as load_trained_run's: with train.ema_power above 0 its average of the weights (what best.ckpt and the kept steps
-// hold), else the trained weights. best.ckpt must exist too (it checks the demo file against the run's standardizer);
-// `best` holds {"step": the last step}. Throws naming the file when last.ckpt is missing, is not a training state, or
-// does not fit the run's policy, and when its average of the weights disagrees with the run config's.
-TrainedRun load_final_policy(const std::string& run);
+// The policy after the last training step of the run in folder `run`, read from last.ckpt (the trainer's resume
+// state) and ready to act as load_trained_run's: with train.ema_power above 0 its average of the weights (what
+// best.ckpt and the kept steps hold), else the trained weights. `trained` is the run as load_trained_run loaded it:
+// last.ckpt must be of the same run (its best step best.ckpt's) and of a finished one (its step train.steps).
+// Throws naming the file when last.ckpt is missing, is not a training state, does not fit the run's policy or
+// disagrees with the run config on the average of the weights, and for a GAIL run (whose best.ckpt is its last
+// iteration's policy already).
+struct FinalPolicy {
+  std::shared_ptr<core::Policy> policy;
+  std::int64_t step = 0;
+};
+FinalPolicy load_final_policy(const std::string& run, const TrainedRun& trained);
 
 }  // namespace maps::experiments

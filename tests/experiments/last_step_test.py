@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Tests of the final-checkpoint table (experiments/report/last_step.py): on the committed results/zoo-modern and its
 last-checkpoint evaluations it writes the committed report.md; every way an evaluation file can disagree with its
-cell (another seed, another checkpoint's score, a step short of training's end, no "last", a non-finite or
-inconsistent score, a cell the suite lacks, a file that is not JSON) is refused with the file named, never used.
+cell (another method, seed, count, checkpoint step or episode count, a value of the wrong type, another
+checkpoint's score, a step short of training's end, no "last", a non-finite or inconsistent score, a cell the suite
+lacks, a cell of the base method itself, a file that is not JSON) is refused with the file named, never used.
 Run by ctest (tests/CMakeLists.txt)."""
 import json
 import pathlib
@@ -59,11 +60,18 @@ class LastStepTest(unittest.TestCase):
     def test_a_file_that_disagrees_with_its_cell_is_refused(self):
         cases = [
             (lambda r: r.update(seed=r["seed"] + 1), "seed is"),
-            (lambda r: r.update(demos_per_task=True), "demos_per_task is True"),
+            (lambda r: r.update(method="mt_mh_bc"), "method is 'mt_mh_bc'"),
+            (lambda r: r.update(demos_per_task=float(r["demos_per_task"])), "demos_per_task is"),
+            (lambda r: r.update(seed=r["seed"] == 1), "seed is"),
+            (lambda r: r.update(best_step=r["best_step"] + 250), "best_step is"),
+            (lambda r: r.update(episodes=10), "episodes is 10"),
+            (lambda r: r.update(subsample=1), "subsample is 1"),
             (lambda r: r.update(mean_score=r["mean_score"] + 0.01), "not the same checkpoint"),
             (lambda r: r.update(mean_score=float("nan")), "expected a finite number"),
             (lambda r: r.pop("last"), "no \"last\" object"),
             (lambda r: r["last"].update(step=r["last"]["step"] - 1), "the cell trained"),
+            (lambda r: r["last"].update(step=float(r["last"]["step"])), "the cell trained"),
+            (lambda r: r["last"].update(mean_score=float("inf")), "last.mean_score is inf"),
             (lambda r: r["last"].update(mean_score=r["last"]["mean_score"] + 0.5), "not the mean of last.scores"),
             (lambda r: r["last"]["scores"].pop(), "task scores"),
             (lambda r: r["last"]["scores"].__setitem__(0, "0.5"), "last.scores[0]"),
@@ -80,6 +88,16 @@ class LastStepTest(unittest.TestCase):
         shutil.copy(self.files[0], stray)
         self.assert_refused(run(self.evals), stray, "no finished cell gravity/maps_d5_s9")
         stray.unlink()
+        # The base method's own cells are what every row pairs with, not a row.
+        base = self.evals / "gravity-maps_d5_s0.json"
+        shutil.copy(self.files[0], base)
+        self.assert_refused(run(self.evals), base, "method is 'diffusion_policy'")
+        record = json.loads(self.files[0].read_text())
+        cell = json.loads((SUITE / "cells/gravity/maps_d5_s0/result.json").read_text())
+        record.update(method="maps", seed=0, best_step=cell["eval"]["best_step"], mean_score=cell["eval"]["mean_score"])
+        base.write_text(json.dumps(record))
+        self.assert_refused(run(self.evals), base, "a cell of maps, the method every row is paired with")
+        base.unlink()
         self.files[0].write_text("{\"mean_score\": ")
         self.assert_refused(run(self.evals), self.files[0], self.files[0].name)
         self.files[0].write_text("[1, 2]")

@@ -874,8 +874,9 @@ class SuiteTest(unittest.TestCase):
     @heavy
     def test_last_step_is_evaluated(self):
         """maps eval --last scores the policy after the last training step from last.ckpt (the trainer's state), with
-        train.ema_power its average of the weights: the same policy as the kept checkpoint of that step, so the same
-        score; a run without last.ckpt, or whose last.ckpt is no training state, is named."""
+        train.ema_power its average of the weights: the same policy as the kept checkpoint of that step (tensor by
+        tensor: final_policy_test.cpp), so the same score; a run without last.ckpt, whose last.ckpt is no training
+        state or disagrees with the config on the average, is named before any evaluation."""
         config = json.loads(TINY.read_text())
         config["defaults"]["train"]["keep_every"] = 60
         config["variants"] = {"ema": {"train": {"ema_power": 0.75},
@@ -906,6 +907,7 @@ class SuiteTest(unittest.TestCase):
         proc = maps("eval", "--run", bare, "--last", check=False)
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("holds an average of the weights", proc.stderr)
+        self.assertNotIn("maps eval:", proc.stdout)  # refused before best.ckpt's evaluation
         # Checked before any evaluation: no last.ckpt, or a policy checkpoint in its place.
         broken = self.dir / "broken"
         shutil.copytree(out / "cells/gravity/mt_bc_d2_s0", broken)
@@ -918,6 +920,7 @@ class SuiteTest(unittest.TestCase):
         proc = maps("eval", "--run", broken, "--last", check=False)
         self.assertNotEqual(proc.returncode, 0)
         self.assertIn("last.ckpt is not a training state", proc.stderr)
+        self.assertNotIn("maps eval:", proc.stdout)
 
     @heavy
     def test_maps_on_raw_clipped_observations(self):
