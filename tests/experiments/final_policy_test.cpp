@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <random>
 #include <string>
 
 #include "envs/demo_file.h"
@@ -15,6 +14,7 @@
 #include "nn/serialize.h"
 #include "tests/common/error_of.h"
 #include "tests/common/temp_folder.h"
+#include "tests/maps/data/synthetic_demos.h"
 
 namespace maps::experiments {
 namespace {
@@ -28,27 +28,11 @@ class FinalPolicy : public TempFolderTest {
 
   void SetUp() override {
     TempFolderTest::SetUp();
-    envs::DemoFile file;
-    file.task_set = "gravity";
-    file.task_names = {"gravity/0.5", "gravity/1.5"};
-    std::mt19937_64 rng(3);
-    std::normal_distribution<double> normal;
-    for (int i = 0; i < 6; ++i) {
-      envs::Demonstration d;
-      d.task_index = i % 2;
-      d.task = file.task_names[static_cast<std::size_t>(d.task_index)];
-      d.seed = static_cast<std::uint64_t>(i);
-      d.obs = Eigen::MatrixXd::NullaryExpr(8, 3, [&] { return normal(rng); });
-      d.actions = Eigen::MatrixXd::NullaryExpr(8, 2, [&] { return normal(rng); });
-      d.rewards = Eigen::VectorXd::Zero(8);
-      d.dones.assign(8, 0);
-      d.dones.back() = 1;
-      d.final_obs = Eigen::VectorXd::Zero(3);
-      d.end = envs::EpisodeEnd::kTruncated;
-      file.demos.push_back(std::move(d));
+    envs::DemoFile file = synthetic_demo_file();
+    for (auto& demo : file.demos) {  // what a written file must hold besides the synthetic trajectories
+      demo.final_obs = demo.obs.row(demo.obs.rows() - 1).transpose();
+      demo.end = envs::EpisodeEnd::kTruncated;
     }
-    file.train = {0, 1, 2, 3};
-    file.valid = {4, 5};
     envs::write_demo_file(path("demos.h5"), file);
   }
 
