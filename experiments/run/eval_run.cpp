@@ -37,15 +37,20 @@ core::EvalProgressFn progress_lines(const std::vector<std::string>& tasks) {
   };
 }
 
+std::vector<double> task_scores(const core::EvaluationResult& result) {
+  std::vector<double> scores;
+  for (const auto& t : result.tasks) scores.push_back(t.score);
+  return scores;
+}
+
 nlohmann::json score_lists(const core::EvaluationResult& result) {
-  std::vector<double> scores, success, success_at_end;
+  std::vector<double> success, success_at_end;
   for (const auto& t : result.tasks) {
-    scores.push_back(t.score);
     success.push_back(t.success_rate);
     success_at_end.push_back(t.final_success_rate);
   }
   return {{"mean_score", result.mean_score},
-          {"scores", scores},
+          {"scores", task_scores(result)},
           {"success_rate", success},
           {"final_success_rate", success_at_end}};
 }
@@ -209,9 +214,7 @@ int run_eval(const EvalRunOptions& options) {
       TrainedRun at = load_trained_run(options.run, name);
       const core::EvaluationResult r =
           core::evaluate(*at.policy, at.data->standardizer(), names, expert_returns, eval, nullptr);
-      std::vector<double> scores;
-      for (const auto& t : r.tasks) scores.push_back(t.score);
-      list.push_back({{"step", step}, {"file", name}, {"mean_score", r.mean_score}, {"scores", scores}});
+      list.push_back({{"step", step}, {"file", name}, {"mean_score", r.mean_score}, {"scores", task_scores(r)}});
       std::printf("checkpoint %s: mean score %.3f (%.1f s)\n", name.c_str(), r.mean_score, r.seconds);
       if (r.mean_score > best_over["mean_score"].get<double>())
         best_over = {{"step", step}, {"mean_score", r.mean_score}, {"file", name}};
@@ -224,9 +227,7 @@ int run_eval(const EvalRunOptions& options) {
   if (final_policy) {
     const core::EvaluationResult r =
         core::evaluate(*final_policy->policy, standardizer, names, expert_returns, eval, nullptr);
-    std::vector<double> scores;
-    for (const auto& t : r.tasks) scores.push_back(t.score);
-    record["last"] = {{"step", final_policy->step}, {"mean_score", r.mean_score}, {"scores", scores}};
+    record["last"] = {{"step", final_policy->step}, {"mean_score", r.mean_score}, {"scores", task_scores(r)}};
     std::printf("last step %lld (%s): mean score %.3f (%.1f s)\n", static_cast<long long>(final_policy->step),
                 run_files::kLastCheckpoint, r.mean_score, r.seconds);
   }

@@ -156,18 +156,8 @@ FinalPolicy load_final_policy(const std::string& run, const TrainedRun& trained)
                              std::to_string(best_step) + ": the two files are not of one run");
   const nn::NamedTensors averaged = nn::strip_prefix(saved.tensors, core::kTrainingStateAveragePrefix);
   const bool averages = config.train.ema_power > 0.0;
-  if (averaged.empty() == averages)
-    throw std::runtime_error("training checkpoint " + path + (averages ? " holds no" : " holds an") +
-                             " average of the weights, and " + run + "'s config.json has train.ema_power " +
-                             nlohmann::json(config.train.ema_power).dump());
-  if (averages && ((state.ema_power && *state.ema_power != config.train.ema_power) ||
-                   (state.ema_max_decay && *state.ema_max_decay != config.train.ema_max_decay)))
-    throw std::runtime_error("training checkpoint " + path + " averages the weights with train.ema_power " +
-                             nlohmann::json(state.ema_power.value_or(config.train.ema_power)).dump() +
-                             " and ema_max_decay " +
-                             nlohmann::json(state.ema_max_decay.value_or(config.train.ema_max_decay)).dump() + ", " +
-                             run + "'s config.json with " + nlohmann::json(config.train.ema_power).dump() + " and " +
-                             nlohmann::json(config.train.ema_max_decay).dump());
+  core::check_average_agrees(path, state, !averaged.empty(), config.train.ema_power, config.train.ema_max_decay,
+                             run + "'s config.json", core::AverageUse::kEvaluate);
   const core::DemoDataset& data = *trained.data;
   auto policy = core::make_policy(config, {data.observation_size(), data.action_size(), data.num_tasks()});
   try {
@@ -177,9 +167,7 @@ FinalPolicy load_final_policy(const std::string& run, const TrainedRun& trained)
       // them; WeightAverage::load holds it to the policy's parameters, name by name, shape and dtype.
       core::WeightAverage average(policy->named_parameters(), config.train.ema_power, config.train.ema_max_decay);
       average.load(averaged, "training checkpoint " + path);
-      nn::NamedTensors parameters = policy->named_parameters();
-      ag::NoGradGuard no_grad;
-      for (std::size_t i = 0; i < parameters.size(); ++i) parameters[i].tensor.copy_(average.values()[i].tensor);
+      average.apply();
     }
   } catch (const std::invalid_argument& e) {
     throw std::runtime_error("training checkpoint " + path + " does not fit " + run + "'s policy: " + e.what());

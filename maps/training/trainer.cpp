@@ -66,18 +66,8 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, W
   const nn::Checkpoint checkpoint = nn::load_tensors(path);
   const TrainingState state = read_training_state(checkpoint.config, "training checkpoint " + path);
   const nn::NamedTensors averaged = nn::strip_prefix(checkpoint.tensors, kAveragePrefix);
-  if (averaged.empty() != (average == nullptr))
-    throw std::runtime_error("training checkpoint " + path + (average == nullptr ? " holds" : " holds no") +
-                             " average of the parameters, and this run has train.ema_power " +
-                             (average == nullptr ? "0" : "above 0") +
-                             ": a run resumes with the train.ema_power it began with");
-  if (average != nullptr && ((state.ema_power && *state.ema_power != average->power()) ||
-                             (state.ema_max_decay && *state.ema_max_decay != average->max_decay())))
-    throw std::runtime_error("training checkpoint " + path + " averages the parameters with train.ema_power " +
-                             Json(state.ema_power.value_or(average->power())).dump() + " and ema_max_decay " +
-                             Json(state.ema_max_decay.value_or(average->max_decay())).dump() + ", and this run has " +
-                             Json(average->power()).dump() + " and " + Json(average->max_decay()).dump() +
-                             ": a run resumes with the average it began with");
+  check_average_agrees(path, state, !averaged.empty(), average != nullptr ? average->power() : 0.0,
+                       average != nullptr ? average->max_decay() : 0.0, "this run", AverageUse::kResume);
   try {
     policy.load_state_dict(nn::strip_prefix(checkpoint.tensors, kPolicyPrefix));
     adam.load_state(nn::strip_prefix(checkpoint.tensors, kAdamPrefix));

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <utility>
 
@@ -63,17 +64,39 @@ void WeightAverage::load(const nn::NamedTensors& values, const std::string& sour
   average_ = copies_of(values);
 }
 
+void WeightAverage::apply() {
+  ag::NoGradGuard no_grad;
+  for (std::size_t i = 0; i < average_.size(); ++i) parameters_[i].tensor.copy_(average_[i].tensor);
+}
+
 WeightAverage::Applied::Applied(WeightAverage* average) : average_(average) {
   if (average_ == nullptr) return;
   trained_ = copies_of(average_->parameters_);
-  ag::NoGradGuard no_grad;
-  for (std::size_t i = 0; i < trained_.size(); ++i) average_->parameters_[i].tensor.copy_(average_->average_[i].tensor);
+  average_->apply();
 }
 
 WeightAverage::Applied::~Applied() {
   if (average_ == nullptr) return;
   ag::NoGradGuard no_grad;
   for (std::size_t i = 0; i < trained_.size(); ++i) average_->parameters_[i].tensor.copy_(trained_[i].tensor);
+}
+
+void check_average_agrees(const std::string& checkpoint, const TrainingState& state, bool holds_average, double power,
+                          double max_decay, const std::string& setting, AverageUse use) {
+  const bool resuming = use == AverageUse::kResume;
+  const auto text = [](double value) { return nlohmann::json(value).dump(); };
+  const bool averages = power > 0.0;
+  if (holds_average != averages)
+    throw std::runtime_error("training checkpoint " + checkpoint + (holds_average ? " holds an" : " holds no") +
+                             " average of the weights, and " + setting + " has train.ema_power " + text(power) +
+                             (resuming ? ": a run resumes with the train.ema_power it began with" : ""));
+  if (averages &&
+      ((state.ema_power && *state.ema_power != power) || (state.ema_max_decay && *state.ema_max_decay != max_decay)))
+    throw std::runtime_error("training checkpoint " + checkpoint + " averages the weights with train.ema_power " +
+                             text(state.ema_power.value_or(power)) + " and ema_max_decay " +
+                             text(state.ema_max_decay.value_or(max_decay)) + ", and " + setting + " has " +
+                             text(power) + " and " + text(max_decay) +
+                             (resuming ? ": a run resumes with the average it began with" : ""));
 }
 
 }  // namespace maps::core

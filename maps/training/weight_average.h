@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <string>
 
+#include "maps/training/checkpoint_record.h"
 #include "nn/module.h"
 
 // An exponential moving average of a policy's parameters, as Diffusion Policy keeps and evaluates (its EMAModel):
@@ -30,6 +31,9 @@ class WeightAverage {
   // Replaces the values (a resumed run's); throws naming `source` unless the names, shapes and dtypes match.
   void load(const nn::NamedTensors& values, const std::string& source);
 
+  // Copies the average into the parameters for good (a finished run's policy as it is evaluated).
+  void apply();
+
   // Swaps the average into the parameters for the scope (validation, best.ckpt), and the trained values back after;
   // a null average (a run keeping none) leaves the parameters alone.
   class Applied {
@@ -49,5 +53,15 @@ class WeightAverage {
   nn::NamedTensors average_;
   double power_, max_decay_;
 };
+
+// Why a training checkpoint's average of the weights is read: to resume its run, or to evaluate its last step.
+enum class AverageUse { kResume, kEvaluate };
+
+// Holds a training checkpoint (`checkpoint`, its `state`, and whether it holds an average) to the average a run is
+// set to keep (`power` 0: none; `max_decay`); `setting` names where the setting comes from ("this run", a run's
+// config.json). Throws std::runtime_error naming both when the checkpoint holds an average and the setting keeps
+// none or the reverse, or the recorded power or cap differ from the setting's.
+void check_average_agrees(const std::string& checkpoint, const TrainingState& state, bool holds_average, double power,
+                          double max_decay, const std::string& setting, AverageUse use);
 
 }  // namespace maps::core

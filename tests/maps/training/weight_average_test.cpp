@@ -28,6 +28,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 TEST(WeightAverage, DecayIsDiffusionPolicysPowerScheduleCapped) {
   EXPECT_EQ(WeightAverage::decay(1, 0.75, 0.9999), 0.0);
@@ -59,6 +60,35 @@ TEST(WeightAverage, UpdatesByHandAndSwapsIntoTheParametersAndBack) {
     EXPECT_EQ(w.to_vector(), averaged);
   }
   EXPECT_EQ(w.to_vector(), trained);
+  average.apply();  // for good, as a finished run's last step is evaluated
+  EXPECT_EQ(w.to_vector(), averaged);
+  EXPECT_TRUE(w.requires_grad());
+}
+
+TEST(WeightAverage, ACheckpointsAverageIsHeldToTheSettingItIsReadWith) {
+  TrainingState recorded;
+  recorded.ema_power = 0.75;
+  recorded.ema_max_decay = 0.9999;
+  EXPECT_NO_THROW(check_average_agrees("c.ckpt", recorded, true, 0.75, 0.9999, "this run", AverageUse::kResume));
+  EXPECT_NO_THROW(check_average_agrees("c.ckpt", TrainingState{}, false, 0.0, 0.9999, "this run", AverageUse::kResume));
+  // Written before the power and cap were recorded: held only to holding an average.
+  EXPECT_NO_THROW(
+      check_average_agrees("c.ckpt", TrainingState{}, true, 0.5, 0.99, "run's config.json", AverageUse::kEvaluate));
+  EXPECT_THAT(
+      error_of([&] { check_average_agrees("c.ckpt", recorded, true, 0.0, 0.9999, "this run", AverageUse::kResume); }),
+      HasSubstr("training checkpoint c.ckpt holds an average of the weights, and this run has "
+                "train.ema_power 0.0: a run resumes with the train.ema_power it began with"));
+  EXPECT_THAT(error_of([&] {
+                check_average_agrees("c.ckpt", TrainingState{}, false, 0.75, 0.9999, "r's config.json",
+                                     AverageUse::kEvaluate);
+              }),
+              HasSubstr("training checkpoint c.ckpt holds no average of the weights, and r's config.json has "
+                        "train.ema_power 0.75"));
+  const std::string evaluating = error_of(
+      [&] { check_average_agrees("c.ckpt", recorded, true, 0.75, 0.999, "r's config.json", AverageUse::kEvaluate); });
+  EXPECT_THAT(evaluating, HasSubstr("averages the weights with train.ema_power 0.75 and ema_max_decay 0.9999, and "
+                                    "r's config.json has 0.75 and 0.999"));
+  EXPECT_THAT(evaluating, Not(HasSubstr("resumes")));
 }
 
 TEST(WeightAverage, RefusesSettingsAndValuesThatDoNotFit) {
@@ -175,7 +205,7 @@ TEST(WeightAverage, TheTrainerKeepsTheAverageAndResumesItExactly) {
   other_power.ema_power = 0.5;
   other_power.steps = 80;
   EXPECT_THAT(error_of([&] { train_policy(*averaging_mt_bc(1), data, other_power, straight.string(), nullptr); }),
-              HasSubstr("averages the parameters with train.ema_power 0.75 and ema_max_decay 0.9999, and this run "
+              HasSubstr("averages the weights with train.ema_power 0.75 and ema_max_decay 0.9999, and this run "
                         "has 0.5 and 0.9999: a run resumes with the average it began with"));
   TrainConfig other_cap = averaging_config();
   other_cap.ema_max_decay = 0.999;
