@@ -1,7 +1,7 @@
 """GAIL against BC (issue 45, docs/adversarial.md): the report's tables on the imitation objective. A cell trained by
 GAIL says so in its resolved config ("imitation": "gail"); it is paired with the cell of the same set, method, demos,
 k and seed trained by BC with the same network on the same tasks (the method's base cells, or a width control's for a
-GAIL run of that width: bc_partner). Five tables, each a list of Markdown lines:
+GAIL run of that width: bc_partner). Four tables, each a list of Markdown lines:
 
 - objective_table: every method's GAIL - BC difference in mean score, paired by seed, Holm over the whole table (one
   question, asked at every set, method and demo count);
@@ -11,8 +11,7 @@ GAIL run of that width: bc_partner). Five tables, each a list of Markdown lines:
   the expert's return), MAPS against each other method paired by seed (the final scores of the cheetah sets saturate
   near the expert's, so a difference between methods shows in how soon, not how high);
 - routing_table: MAPS's routing under each objective (how far each task's module usage is from the tasks' mean, the
-  per-state entropy and top score, the shared and task-specific modules), GAIL - BC paired by seed;
-- compute_table: the CPU time of GAIL's iterations per set and method, from each cell's curve.csv.
+  per-state entropy and top score, the shared and task-specific modules), GAIL - BC paired by seed.
 
 The figures are in imitation_figures.py."""
 import csv
@@ -385,65 +384,3 @@ def speed_table(cells):
             + table(["set", "method", "demos", "k", "seeds", "budget", "area",
                      f"reaches {REACH:g} at (10^6 env steps): median (range)", "MAPS - other pairs",
                      "MAPS - other (area)", "p", "p (Holm)"], shown))
-
-
-def iteration_time(cell):
-    """(seconds, env steps per task) of a GAIL cell's iterations: the seconds are the sum over curve.csv's rows of the
-    iteration's env steps (its rise in env_steps_per_task over the row before, times the cell's tasks) over the env
-    steps per second the iteration logged (rollouts, discriminator and PPO: train.log's steps/s), without evaluation
-    or the time between a stop and its resume; the env steps per task are the last row's. None where the curve is
-    missing, unreadable or empty, its env steps do not rise row by row, or a speed is not a positive finite number."""
-    seconds, before = 0.0, 0
-    try:
-        with (cell.folder / "curve.csv").open() as f:
-            for row in csv.DictReader(f):
-                steps, speed = int(row["env_steps_per_task"]), float(row["env_steps_per_second"])
-                if steps <= before or not (math.isfinite(speed) and speed > 0):
-                    return None
-                seconds += (steps - before) * len(cell.tasks) / speed
-                before = steps
-    except (OSError, KeyError, ValueError, TypeError):
-        return None
-    return (seconds, before) if before > 0 else None
-
-
-def compute_table(cells):
-    """GAIL's compute per set and method (each GAIL variant its own row): the cells whose iterations could be timed
-    (iteration_time), the env steps per task they ran, each cell's CPU-minutes of iterations (median and range), their
-    sum in CPU-hours and the CPUs they ran on; then a row per set for its GAIL cells in all, and one for the whole
-    suite. [] without a timed GAIL cell."""
-    timed = {}
-    for c in cells:
-        if objective(c) == "gail":
-            timed.setdefault((c.set, c.method, c.variant), []).append((c, iteration_time(c)))
-    sets = order(SET_ORDER, {s for s, _, _ in timed})
-
-    def row(set_name, shown, runs):
-        minutes = sorted(t[0] / 60 for _, t in runs)
-        middle = (minutes[(len(minutes) - 1) // 2] + minutes[len(minutes) // 2]) / 2
-        steps = "/".join(f"{s:,}" for s in sorted({t[1] for _, t in runs}))
-        cpus = "; ".join(sorted({cpu for c, _ in runs for cpu in c.cpus})) or "not recorded"
-        return [set_name, shown, len(runs), steps, f"{middle:.0f} ({minutes[0]:.0f}-{minutes[-1]:.0f})",
-                f"{sum(minutes) / 60:.1f}", cpus]
-
-    rows, totals, untimed = [], {}, 0
-    for key in sorted(timed, key=lambda k: (sets.index(k[0]), method_rank(k[1]), k[1], k[2])):
-        runs = [(c, t) for c, t in timed[key] if t is not None]
-        untimed += len(timed[key]) - len(runs)
-        if runs:
-            rows.append(row(key[0], name(key[1], key[2]), runs))
-            totals.setdefault(key[0], []).extend(runs)
-    if not rows:
-        return []
-    rows += [row(set_name, "all", totals[set_name]) for set_name in sets if totals.get(set_name)]
-    rows.append(row("all", "all", [r for runs in totals.values() for r in runs]))
-    left_out = (f"; {untimed} GAIL cell{'s' if untimed != 1 else ''} without a readable curve left out" if untimed
-                else "")
-    return (["GAIL's compute: each cell's iterations (rollouts, discriminator and PPO) timed from its curve.csv, the"
-             " sum over its iterations of their env steps over the env steps per second each logged, in CPU-minutes"
-             " (each cell trains on one thread; a cell that shared the machine's cores with other runs, or was paused"
-             " mid-iteration, took longer than it would alone on a quiet machine), without evaluation or the time"
-             " between a stopped process and its resume"
-             + left_out + ":", ""]
-            + table(["set", "method", "cells", "env steps per task", "CPU-minutes per cell: median (range)",
-                     "CPU-hours in all", "CPUs"], rows))

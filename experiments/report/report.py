@@ -313,8 +313,6 @@ def imitation_section(cells, draw):
     routing = imitation.routing_table(cells)
     body += ["", "### MAPS's routing under each objective", ""] + (
         routing or ["No MAPS cells with module usage under both objectives."]) + embed(figures("gail_module_usage"))
-    body += ["", "### The compute of GAIL's runs", ""] + (
-        imitation.compute_table(cells) or ["No GAIL cell with a learning curve (curve.csv) to time."])
     draw.failed += figures.failed
     return section("Imitation objective: GAIL against BC", body, "")
 

@@ -175,10 +175,14 @@ class Cell:
         """(seconds, how) this cell's result cost. wall_seconds times only the attempt that finished the cell (a cell
         resumed after a kill shows a fraction) and grows with pauses and shared cores, so the cost is training's
         seconds from curve.csv, summed over every attempt's kept rows (steps redone after a kill count once): CPU
-        seconds where the curve has them (how "cpu"), else each validation window's wall seconds ("windows"); plus
-        the evaluation's seconds. Falls back to wall_seconds ("attempt") where the curve or the evaluation time is
+        seconds where the curve has them (how "cpu"), else each validation window's wall seconds ("windows"), or a
+        GAIL cell's iterations (gail_iteration_seconds, how "gail"); plus the evaluation's seconds. Falls back to wall_seconds ("attempt") where the curve or the evaluation time is
         missing."""
         if self.eval_seconds is not None:
+            if self.config.get("imitation") == "gail":
+                iterations = self.gail_iteration_seconds()
+                if iterations is not None:
+                    return iterations + self.eval_seconds, "gail"
             cpu = self.cpu_seconds_to(self.steps)
             if cpu is not None:
                 return cpu + self.eval_seconds, "cpu"
@@ -186,6 +190,26 @@ class Cell:
             if windows is not None:
                 return windows + self.eval_seconds, "windows"
         return self.wall_seconds, "attempt"
+
+    def gail_iteration_seconds(self):
+        """Seconds of a GAIL cell's iterations (rollouts, discriminator and PPO): the sum over curve.csv's rows of the
+        iteration's env steps (its rise in env_steps_per_task over the row before, times the cell's tasks) over the
+        env steps per second it logged (train.log's steps/s), so a resumed run counts the attempt that wrote each kept
+        row; a pause inside an iteration (SIGSTOP) and cores shared with other runs count. None where the curve is
+        missing, unreadable or empty, its env steps do not rise row by row, or a speed is not a positive finite
+        number."""
+        seconds, before = 0.0, 0
+        try:
+            with (self.folder / "curve.csv").open() as f:
+                for row in csv.DictReader(f):
+                    steps, speed = int(row["env_steps_per_task"]), float(row["env_steps_per_second"])
+                    if steps <= before or not (math.isfinite(speed) and speed > 0):
+                        return None
+                    seconds += (steps - before) * len(self.tasks) / speed
+                    before = steps
+        except (OSError, KeyError, ValueError, TypeError):
+            return None
+        return seconds if before > 0 else None
 
     def _curve_sum_to(self, step, window):
         seconds, previous = 0.0, 0

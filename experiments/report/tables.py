@@ -495,6 +495,8 @@ def compute_table(cells):
     total = sum(s for costs in by.values() for s, _ in costs if s == s)
     sources = {"cpu": "training's CPU seconds from curve.csv",
                "windows": "training's wall seconds per curve.csv window",
+               "gail": "GAIL's iterations from curve.csv (each iteration's env steps over its logged env steps per"
+                       " second; shared cores and pauses count)",
                "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
     counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
     mixed = len([cpus for cpus in cpu_counts(cells) if cpus]) > 1

@@ -1,10 +1,9 @@
 #!/usr/bin/python3
 """Tests of how fast GAIL learns in the report (experiments/report/imitation.py, speed_table; issue 45), and of what its
-iterations cost (compute_table), against values computed by hand: the area is the mean of the training curve over the
-budget; a value counts as reached only when a trailing window's mean reaches it (one lucky iteration does not); the
-table pairs MAPS with each other method by seed, over the budget both ran, and adjusts by Holm over its rows; an
-iteration costs its env steps over its logged speed, and a curve that cannot be timed is left out and counted. Run by
-ctest (tests/CMakeLists.txt)."""
+iterations cost (Cell.compute_seconds), against values computed by hand: the area is the mean of the training curve
+over the budget; a value counts as reached only when a trailing window's mean reaches it (one lucky iteration does
+not); the table pairs MAPS with each other method by seed, over the budget both ran, and adjusts by Holm over its rows;
+an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not. Run by ctest (tests/CMakeLists.txt)."""
 import pathlib
 import statistics
 import sys
@@ -15,6 +14,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "experiments" / "report"))
 
 import imitation  # noqa: E402
+import tables  # noqa: E402
 from suite_results import Cell, TaskResult  # noqa: E402
 from suite_stats import paired_p  # noqa: E402
 
@@ -189,45 +189,43 @@ class LearningSpeedTest(unittest.TestCase):
 
 
 def timed_cell(root, method, seed, speeds, steps_per_iteration=2000):
-    """A GAIL cell of the two tasks whose curve.csv logs one iteration per speed (env steps per second, as written)."""
+    """A GAIL cell of the two tasks, evaluated in 3 s, whose curve.csv logs one iteration per speed (env steps per
+    second, as written)."""
     cell = gail_cell(root, method, seed, [0.5] * len(speeds), steps_per_iteration)
     lines = ["iteration,env_steps_per_task,return:s/a,return:s/b,env_steps_per_second"]
     lines += [f"{i},{i * steps_per_iteration},1,1,{v}" for i, v in enumerate(speeds, start=1)]
     (cell.folder / "curve.csv").write_text("\n".join(lines) + "\n")
+    cell.eval_seconds = 3.0
     return cell
 
 
-class ComputeTableTest(unittest.TestCase):
-    def test_each_iteration_is_its_env_steps_over_its_speed_summed_per_method_and_set(self):
+class GailComputeTest(unittest.TestCase):
+    def test_each_iteration_costs_its_env_steps_over_its_speed(self):
         with tempfile.TemporaryDirectory() as root:
-            # Two tasks at 2,000 env steps per task each iteration: 4,000 env steps an iteration.
-            cells = [timed_cell(root, "maps", 0, [40, 40, 20]),  # 100 + 100 + 200 s = 6.7 min
-                     timed_cell(root, "maps", 1, [20, 20, 20]),  # 600 s = 10 min
-                     timed_cell(root, "maps", 2, [10, 10, 10]),  # 1,200 s = 20 min
-                     timed_cell(root, "mt_bc", 0, [400, 400, 400]),  # 30 s = 0.5 min
-                     timed_cell(root, "mt_bc", 1, [400, 0, 400])]  # a speed of 0: left out, counted
-            cells[0].cpus = ("AMD EPYC",)
-            self.assertAlmostEqual(imitation.iteration_time(cells[0])[0], 400.0)
-            self.assertEqual(imitation.iteration_time(cells[0])[1], 6000)
-            self.assertIsNone(imitation.iteration_time(cells[4]))
-            lines = imitation.compute_table(cells)
-        self.assertIn("1 GAIL cell without a readable curve left out", lines[0])
-        rows = [line.strip("| ").split(" | ") for line in lines if line.startswith(("| s | ", "| all"))]
-        self.assertEqual(rows[0], ["s", "MAPS", "3", "6,000", "10 (7-20)", f"{(400 / 60 + 30) / 60:.1f}", "AMD EPYC"])
-        self.assertEqual(rows[1], ["s", "MT-BC", "1", "6,000", "0 (0-0)", "0.0", "not recorded"])
-        self.assertEqual(rows[2][:6], ["s", "all", "4", "6,000", "8 (0-20)", f"{(400 / 60 + 30.5) / 60:.1f}"])
-        self.assertEqual(rows[3][:3], ["all", "all", "4"])
+            # Two tasks at 2,000 env steps per task an iteration: 4,000 env steps; 100 + 100 + 200 s.
+            cell = timed_cell(root, "maps", 0, [40, 40, 20])
+            self.assertAlmostEqual(cell.gail_iteration_seconds(), 400.0)
+            self.assertEqual(cell.compute_seconds(), (403.0, "gail"))
+            other = timed_cell(root, "mt_bc", 0, [400, 400, 400])  # 30 s
+            lines = tables.compute_table([cell, other])
+        self.assertIn("Cells counted: 2 by GAIL's iterations from curve.csv", lines[-3])
+        self.assertIn(f"In all: {(403 + 33) / 3600:.1f} CPU-hours over 2 finished cells", lines[-3])
+        row = [line.strip("| ").split(" | ") for line in lines if line.startswith("| gail | s | maps")][0]
+        self.assertEqual(row[3:6], ["1", f"{403 / 3600:.2f}", f"{403 / 60:.1f}"])
 
-    def test_a_curve_whose_steps_go_back_is_not_timed(self):
+    def test_a_curve_that_cannot_be_timed_falls_back_to_the_attempts_wall_seconds(self):
         with tempfile.TemporaryDirectory() as root:
-            cell = timed_cell(root, "maps", 0, [40, 40])
-            (cell.folder / "curve.csv").write_text("iteration,env_steps_per_task,env_steps_per_second\n"
-                                                   "1,2000,40\n2,2000,40\n")
-            self.assertIsNone(imitation.iteration_time(cell))
-            (cell.folder / "curve.csv").write_text("iteration,env_steps_per_task,env_steps_per_second\n1,2000,nan\n")
-            self.assertIsNone(imitation.iteration_time(cell))
+            cell = timed_cell(root, "maps", 0, [40, 0])  # a speed of 0
+            self.assertIsNone(cell.gail_iteration_seconds())
+            self.assertEqual(cell.compute_seconds(), (cell.wall_seconds, "attempt"))
+            for text in ["iteration,env_steps_per_task,env_steps_per_second\n1,2000,40\n2,2000,40\n",  # no rise
+                         "iteration,env_steps_per_task,env_steps_per_second\n1,2000,nan\n",
+                         "iteration,env_steps_per_task\n1,2000\n",  # no speed column
+                         "iteration,env_steps_per_task,env_steps_per_second\n"]:  # no iteration
+                (cell.folder / "curve.csv").write_text(text)
+                self.assertIsNone(cell.gail_iteration_seconds(), text)
             (cell.folder / "curve.csv").unlink()
-            self.assertEqual(imitation.compute_table([cell]), [])
+            self.assertIsNone(cell.gail_iteration_seconds())
 
 
 if __name__ == "__main__":
