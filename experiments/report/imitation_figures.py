@@ -106,6 +106,7 @@ def gail_curves(cells, out):
             ax.set_visible(False)
         for ax, (demos, k) in zip(axes_row, panels):
             shown = []  # the panel's means and BC lines: its y range (a band of two seeds can span -1 to 3)
+            bc_drawn = set()
             for setting in (s for s in mine if (s.demos, s.subsample) == (demos, k)):
                 curves = [c for c in (training_curve(c) for c in mine[setting]["gail"]) if c]
                 if not curves:
@@ -123,11 +124,16 @@ def gail_curves(cells, out):
                 rows += [[set_name, setting.method, setting.variant, demos, k, s, len(curves), m, h]
                          for s, m, h in zip(steps, means, half)]
                 shown += list(means)
+                # One BC line per BC partner: GAIL variants of one network share it, a width control has its own
+                # (drawn dash-dotted, labelled with its variant).
                 bc = mine[setting]["bc"]
-                if bc and setting.variant == variants[0]:
+                partner = frozenset(id(c) for c in bc)
+                if bc and partner not in bc_drawn:
+                    bc_drawn.add(partner)
                     shown.append(mean([c.mean_score for c in bc]))
-                    ax.axhline(shown[-1], color=color(setting.method), linestyle=":",
-                               label=f"{name(setting.method)}, BC (evaluated)")
+                    own = bc[0].label == bc[0].method
+                    ax.axhline(shown[-1], color=color(setting.method), linestyle=":" if own else (0, (1, 2, 4, 2)),
+                               label=f"{name(setting.method)}{'' if own else f' ({bc[0].variant})'}, BC (evaluated)")
                 drawn = True
             ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
             ax.set_xlabel("env steps per task")
@@ -142,7 +148,7 @@ def gail_curves(cells, out):
         return []
     legend_below(fig, axes.flat, 2)
     fig.suptitle("GAIL's learning curves: training return over the expert's against env steps per task\n"
-                 "(mean over seeds, band: 95% CI; dotted: the same method's BC score)")
+                 "(mean over seeds, band: 95% CI; dotted: the same network's BC score)")
     fig.tight_layout(rect=(0, 1.0 / height, 1, 1))
     return written(fig, out, "gail_curves", ["set", "method", "variant", "demos", "subsample", "env_steps_per_task",
                                              "seeds", "mean", "ci95"], rows,
@@ -150,7 +156,8 @@ def gail_curves(cells, out):
                    " Gaussian, so below what the mean action scores) as return over the task's expert return, mean"
                    " over tasks, then over seeds (band: 95% CI; each panel's y range spans its means and BC lines,"
                    " and 0 to 1, with a tenth to spare, so a wider band is cut off), against env steps per task; the"
-                   " dotted line is the same method's BC score at the same demos (evaluated, the mean action)."
+                   " dotted line is the same network's BC score at the same demos (evaluated, the mean action; a width"
+                   " control's BC partner dash-dotted, labelled with its variant)."
                    f" {describe_n(used)} (GAIL: iterations).")
 
 
