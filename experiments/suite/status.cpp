@@ -78,13 +78,25 @@ struct CellState {
   double trained = 0.0;  // a running cell's share of training its curve records, a started one's its last.ckpt holds
 };
 
-// A finished cell's cost: training from curve.csv (every attempt; CPU time where the curve has it) plus the
-// evaluation's seconds. result.json's wall_seconds, the fallback, times only the attempt that finished the cell and
-// grows with pauses.
+// A finished cell's cost: training from curve.csv (every attempt; CPU time where the curve has it; a GAIL cell's
+// iterations, gail_curve_training_cost) plus the evaluation's seconds. result.json's wall_seconds, the fallback, times
+// only the attempt that finished the cell and grows with pauses.
 void set_cost(CellState& s, const fs::path& dir, const Json& result) {
   const Json& eval_seconds = result.at("eval").contains("seconds") ? result.at("eval").at("seconds") : Json();
-  const Json& steps = result.at("train").contains("steps") ? result.at("train").at("steps") : Json();
-  if (eval_seconds.is_number() && steps.is_number_integer())
+  const Json& train = result.at("train");
+  const Json& steps = train.contains("steps") ? train.at("steps") : Json();
+  const bool gail = train.contains("imitation") && train.at("imitation") == "gail";
+  if (gail && eval_seconds.is_number() && train.contains("env_steps_per_task") &&
+      train.at("env_steps_per_task").is_number_integer() && result.at("eval").contains("tasks") &&
+      result.at("eval").at("tasks").is_array())
+    if (const auto training = core::gail_curve_training_cost(
+            (dir / run_files::kCurve).string(), train.at("env_steps_per_task").get<std::int64_t>(),
+            static_cast<std::int64_t>(result.at("eval").at("tasks").size()))) {
+      s.cost_seconds = training->seconds + eval_seconds.get<double>();
+      s.cost_from_curve = true;
+      return;
+    }
+  if (!gail && eval_seconds.is_number() && steps.is_number_integer())
     if (const auto training =
             core::curve_training_cost((dir / run_files::kCurve).string(), steps.get<std::int64_t>())) {
       s.cost_seconds = training->seconds + eval_seconds.get<double>();

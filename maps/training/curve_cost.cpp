@@ -63,4 +63,35 @@ std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std:
   return cost;
 }
 
+std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path, std::int64_t env_steps_per_task,
+                                                  std::int64_t tasks) {
+  if (tasks <= 0) return std::nullopt;
+  std::ifstream in(curve_path);
+  std::string line;
+  if (!in || !std::getline(in, line)) return std::nullopt;
+  const std::vector<std::string> header = split_row(line);
+  std::ptrdiff_t steps_column = -1, speed_column = -1;
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == "env_steps_per_task") steps_column = static_cast<std::ptrdiff_t>(i);
+    if (header[i] == "env_steps_per_second") speed_column = static_cast<std::ptrdiff_t>(i);
+  }
+  if (steps_column < 0 || speed_column < 0) return std::nullopt;
+  CurveCost cost;
+  double previous = 0.0;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> row = split_row(line);
+    if (row.size() != header.size()) return std::nullopt;
+    const double at = number_of(row[static_cast<std::size_t>(steps_column)]);
+    if (!std::isfinite(at) || !(at > previous)) return std::nullopt;
+    if (at > static_cast<double>(env_steps_per_task)) break;
+    const double seconds =
+        (at - previous) * static_cast<double>(tasks) / number_of(row[static_cast<std::size_t>(speed_column)]);
+    if (!(seconds > 0.0) || !std::isfinite(seconds)) return std::nullopt;
+    cost.seconds += seconds;
+    previous = at;
+  }
+  if (previous != static_cast<double>(env_steps_per_task)) return std::nullopt;
+  return cost;
+}
+
 }  // namespace maps::core

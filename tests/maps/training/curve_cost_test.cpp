@@ -64,5 +64,36 @@ TEST(CurveCost, ACurveThatCannotSayIsNoAnswer) {
   EXPECT_FALSE(curve_training_cost(curve_file("no_time", "step,bc\n20,1\n").string(), 20).has_value());
 }
 
+constexpr const char* kGailCurve =
+    "iteration,env_steps_per_task,return:a,return:b,env_steps_per_second\n"
+    "1,2000,1,1,40\n"
+    "2,4000,1,1,40\n"
+    "3,6000,1,1,20\n";
+
+TEST(GailCurveCost, EachIterationIsItsEnvStepsOverItsSpeed) {
+  // Two tasks: 4,000 env steps an iteration, 100 + 100 + 200 s.
+  const auto cost = gail_curve_training_cost(curve_file("gail", kGailCurve).string(), 6000, 2);
+  ASSERT_TRUE(cost.has_value());
+  EXPECT_DOUBLE_EQ(cost->seconds, 400.0);
+  EXPECT_FALSE(cost->cpu);
+  const auto first = gail_curve_training_cost(curve_file("gail", kGailCurve).string(), 4000, 2);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_DOUBLE_EQ(first->seconds, 200.0);
+}
+
+TEST(GailCurveCost, ACurveThatCannotSayIsNoAnswer) {
+  const std::string header = "iteration,env_steps_per_task,env_steps_per_second\n";
+  EXPECT_FALSE(gail_curve_training_cost("/nonexistent/curve.csv", 2000, 2).has_value());
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("gail_short", kGailCurve).string(), 8000, 2).has_value());
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("gail_between", kGailCurve).string(), 5000, 2).has_value());
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("gail", kGailCurve).string(), 6000, 0).has_value());
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("gail_zero", header + "1,2000,0\n").string(), 2000, 2).has_value());
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("gail_back", header + "1,2000,40\n2,2000,40\n").string(), 2000, 2)
+                   .has_value());
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("gail_nan", header + "1,2000,nan\n").string(), 2000, 2).has_value());
+  // A BC run's curve has no env steps.
+  EXPECT_FALSE(gail_curve_training_cost(curve_file("bc", kCpuCurve).string(), 60, 2).has_value());
+}
+
 }  // namespace
 }  // namespace maps::core
