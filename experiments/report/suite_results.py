@@ -176,8 +176,8 @@ class Cell:
         resumed after a kill shows a fraction) and grows with pauses and shared cores, so the cost is training's
         seconds from curve.csv, summed over every attempt's kept rows (steps redone after a kill count once): CPU
         seconds where the curve has them (how "cpu"), else each validation window's wall seconds ("windows"), or a
-        GAIL cell's iterations (gail_iteration_seconds, how "gail"); plus the evaluation's seconds. Falls back to wall_seconds ("attempt") where the curve or the evaluation time is
-        missing."""
+        GAIL cell's iterations (gail_iteration_seconds, how "gail"); plus the evaluation's seconds. Falls back to
+        wall_seconds ("attempt") where the curve or the evaluation time is missing."""
         if self.eval_seconds is not None:
             if self.config.get("imitation") == "gail":
                 iterations = self.gail_iteration_seconds()
@@ -195,28 +195,23 @@ class Cell:
         """Seconds of a GAIL cell's iterations (rollouts, discriminator and PPO): the sum over curve.csv's rows of the
         iteration's env steps (its rise in env_steps_per_task over the row before, times the cell's tasks) over the
         env steps per second it logged (train.log's steps/s), so a resumed run counts the attempt that wrote each kept
-        row; a pause inside an iteration (SIGSTOP) and cores shared with other runs count. None where the curve is
-        missing, unreadable or empty, its env steps do not rise row by row, or a speed is not a positive finite
-        number."""
-        seconds, before = 0.0, 0
-        try:
-            with (self.folder / "curve.csv").open() as f:
-                for row in csv.DictReader(f):
-                    steps, speed = int(row["env_steps_per_task"]), float(row["env_steps_per_second"])
-                    if steps <= before or not (math.isfinite(speed) and speed > 0):
-                        return None
-                    seconds += (steps - before) * len(self.tasks) / speed
-                    before = steps
-        except (OSError, KeyError, ValueError, TypeError):
+        row; a pause inside an iteration (SIGSTOP) and cores shared with other runs count. None as _curve_sum_to:
+        the curve missing or unreadable, its env steps not rising row by row, a speed not a positive finite number,
+        or the rows not ending at the config's gail.env_steps_per_task."""
+        budget = self.config.get("gail", {}).get("env_steps_per_task")
+        if not isinstance(budget, int):
             return None
-        return seconds if before > 0 else None
+        return self._curve_sum_to(budget, lambda at, previous, row: (at - previous) * len(self.tasks)
+                                  / float(row["env_steps_per_second"]), column="env_steps_per_task")
 
-    def _curve_sum_to(self, step, window):
+    def _curve_sum_to(self, step, window, column="step"):
+        """The sum of window(at, previous, row) over curve.csv's rows up to `step` in its `column`; None where the
+        curve is missing or unreadable, a window is not a positive number, or the rows do not end at `step`."""
         seconds, previous = 0.0, 0
         try:
             with (self.folder / "curve.csv").open() as f:
                 for row in csv.DictReader(f):
-                    at = int(row["step"])
+                    at = int(row[column])
                     if at > step:
                         break
                     value = window(at, previous, row)

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <vector>
 
@@ -29,69 +30,79 @@ double number_of(const std::string& field) {
   }
 }
 
-}  // namespace
+using Window = std::function<double(double at, double previous, const std::vector<std::string>& row)>;
 
-std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std::int64_t steps) {
+// The seconds a curve records up to `target` in its column `step_name`: the sum over its rows of the window that
+// choose(column_of) makes from the header (std::nullopt: the curve cannot say), each row's step above the one before.
+// std::nullopt when the file is missing or unreadable, a row is cut, a window is not a positive finite number, or
+// the rows do not end at `target`.
+std::optional<double> sum_windows(
+    const std::string& curve_path, const std::string& step_name, double target,
+    const std::function<std::optional<Window>(const std::function<std::ptrdiff_t(const std::string&)>& column_of)>&
+        choose) {
   std::ifstream in(curve_path);
   std::string line;
   if (!in || !std::getline(in, line)) return std::nullopt;
   const std::vector<std::string> header = split_row(line);
-  std::ptrdiff_t step_column = -1, speed_column = -1, cpu_column = -1;
-  for (std::size_t i = 0; i < header.size(); ++i) {
-    const auto index = static_cast<std::ptrdiff_t>(i);
-    if (header[i] == "step") step_column = index;
-    if (header[i] == "steps_per_second") speed_column = index;
-    if (header[i] == "cpu_seconds") cpu_column = index;
-  }
-  if (step_column < 0 || (speed_column < 0 && cpu_column < 0)) return std::nullopt;
-  CurveCost cost;
-  cost.cpu = cpu_column >= 0;
-  double previous = 0.0;
+  const auto column_of = [&header](const std::string& name) {
+    for (std::size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return static_cast<std::ptrdiff_t>(i);
+    return std::ptrdiff_t{-1};
+  };
+  const std::ptrdiff_t step_column = column_of(step_name);
+  const std::optional<Window> window = choose(column_of);
+  if (step_column < 0 || !window) return std::nullopt;
+  double seconds = 0.0, previous = 0.0;
   while (std::getline(in, line)) {
     const std::vector<std::string> row = split_row(line);
     if (row.size() != header.size()) return std::nullopt;
     const double at = number_of(row[static_cast<std::size_t>(step_column)]);
     if (!std::isfinite(at)) return std::nullopt;
-    if (at > static_cast<double>(steps)) break;
-    const double window = cost.cpu ? number_of(row[static_cast<std::size_t>(cpu_column)])
-                                   : (at - previous) / number_of(row[static_cast<std::size_t>(speed_column)]);
-    if (!(window > 0.0) || !std::isfinite(window)) return std::nullopt;
-    cost.seconds += window;
+    if (at > target) break;
+    const double value = (*window)(at, previous, row);
+    if (!(value > 0.0) || !std::isfinite(value)) return std::nullopt;
+    seconds += value;
     previous = at;
   }
-  if (previous != static_cast<double>(steps)) return std::nullopt;
+  if (previous != target) return std::nullopt;
+  return seconds;
+}
+
+// The number in a row's column (the column a header search found).
+double field(const std::vector<std::string>& row, std::ptrdiff_t column) {
+  return number_of(row[static_cast<std::size_t>(column)]);
+}
+
+}  // namespace
+
+std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std::int64_t steps) {
+  CurveCost cost;
+  const auto seconds = sum_windows(curve_path, "step", static_cast<double>(steps), [&cost](const auto& column_of) {
+    const std::ptrdiff_t speed = column_of("steps_per_second"), cpu = column_of("cpu_seconds");
+    cost.cpu = cpu >= 0;
+    if (cost.cpu) return std::optional<Window>([cpu](double, double, const auto& row) { return field(row, cpu); });
+    if (speed < 0) return std::optional<Window>();
+    return std::optional<Window>(
+        [speed](double at, double previous, const auto& row) { return (at - previous) / field(row, speed); });
+  });
+  if (!seconds) return std::nullopt;
+  cost.seconds = *seconds;
   return cost;
 }
 
 std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path, std::int64_t env_steps_per_task,
                                                   std::int64_t tasks) {
   if (tasks <= 0) return std::nullopt;
-  std::ifstream in(curve_path);
-  std::string line;
-  if (!in || !std::getline(in, line)) return std::nullopt;
-  const std::vector<std::string> header = split_row(line);
-  std::ptrdiff_t steps_column = -1, speed_column = -1;
-  for (std::size_t i = 0; i < header.size(); ++i) {
-    if (header[i] == "env_steps_per_task") steps_column = static_cast<std::ptrdiff_t>(i);
-    if (header[i] == "env_steps_per_second") speed_column = static_cast<std::ptrdiff_t>(i);
-  }
-  if (steps_column < 0 || speed_column < 0) return std::nullopt;
-  CurveCost cost;
-  double previous = 0.0;
-  while (std::getline(in, line)) {
-    const std::vector<std::string> row = split_row(line);
-    if (row.size() != header.size()) return std::nullopt;
-    const double at = number_of(row[static_cast<std::size_t>(steps_column)]);
-    if (!std::isfinite(at) || !(at > previous)) return std::nullopt;
-    if (at > static_cast<double>(env_steps_per_task)) break;
-    const double seconds =
-        (at - previous) * static_cast<double>(tasks) / number_of(row[static_cast<std::size_t>(speed_column)]);
-    if (!(seconds > 0.0) || !std::isfinite(seconds)) return std::nullopt;
-    cost.seconds += seconds;
-    previous = at;
-  }
-  if (previous != static_cast<double>(env_steps_per_task)) return std::nullopt;
-  return cost;
+  const auto seconds = sum_windows(
+      curve_path, "env_steps_per_task", static_cast<double>(env_steps_per_task), [tasks](const auto& column_of) {
+        const std::ptrdiff_t speed = column_of("env_steps_per_second");
+        if (speed < 0) return std::optional<Window>();
+        return std::optional<Window>([speed, tasks](double at, double previous, const auto& row) {
+          return (at - previous) * static_cast<double>(tasks) / field(row, speed);
+        });
+      });
+  if (!seconds) return std::nullopt;
+  return CurveCost{*seconds, false};
 }
 
 }  // namespace maps::core

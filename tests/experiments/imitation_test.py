@@ -3,7 +3,8 @@
 iterations cost (Cell.compute_seconds), against values computed by hand: the area is the mean of the training curve
 over the budget; a value counts as reached only when a trailing window's mean reaches it (one lucky iteration does
 not); the table pairs MAPS with each other method by seed, over the budget both ran, and adjusts by Holm over its rows;
-an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not. Run by ctest (tests/CMakeLists.txt)."""
+an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not. Run by ctest
+(tests/CMakeLists.txt)."""
 import pathlib
 import statistics
 import sys
@@ -187,7 +188,6 @@ class LearningSpeedTest(unittest.TestCase):
             self.assertEqual(imitation.speed_table([cell]), [])
 
 
-
 def timed_cell(root, method, seed, speeds, steps_per_iteration=2000):
     """A GAIL cell of the two tasks, evaluated in 3 s, whose curve.csv logs one iteration per speed (env steps per
     second, as written)."""
@@ -219,6 +219,7 @@ class GailComputeTest(unittest.TestCase):
             self.assertIsNone(cell.gail_iteration_seconds())
             self.assertEqual(cell.compute_seconds(), (cell.wall_seconds, "attempt"))
             for text in ["iteration,env_steps_per_task,env_steps_per_second\n1,2000,40\n2,2000,40\n",  # no rise
+                         "iteration,env_steps_per_task,env_steps_per_second\n1,2000,40\n",  # short of the budget
                          "iteration,env_steps_per_task,env_steps_per_second\n1,2000,nan\n",
                          "iteration,env_steps_per_task\n1,2000\n",  # no speed column
                          "iteration,env_steps_per_task,env_steps_per_second\n"]:  # no iteration
