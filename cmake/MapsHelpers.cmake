@@ -71,13 +71,15 @@ function(maps_add_layer target)
   endif()
 endfunction()
 
-# maps_add_test_suite(<layer> <libraries>... [TARGET <name>])
+# maps_add_test_suite(<layer> <libraries>... [TARGET <name>] [ISOLATE <suite>...])
 #
 # tests/<layer>/**/*.cpp -> executable maps_<layer>_tests (or <name>) linked with <libraries> and GoogleTest
 # (gtest_main, plus gmock for matchers such as HasSubstr). Each TEST becomes a ctest test named
-# "<layer>.<Suite>.<Name>" with label <layer>. A folder with no .cpp yet is skipped.
+# "<layer>.<Suite>.<Name>" with label <layer>; with MAPS_CTEST_PER_SUITE each suite is one ctest test
+# "<layer>.<Suite>" instead, but for the ISOLATE suites, whose cases cannot share a process. A folder with no .cpp yet
+# is skipped.
 function(maps_add_test_suite layer)
-  cmake_parse_arguments(PARSE_ARGV 1 arg "" "TARGET" "")
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "TARGET" "ISOLATE")
   set(dir "${CMAKE_CURRENT_SOURCE_DIR}/${layer}")
   set(target maps_${layer}_tests)
   if(arg_TARGET)
@@ -92,6 +94,20 @@ function(maps_add_test_suite layer)
   target_link_libraries(${target} PRIVATE ${arg_UNPARSED_ARGUMENTS} GTest::gmock GTest::gtest_main maps_warnings)
   target_compile_definitions(${target} PRIVATE MAPS_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   maps_precompile_headers(${target} <gmock/gmock.h> <gtest/gtest.h> <nlohmann/json.hpp>)
+  if(MAPS_CTEST_PER_SUITE)
+    # A ctest test per GoogleTest suite (cmake/GTestSuites.cmake says why), but for the ISOLATE suites' cases.
+    set(ctest_file "${CMAKE_CURRENT_BINARY_DIR}/${target}_suites.cmake")
+    add_custom_command(TARGET ${target} POST_BUILD
+      COMMAND "${CMAKE_COMMAND}" "-DTEST_EXECUTABLE=$<TARGET_FILE:${target}>" "-DCTEST_FILE=${ctest_file}"
+              "-DTEST_PREFIX=${layer}." "-DTEST_LABELS=${layer}" "-DWORKING_DIR=${CMAKE_CURRENT_BINARY_DIR}"
+              "-DISOLATED=${arg_ISOLATE}" -P "${PROJECT_SOURCE_DIR}/cmake/GTestSuites.cmake"
+      BYPRODUCTS "${ctest_file}" VERBATIM)
+    set(include_file "${CMAKE_CURRENT_BINARY_DIR}/${target}_suites_include.cmake")
+    file(WRITE "${include_file}" "if(EXISTS \"${ctest_file}\")\n  include(\"${ctest_file}\")\nelse()\n"
+                                 "  add_test(${target}_NOT_BUILT ${target}_NOT_BUILT)\nendif()\n")
+    set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${include_file}")
+    return()
+  endif()
   gtest_discover_tests(${target}
     TEST_PREFIX "${layer}."
     NO_PRETTY_VALUES                 # parameterized tests keep their own names, not dumps of GetParam()

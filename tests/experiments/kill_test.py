@@ -18,7 +18,8 @@ import unittest
 from maps_tool import curve_without_timing  # beside this file
 
 MAPS = None  # set from argv
-# MAPS_TEST_QUICK=1 (CI's sanitizer pass, where every step is several times slower): fewer kills.
+# MAPS_TEST_QUICK=1 (a sanitizer build, where every step is several times slower; CI runs this file in its Release
+# pass only, .ci/run phase 4 says why): fewer kills.
 QUICK = os.environ.get("MAPS_TEST_QUICK") == "1"
 WORK = None  # scratch folder
 

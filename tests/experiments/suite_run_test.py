@@ -881,8 +881,12 @@ class SuiteTest(unittest.TestCase):
         state or disagrees with the config on the average, is named before any evaluation."""
         config = json.loads(TINY.read_text())
         config["defaults"]["train"]["keep_every"] = 60
+        # One episode per task and a small denoiser sampled in 2 steps: three evaluations of a chunk per env step were
+        # half this file's time with tiny.json's 2 episodes and the width matched to MAPS's parameter count.
+        config["defaults"]["eval"]["episodes"] = 1
         config["variants"] = {"ema": {"train": {"ema_power": 0.75},
-                                      "diffusion_policy": {"denoiser": "mlp", "horizon": 1, "execute": 1}}}
+                                      "diffusion_policy": {"denoiser": "mlp", "horizon": 1, "execute": 1, "width": 32,
+                                                           "inference_steps": 2}}}
         config["grids"] = [{"name": "last", "sets": ["gravity"], "methods": ["mt_bc"], "seeds": [0]},
                            {"name": "ema", "sets": ["gravity"], "methods": ["diffusion_policy"], "variants": ["ema"],
                             "seeds": [0]}]
