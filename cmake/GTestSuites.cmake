@@ -4,8 +4,8 @@
 #   TEST_EXECUTABLE  the test binary          CTEST_FILE   the ctest script to write
 #   TEST_PREFIX      prefix of the test names  TEST_LABELS  the tests' LABELS
 #   WORKING_DIR      the tests' working folder ISOLATED     suites whose cases need a process each (;-list)
-# Why: each start of a 60 MB sanitizer-instrumented test binary costs some 0.13 CPU-s, and CI's ASan pass started
-# 941 of them (about a minute of its two cores); per suite it starts under 200. A suite whose cases share process
+# Why: each start of a sanitizer-instrumented test binary (15 to 60 MB) costs 0.1 to 0.17 CPU-s, and CI's ASan pass
+# started 929 of them (about a minute of its two cores); per suite it starts 186. A suite whose cases share process
 # state they cannot share (PluginsTest: a plugin's registrations are process-wide) is listed in ISOLATED.
 cmake_minimum_required(VERSION 3.20)
 
@@ -21,13 +21,15 @@ if(NOT status EQUAL 0)
   message(FATAL_ERROR "${TEST_EXECUTABLE} --gtest_list_tests exited ${status}:\n${listing}\n${errors}")
 endif()
 
-# The listing: "Suite." on its own line (then maybe "  # TypeParam = ..."), each case indented below it.
+# The listing: "Suite." on its own line (then maybe "  # TypeParam = ..."), each case indented below it (then maybe
+# "  # GetParam() = ..."). The comments go first: a printed parameter may hold ';' or an unbalanced '[', which would
+# join or split CMake list items.
+string(REGEX REPLACE " *#[^\n]*" "" listing "${listing}")
 string(REPLACE ";" "\\;" listing "${listing}")
 string(REPLACE "\n" ";" lines "${listing}")
 set(suites)
 set(suite "")
 foreach(line IN LISTS lines)
-  string(REGEX REPLACE " *#.*$" "" line "${line}")
   if(line STREQUAL "" OR line MATCHES "^Running main\\(\\) from ")  # gtest_main's greeting
     continue()
   endif()
@@ -49,6 +51,13 @@ endforeach()
 if(NOT suites)
   message(FATAL_ERROR "${TEST_EXECUTABLE} lists no test")
 endif()
+
+foreach(suite IN LISTS ISOLATED)
+  if(NOT suite IN_LIST suites)
+    message(FATAL_ERROR "${TEST_EXECUTABLE} has no test suite '${suite}' to isolate (renamed? an instantiated suite "
+                        "is named with its prefix, Prefix/Suite)")
+  endif()
+endforeach()
 
 set(script "")
 macro(register name filter)
