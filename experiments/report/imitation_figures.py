@@ -1,7 +1,7 @@
 """The figures of GAIL against BC (issue 45, docs/adversarial.md), each with its numbers in a CSV beside it:
 
-    imitation_scores.png  mean score over tasks against demos per task, one panel per set: each method under BC (solid)
-                          and under GAIL (dashed), band: 95% CI over seeds
+    imitation_scores.png  mean score over tasks against demos per task, one panel per set: each method under BC (solid,
+                          on to the counts only BC ran) and under GAIL (dashed), band: 95% CI over seeds
     gail_module_usage.png MAPS's per-task module usage under BC and under GAIL, one seed per setting, side by side
     gail_curves.png       GAIL's learning curves: the training episodes' return over the expert's (mean over tasks,
                           then over seeds) against env steps per task, one panel per set and demo count, each
@@ -18,9 +18,9 @@ import numpy as np  # noqa: E402
 
 from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_panels,  # noqa: E402
                      write_csv)
-from imitation import by_objective, training_curve  # noqa: E402
+from imitation import by_objective, network, objective, training_curve  # noqa: E402
 from suite_results import SET_ORDER, order, score_name, short_task, success_scored  # noqa: E402
-from suite_stats import ci95, describe_n, mean  # noqa: E402
+from suite_stats import ci95, describe_n, mean, span  # noqa: E402
 
 STYLES = {"bc": {"linestyle": "-"}, "gail": {"linestyle": "--", "markerfacecolor": "white"}}
 OBJECTIVE_NAMES = {"bc": "BC", "gail": "GAIL"}
@@ -43,6 +43,19 @@ def variant_name(method, variant):
     return name(method) + ("" if variant == "gail" else f" ({variant})")
 
 
+def bc_only_counts(cells, set_name, partners, xs, runs):
+    """A BC line's counts and runs (xs, runs) grown by the counts where its network ran BC alone, with no GAIL
+    setting to pair with: BC cells of the set with the partners' label (method and BC variant) and network, by seed."""
+    label, shape = partners[0][0].label, network(partners[0][0])
+    more = {}
+    for c in cells:
+        if (objective(c) == "bc" and c.set == set_name and c.label == label and network(c) == shape
+                and c.demos not in xs and c.subsample == partners[0][0].subsample):
+            more.setdefault(c.demos, []).append(c)
+    grown = sorted(list(zip(xs, runs)) + list(more.items()), key=lambda item: item[0])
+    return [x for x, _ in grown], [r for _, r in grown]
+
+
 def imitation_scores(cells, out):
     settings = by_objective(cells)
     sets = order(SET_ORDER, {s.set for s in settings})
@@ -60,12 +73,15 @@ def imitation_scores(cells, out):
                 if not keys or (kind == "bc" and variant != "gail" and any(
                         mine.get(s._replace(variant="gail"), {}).get("bc") == mine[s]["bc"] for s in keys)):
                     continue  # BC's line once per method and network (beside the suite's own GAIL variant)
-                runs = [mine[s][kind] for s in keys]
+                xs, runs = [s.demos for s in keys], [mine[s][kind] for s in keys]
                 bc_label = mine[keys[0]]["bc"][0].label if mine[keys[0]]["bc"] else method
+                if kind == "bc":  # on to the counts only BC ran (the study's 10 on the cheetah): BC's whole curve
+                    partners = [mine[s]["bc"] for s in keys]
+                    xs, runs = bc_only_counts(cells, set_name, partners, xs, runs)
                 shown = (name(method) + bc_label[len(method):] if kind == "bc" else variant_name(method, variant))
                 # A width control (its BC partner a variant of the method, "mt_bc (w430)"): square markers.
                 style = dict(STYLES[kind], **({} if bc_label == method else {"marker": "s"}))
-                points = line_with_band(ax, [s.demos for s in keys], runs, lambda c: c.mean_score,
+                points = line_with_band(ax, xs, runs, lambda c: c.mean_score,
                                         color=color(method), label=f"{shown}, {OBJECTIVE_NAMES[kind]}", **style)
                 rows += [[set_name, bc_label if kind == "bc" else method, kind if kind == "bc" else variant, x,
                           keys[0].subsample, n, m, h] for x, n, m, h in points]
@@ -74,7 +90,7 @@ def imitation_scores(cells, out):
         ax.set_title(f"{set_name}", fontsize=9)
         ax.set_xlabel("demonstrations per task")
         ax.set_ylabel(f"{score_name(set_name, drawn, short=True)}\n(mean over tasks)")
-        ax.set_xticks(sorted({s.demos for s in mine}))
+        ax.set_xticks(sorted({r[3] for r in rows if r[0] == set_name}))
         score_limits(ax, set_name, drawn, means)
         ax.grid(alpha=0.3)
     legend_below(fig, axes[0], 3)
@@ -85,9 +101,20 @@ def imitation_scores(cells, out):
                                                   "ci95"], rows,
                    "Each set's mean score over its tasks against demonstrations per task, each method trained by BC"
                    " (solid) and by GAIL (dashed, hollow markers; square markers: a width control beside its BC"
-                   " partner of the same width); points are means over seeds, the band the 95% CI"
+                   " partner of the same width; BC's line runs on to the counts only BC ran); points are means"
+                   " over seeds, the band the 95% CI"
                    f" over seeds. {describe_n(drawn)} (GAIL: iterations). The same evaluation for both"
                    " (the mean action).")
+
+
+def describe_curves(cells, seed_counts):
+    """"n = 3 seeds per point, 2 training episodes per task per iteration (500 iterations)": what a curve's point
+    averages, the training episodes (not the evaluation's), ranges where the cells differ."""
+    episodes = "/".join(str(e) for e in sorted({int(c.config.get("gail", {}).get("rollout_episodes", 2))
+                                                 for c in cells}))
+    iterations = "/".join(str(s) for s in sorted({c.steps for c in cells}))
+    return (f"n = {span(sorted(seed_counts))} seed{'s' if max(seed_counts) > 1 else ''} per point, {episodes} training"
+            f" episodes per task per iteration ({iterations} iterations)")
 
 
 def gail_curves(cells, out):
@@ -97,7 +124,7 @@ def gail_curves(cells, out):
         return []
     fig, axes, height = setting_panels([{(s.demos, s.subsample) for s in settings if s.set == name_}
                                         for name_ in sets])
-    rows, drawn, used = [], False, []
+    rows, drawn, used, seed_counts = [], False, [], []
     variants = sorted({s.variant for s in settings}, key=lambda v: (v != "gail", v))
     for axes_row, set_name in zip(axes, sets):
         mine = {s: runs for s, runs in settings.items() if s.set == set_name}
@@ -112,6 +139,7 @@ def gail_curves(cells, out):
                 if not curves:
                     continue
                 used += mine[setting]["gail"]
+                seed_counts.append(len(curves))
                 steps = sorted(set.intersection(*(set(c) for c in curves)))
                 values = [[c[s] for c in curves] for s in steps]
                 means = np.array([mean(v) for v in values])
@@ -158,7 +186,7 @@ def gail_curves(cells, out):
                    " and 0 to 1, with a tenth to spare, so a wider band is cut off), against env steps per task; the"
                    " dotted line is the same network's BC score at the same demos (evaluated, the mean action; a width"
                    " control's BC partner dash-dotted, labelled with its variant)."
-                   f" {describe_n(used)} (GAIL: iterations).")
+                   f" {describe_curves(used, seed_counts)}.")
 
 
 def gail_module_usage(cells, out):

@@ -466,8 +466,9 @@ def main(argv=None):
     write_results_csv(suite, out / "results.csv")
     draw = Drawer(figures, suite.cells, out)
     (out / "report.md").write_text("\n".join(report_lines(suite, draw, beside)) + "\n")
+    dropped = f", {len(suite.dropped)} dropped" if suite.dropped else ""
     print(f"{len(suite.cells)} finished, {len(suite.missing)} missing, {len(suite.failed)} failed,"
-          f" {len(suite.damaged)} damaged of {len(suite.planned)} cells\n")
+          f" {len(suite.damaged)} damaged{dropped} of {len(suite.planned)} cells\n")
     if beside.quick:
         print(warning_line(beside).replace("**", "") + "\n")
     print("\n".join(main_results_beside(suite.cells, beside) if beside.cells else tables.main_results(suite.cells)))

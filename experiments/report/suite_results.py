@@ -234,6 +234,7 @@ class Suite:
     failed: list = field(default_factory=list)  # (cell name, stage, message)
     damaged: list = field(default_factory=list)  # (path, reason)
     missing: list = field(default_factory=list)  # cell names neither finished nor failed (left, running, started)
+    dropped: list = field(default_factory=list)  # unfinished cells of suite.json that the suite config no longer makes
     # The earlier runs' results of the cells (replaced/<time>/result.json), with the tool's verdict: (path,
     # "" when it is an earlier run of the cell's run config, else why not).
     replaced: list = field(default_factory=list)
@@ -449,6 +450,8 @@ def load_suite(root, status_file=None):
         elif state == "failed":
             error = entry.get("error") or {}
             suite.failed.append((name, str(error.get("stage", "?")), str(error.get("error", "(no message)"))))
+        elif state == "dropped":
+            suite.dropped.append(name)
         else:
             suite.missing.append(name)
     # In folder order, as the results table lists them.

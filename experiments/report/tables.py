@@ -68,8 +68,11 @@ def protocol(suite):
 
 def cell_counts(suite):
     planned = len(suite.planned)
+    # A grid taken out of the config before its cells ran is a decision, not work left: counted apart from missing.
+    dropped = (f", {len(suite.dropped)} dropped (no longer in the suite config, never finished)" if suite.dropped
+               else "")
     lines = [f"Cells: {len(suite.cells)} finished, {len(suite.missing)} missing (not run or not finished),"
-             f" {len(suite.failed)} failed, {len(suite.damaged)} damaged, of {planned} in suite.json."]
+             f" {len(suite.failed)} failed, {len(suite.damaged)} damaged{dropped}, of {planned} in suite.json."]
     if suite.failed:
         lines += ["", "Failed cells:", ""] + [f"- `{name}` ({stage}): {message}" for name, stage, message in
                                               suite.failed]

@@ -3,8 +3,9 @@
 iterations cost (Cell.compute_seconds), against values computed by hand: the area is the mean of the training curve
 over the budget; a value counts as reached only when a trailing window's mean reaches it (one lucky iteration does
 not); the table pairs MAPS with each other method by seed, over the budget both ran, and adjusts by Holm over its rows;
-an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not. Run by ctest
-(tests/CMakeLists.txt)."""
+an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not; the score figure's BC
+line runs on to the counts only BC ran, and the learning curves' caption counts training episodes, not the
+evaluation's. Run by ctest (tests/CMakeLists.txt)."""
 import pathlib
 import statistics
 import sys
@@ -227,6 +228,38 @@ class GailComputeTest(unittest.TestCase):
                 self.assertIsNone(cell.gail_iteration_seconds(), text)
             (cell.folder / "curve.csv").unlink()
             self.assertIsNone(cell.gail_iteration_seconds())
+
+
+
+class FiguresTest(unittest.TestCase):
+    def test_bc_runs_on_to_the_counts_only_bc_ran_and_the_curves_name_their_training_episodes(self):
+        import csv
+        import imitation_figures
+
+        def bc_cell(method, demos, seed, score):
+            tasks = [TaskResult(t, score, 0.0, 0.0, 500.0) for t in TASKS]
+            return Cell(pathlib.Path("."), f"s/{method}_d{demos}_s{seed}", "bc", "s", method, "base", demos, 10, seed,
+                        {"method": method}, 100, 100, 10, 1.0, tasks)
+
+        with tempfile.TemporaryDirectory() as root:
+            gail = [gail_cell(root, "maps", seed, [0.5, 1.0]) for seed in (0, 1)]
+            for c in gail:
+                c.config["gail"]["rollout_episodes"] = 3
+            # BC at the GAIL count (1) and at 10, where no GAIL cell ran; an ablation at 10 is not BC's line.
+            bc = [bc_cell("maps", 1, s, 0.2) for s in (0, 1)] + [bc_cell("maps", 10, s, 0.8) for s in (0, 1)]
+            ablation = bc_cell("maps", 10, 0, 0.1)
+            ablation.variant, ablation.name = "no_share", "s/maps-no_share_d10_s0"
+            out = pathlib.Path(root) / "report"
+            out.mkdir()
+            imitation_figures.imitation_scores(bc + [ablation] + gail, out)
+            with open(out / "imitation_scores.csv") as f:
+                rows = [(r["objective"], r["demos"], r["seeds"], round(float(r["mean"]), 3))
+                        for r in csv.DictReader(f)]
+            self.assertEqual(sorted(rows), [("bc", "1", "2", 0.2), ("bc", "10", "2", 0.8), ("gail", "1", "2", 1.0)])
+            figures = imitation_figures.gail_curves(gail + bc, out)
+            self.assertIn("n = 2 seeds per point, 3 training episodes per task per iteration (2 iterations)",
+                          figures[0].caption)
+            self.assertNotIn("100 episodes", figures[0].caption)
 
 
 if __name__ == "__main__":

@@ -514,6 +514,12 @@ class SuiteTest(unittest.TestCase):
         self.assertIn("9 cells: 8 done, 0 running, 0 failed, 0 started (resumable), 0 left, 1 dropped", status)
         self.assertIn("| ablations | 1 | 0 | 0 | 0 | 0 | 0 | 1 |", status)
         self.assertNotIn("estimated CPU time left", status)
+        # The report counts it apart from the missing cells: a grid taken out is not work left.
+        maps("report", out, "--no-study")
+        md = (out / "report" / "report.md").read_text()
+        self.assertIn("Cells: 8 finished, 0 missing (not run or not finished), 0 failed, 0 damaged, 1 dropped (no"
+                      " longer in the suite config, never finished), of 9 in suite.json.", md)
+        self.assertNotIn("Missing cells", md)
 
     def test_status_scales_the_estimate_by_the_finished_cells_pace(self):
         out = self.dir / "pace"
