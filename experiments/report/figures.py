@@ -625,6 +625,74 @@ def setting_panels(settings_per_set):
     return fig, axes, height
 
 
+def setting_axes(axes, sets, cells):
+    """(axis, set, (demos, k), the setting's cells) for each panel of setting_panels' grid, a row per set; a row's
+    spare panels are hidden."""
+    for axes_row, set_name in zip(axes, sets):
+        mine = [c for c in cells if c.set == set_name]
+        settings = sorted({(c.demos, c.subsample) for c in mine})
+        for ax in axes_row[len(settings):]:
+            ax.set_visible(False)
+        for ax, (demos, k) in zip(axes_row, settings):
+            yield ax, set_name, (demos, k), [c for c in mine if (c.demos, c.subsample) == (demos, k)]
+
+
+def mean_validation_curve(runs):
+    """(steps, mean validation loss over the runs, runs counted) at the steps every run's curve.csv logged; empty
+    lists where no run has a curve."""
+    curves = [dict(zip(*curve)) for curve in (c.curve() for c in runs) if curve[0]]
+    if not curves:
+        return [], [], 0
+    steps = sorted(set.intersection(*(set(c) for c in curves)))
+    return steps, [mean([c[s] for c in curves]) for s in steps], len(curves)
+
+
+def denoising_validation(cells, out):
+    """Diffusion Policy's validation loss (the denoising loss on the validation states, on one fixed draw of steps and
+    noise: docs/zoo.md) against the training step, one line per denoiser (the cells' label), mean over seeds, a panel
+    per set and setting: the curve its checkpoint rule reads, apart from the BC losses of validation.png (another
+    quantity on another scale)."""
+    cells = [c for c in cells if c.method == "diffusion_policy"]
+    sets = order(SET_ORDER, {c.set for c in cells})
+    if not sets:
+        return []
+    labels = methods_of(cells)
+    fig, axes, height = setting_panels([{(c.demos, c.subsample) for c in cells if c.set == s} for s in sets])
+    rows, drawn = [], []
+    for ax, set_name, (demos, k), mine in setting_axes(axes, sets, cells):
+        for label in labels:
+            runs = [c for c in mine if c.label == label]
+            steps, means, n = mean_validation_curve(runs)
+            if not steps:
+                continue
+            style = label_style(label, labels)
+            ax.plot(steps, means, color=style["color"], linestyle=style.get("linestyle", "-"), label=label)
+            rows += [[set_name, label, demos, k, s, n, m] for s, m in zip(steps, means)]
+            drawn += runs
+        ax.set_yscale("log")
+        if ax.lines:
+            log_ticks(ax)
+        ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+        ax.set_xlabel("training step")
+        ax.set_ylabel("validation denoising loss")
+        ax.locator_params(axis="x", nbins=5)
+        ax.grid(alpha=0.3, which="both")
+    if not drawn:
+        plt.close(fig)
+        return []
+    legend_below(fig, axes.flat, 3)
+    fig.suptitle("Diffusion Policy: validation denoising loss against training step, mean over seeds\n"
+                 f"{describe_n(drawn)}")
+    fig.tight_layout(rect=(0, 0.5 / height, 1, 1))
+    save(fig, out, "denoising_validation.png")
+    write_csv(out / "denoising_validation.csv", ["set", "label", "demos", "subsample", "step", "seeds",
+                                                  "validation_denoising"], rows)
+    return [Figure("denoising_validation.png", "Diffusion Policy's validation loss, the denoising loss on the"
+                   " validation states at one fixed draw of steps and noise, against the training step, mean over seeds"
+                   " per denoiser (log scale); the checkpoint evaluated is each run's step of lowest loss, which a curve"
+                   f" that falls and rises again shows early. {describe_n(drawn)}.")]
+
+
 def validation(cells, out):
     cells = base_cells(cells)
     sets = order(SET_ORDER, {c.set for c in cells})
@@ -632,29 +700,21 @@ def validation(cells, out):
         return []
     fig, axes, height = setting_panels([{(c.demos, c.subsample) for c in cells if c.set == s} for s in sets])
     rows, drawn = [], False
-    for axes_row, set_name in zip(axes, sets):
-        mine = [c for c in cells if c.set == set_name]
-        settings = sorted({(c.demos, c.subsample) for c in mine})
-        for ax in axes_row[len(settings):]:
-            ax.set_visible(False)
-        for ax, (demos, k) in zip(axes_row, settings):
-            for method in methods_of(mine):
-                curves = [c.curve() for c in mine if c.method == method and c.demos == demos and c.subsample == k]
-                curves = [dict(zip(*curve)) for curve in curves if curve[0]]
-                if not curves:
-                    continue
-                steps = sorted(set.intersection(*(set(c) for c in curves)))
-                means = [mean([c[s] for c in curves]) for s in steps]
-                ax.plot(steps, means, color=color(method), label=name(method))
-                rows += [[set_name, method, demos, k, s, len(curves), m] for s, m in zip(steps, means)]
-                drawn = True
-            ax.set_yscale("log")
-            if ax.lines:
-                log_ticks(ax)
-            ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
-            ax.set_xlabel("training step")
-            ax.set_ylabel("validation BC loss")
-            ax.grid(alpha=0.3, which="both")
+    for ax, set_name, (demos, k), mine in setting_axes(axes, sets, cells):
+        for method in methods_of(mine):
+            steps, means, n = mean_validation_curve([c for c in mine if c.method == method])
+            if not steps:
+                continue
+            ax.plot(steps, means, color=color(method), label=name(method))
+            rows += [[set_name, method, demos, k, s, n, m] for s, m in zip(steps, means)]
+            drawn = True
+        ax.set_yscale("log")
+        if ax.lines:
+            log_ticks(ax)
+        ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+        ax.set_xlabel("training step")
+        ax.set_ylabel("validation BC loss")
+        ax.grid(alpha=0.3, which="both")
     if not drawn:
         plt.close(fig)
         return []

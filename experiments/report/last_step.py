@@ -27,7 +27,11 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from suite_results import SuiteError, groups, load_suite, read_json  # noqa: E402
+import numpy as np  # noqa: E402
+
+import aggregates  # noqa: E402
+from aggregates import fmt_improvement, fmt_interval, iqm_interval, runs_by_tasks  # noqa: E402
+from suite_results import SuiteError, groups, load_suite, read_json, task_names  # noqa: E402
 from suite_stats import fmt, fmt_p, holm_within, paired_p  # noqa: E402
 
 SECTION = "The last step against the best-validation checkpoint"
@@ -84,18 +88,24 @@ def read_last(path, cells_by_folder):
         finite(value, f"{path}: last.scores[{i}]")
     if abs(sum(scores) / len(scores) - score) > 1e-6:
         raise EvalFileError(f"{path}: last.mean_score {score!r} is not the mean of last.scores")
-    return cell, score
+    # last.scores follow the file's tasks, which must be the cell's: the per-task scores the aggregates compare.
+    tasks = record.get("tasks")
+    names = [t.get("task") if isinstance(t, dict) else None for t in tasks] if isinstance(tasks, list) else None
+    if names is None or sorted(map(str, names)) != sorted(t.task for t in cell.tasks):
+        raise EvalFileError(f"{path}: tasks are not the cell's {len(cell.tasks)} tasks")
+    return cell, score, dict(zip(names, scores))
 
 
 def rows_of(suite, files, base):
     cells_by_folder = {(c.set, c.folder.name): c for c in suite.cells}
-    last_score = {}
+    last_score, last_tasks = {}, {}
     for path in files:
-        cell, score = read_last(path, cells_by_folder)
+        cell, score, per_task = read_last(path, cells_by_folder)
         if cell.label == base:
             raise EvalFileError(f"{path}: a cell of {base}, the method every row is paired with at its headline "
                                 "checkpoint (evaluate the others)")
         last_score[id(cell)] = score
+        last_tasks[id(cell)] = per_task
     grouped = groups(suite.cells)
     rows = []
     for key, cells in grouped.items():
@@ -106,7 +116,13 @@ def rows_of(suite, files, base):
                            if k.set == key.set and k.label == base and k.demos == key.demos
                            and k.subsample == key.subsample), [])
         base_by_seed = {c.seed: c.mean_score for c in base_cells}
-        rows.append(dict(set=key.set, method=key.label, demos=key.demos, k=key.subsample,
+        tasks = task_names(with_last)
+        last_runs = np.asarray([[last_tasks[id(c)][t] for t in tasks] for c in sorted(with_last, key=lambda c: c.seed)])
+        base_runs = runs_by_tasks(sorted(base_cells, key=lambda c: c.seed), tasks) if base_cells else None
+        iqm = (fmt_interval(*iqm_interval(last_runs)) if len(last_runs) > 1
+               else f"{aggregates.iqm(last_runs):.3f}")  # one run: no interval to draw
+        rows.append(dict(iqm=iqm, improvement=fmt_improvement(base_runs, last_runs) if base_runs is not None else "-",
+                         set=key.set, method=key.label, demos=key.demos, k=key.subsample,
                          seeds=f"{len(with_last)} of {len(cells)}",
                          best=[c.mean_score for c in with_last], last=[last_score[id(c)] for c in with_last],
                          gain=[last_score[id(c)] - c.mean_score for c in with_last],
@@ -127,14 +143,15 @@ def rows_of(suite, files, base):
 
 def table(rows, base):
     lines = [f"| set | method | demos | k | seeds | best validation | last step | last - best validation | p | p (Holm) "
-             f"| pairs with {base} | best validation - {base} | last step - {base} | p (last) | p (last, Holm) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"| pairs with {base} | best validation - {base} | last step - {base} | p (last) | p (last, Holm) "
+             f"| IQM last step [95% CI] | P({base} > last step) [95% CI] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['seeds']} | {fmt(r['best'])} "
                      f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} | {fmt_p(r['gain_holm'])} "
                      f"| {len(r['vs_base'])} | {fmt(r['headline_vs_base'], signed=True) if r['vs_base'] else '-'} "
                      f"| {fmt(r['vs_base'], signed=True) if r['vs_base'] else '-'} | {fmt_p(r['p'])} "
-                     f"| {fmt_p(r['holm'])} |")
+                     f"| {fmt_p(r['holm'])} | {r['iqm']} | {r['improvement']} |")
     return "\n".join(lines)
 
 
@@ -165,7 +182,10 @@ def main():
         " their headline evaluation) beside their best-validation checkpoint (the suite's headline rule), mean +- 95%"
         " CI over seeds (seeds: the group's cells evaluated so, of its finished ones); last - best validation paired"
         f" by seed; against {args.base}: each method's seeds paired with {args.base}'s headline cells (its"
-        " best-validation checkpoint); p: paired t test; Holm over each set's rows, each column a family.",
+        " best-validation checkpoint); p: paired t test; Holm over each set's rows, each column a family. The"
+        " aggregates (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x"
+        f" runs scores with its stratified bootstrap interval, and P({args.base} > last step), the probability that a"
+        f" {args.base} run (its headline checkpoint) beats a last-step run on a task, with its interval.",
         "", table(rows, args.base), ""])
     print(text)
     if args.out:

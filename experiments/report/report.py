@@ -367,7 +367,8 @@ def report_lines(suite, draw, beside=None):
     compare = report_comparisons(suite)
     if compare:
         lines += section("Chosen comparisons (report.compare)",
-                         per_set(suite, lambda c: comparisons.compare_table(c, compare), []),
+                         per_set(suite, lambda c: comparisons.compare_table(c, compare),
+                                 lambda set_name: adaptive_seeds_caveat(suite, set_name)),
                          "No entry of report.compare has both its rows at the same demos, k and seeds.")
 
     lines += section("Aggregate statistics: IQM and probability of improvement",
@@ -410,7 +411,7 @@ def report_lines(suite, draw, beside=None):
     variants = per_set(suite, tables.variant_table, [])
     lines += section("Variants against their base (the paper's protocol, controls, ablations, module counts)",
                      variants, "No variant cells beside their base method's in this suite.")
-    rule = per_set(suite, tables.checkpoint_rule_table, [])
+    rule = per_set(suite, tables.checkpoint_rule_table, lambda set_name: adaptive_seeds_caveat(suite, set_name))
     lines += section("The paper's checkpoint rule", rule,
                      "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),
@@ -419,7 +420,8 @@ def report_lines(suite, draw, beside=None):
     zoo = draw("zoo_routing", variants_are_methods=holm == "set")
     if zoo or summary:
         lines += section("Routing of every method (the zoo)", summary + embed(zoo), "")
-    lines += section("Validation curves", embed(draw("validation")), "No validation curves (curve.csv) in this suite.")
+    lines += section("Validation curves", embed(draw("validation")) + embed(draw("denoising_validation")),
+                     "No validation curves (curve.csv) in this suite.")
     lines += section("Compute", tables.compute_table(cells), "")
     if draw.failed:
         lines += section("Figures that failed", [f"- {message}" for message in draw.failed], "")

@@ -456,7 +456,7 @@ def checkpoint_rule_pairs(cells):
     by_key = groups(cells)
     rules = [("best validation", lambda c: c.mean_score), ("last checkpoint", lambda c: c.last_checkpoint),
              ("best over checkpoints", lambda c: c.best_over_checkpoints)]
-    rows = []
+    found = []  # (key, [diffs per rule])
     for key, runs in by_key.items():
         method, _, variant = key.label.partition(" ")
         partner = maps_partner(key.label, lambda label: by_key.get(key._replace(label=label)))
@@ -465,20 +465,28 @@ def checkpoint_rule_pairs(cells):
         if method == "maps" or not maps or not kept:
             continue
         maps_kept = [c for c in maps if c.best_over_checkpoints is not None]
-        cols = []
-        for name, value in rules:
-            # The best-validation checkpoint needs no kept ones: a partner that kept none (the zoo's MAPS at MT10's
-            # 14, paired with zoo-modern's Diffusion Policy there) still pairs at it.
-            diffs = paired(runs if name == "best validation" else kept,
-                           maps if name == "best validation" else maps_kept, value)
-            cols.append(f"{fmt(diffs, signed=True)} ({len(diffs)}), p {fmt_p(paired_p(diffs))}" if diffs else "-")
-        if all(col == "-" for col in cols):
-            continue
-        rows.append([key.label, key.demos, key.subsample] + cols)
-    if not rows:
+        # The best-validation checkpoint needs no kept ones: a partner that kept none (the zoo's MAPS at MT10's 14,
+        # paired with zoo-modern's Diffusion Policy there) still pairs at it.
+        diffs = [paired(runs if name == "best validation" else kept,
+                        maps if name == "best validation" else maps_kept, value) for name, value in rules]
+        if any(diffs):
+            found.append((key, diffs))
+    if not found:
         return []
+    # Each rule asks the table's question again, so Holm runs over a column's rows (the set's comparisons at that
+    # rule), not over the whole table.
+    columns = []
+    for r in range(len(rules)):
+        raw = [paired_p(d[r]) if d[r] else float("nan") for _, d in found]
+        columns.append((raw, holm(raw)))
+    rows = []
+    for i, (key, diffs) in enumerate(found):
+        cols = [f"{fmt(d, signed=True)} ({len(d)}), p {fmt_p(columns[r][0][i])}, Holm {fmt_p(columns[r][1][i])}"
+                if d else "-" for r, d in enumerate(diffs)]
+        rows.append([key.label, key.demos, key.subsample] + cols)
     return (["", "Method - MAPS (under the same variant where that ran, else base MAPS), paired over seeds, at each"
-             " rule (mean +- 95% CI (pairs), p: paired t test, uncorrected):", ""]
+             " rule (mean +- 95% CI (pairs), p: paired t test; Holm: over the column's rows, each rule one family):",
+             ""]
             + table(["method", "demos", "k"] + [name for name, _ in rules], rows))
 
 

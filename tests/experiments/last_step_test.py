@@ -2,8 +2,9 @@
 """Tests of the final-checkpoint table (experiments/report/last_step.py): on the committed results/zoo-modern and its
 last-checkpoint evaluations it writes the committed report.md; every way an evaluation file can disagree with its
 cell (another method, seed, count, checkpoint step or episode count, a value of the wrong type, another
-checkpoint's score, a step short of training's end, no "last", a non-finite or inconsistent score, a cell the suite
-lacks, a cell of the base method itself, a file that is not JSON) is refused with the file named, never used.
+checkpoint's score, a step short of training's end, no "last", a non-finite or inconsistent score, tasks other than
+the cell's, a cell the suite lacks, a cell of the base method itself, a file that is not JSON) is refused with the file
+named, never used; the probability of improvement is the last step's task scores against MAPS's, by hand.
 Run by ctest (tests/CMakeLists.txt)."""
 import json
 import pathlib
@@ -43,6 +44,26 @@ class LastStepTest(unittest.TestCase):
         self.assertEqual(out.read_text(), committed)
         self.assertIn("| gravity | diffusion_policy (dp_mlp_h1) | 5 | 10 |", proc.stdout)
 
+    def test_the_aggregates_are_the_last_steps_task_scores_against_maps(self):
+        """P(maps > last step) by hand for one row: over each task, the share of (MAPS run, last-step run) pairs MAPS
+        wins, ties counting a half, averaged over tasks; and the IQM of one run is that run's scores' IQM."""
+        proc = run(EVALS)
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        row = next(line.split(" | ") for line in proc.stdout.splitlines()
+                   if line.startswith("| gravity | diffusion_policy (dp_mlp_h1) | 5 |"))
+        last = []  # per seed: {task: score at the last step}
+        for path in sorted(EVALS.glob("gravity-diffusion_policy-dp_mlp_h1_d5_s*.json")):
+            record = json.loads(path.read_text())
+            last.append(dict(zip((t["task"] for t in record["tasks"]), record["last"]["scores"])))
+        maps = []
+        for path in sorted((SUITE / "cells" / "gravity").glob("maps_d5_s*/result.json")):
+            maps.append({t["task"]: t["score"] for t in json.loads(path.read_text())["eval"]["tasks"]})
+        shares = []
+        for task in last[0]:
+            wins = sum((m[task] > l[task]) + 0.5 * (m[task] == l[task]) for m in maps for l in last)
+            shares.append(wins / (len(maps) * len(last)))
+        self.assertEqual(row[16].split(" [")[0], f"{sum(shares) / len(shares):.3f}")
+
     def damaged(self, change):
         """The first file changed by `change` (a function of its JSON); returns the script's run on the folder."""
         path = self.files[0]
@@ -75,6 +96,8 @@ class LastStepTest(unittest.TestCase):
             (lambda r: r["last"].update(mean_score=r["last"]["mean_score"] + 0.5), "not the mean of last.scores"),
             (lambda r: r["last"]["scores"].pop(), "task scores"),
             (lambda r: r["last"]["scores"].__setitem__(0, "0.5"), "last.scores[0]"),
+            (lambda r: r["tasks"][0].update(task="gravity/9.9"), "tasks are not the cell's"),
+            (lambda r: r.pop("tasks"), "tasks are not the cell's"),
         ]
         original = self.files[0].read_text()
         for change, message in cases:

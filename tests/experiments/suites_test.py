@@ -6,6 +6,7 @@ tables, every figure and its CSV, the study's numbers beside a quick-scale suite
 suite.json, nothing finished, no matplotlib).
 Also curve_stats.py and more_seeds.py, the tools beside the report. Run by ctest (tests/CMakeLists.txt)."""
 import csv
+import dataclasses
 import filecmp
 import json
 import math
@@ -588,23 +589,27 @@ class CheckpointRule(unittest.TestCase):
             # Single BC - MAPS at each rule: best validation 0.5 - 0.7, 0.6 - 0.6; last 0.6 - 0.5, 0.6 - 0.7; best
             # over checkpoints 0.7 - 0.8, 0.6 - 0.8.
             pairs = between(rule, "Method - MAPS", "## Fig. 6")
-            self.assertEqual(row_of(pairs, ["single_bc", "5"]), ["single_bc", "5", "1", "-0.10 +- 1.27 (2), p 0.500",
-                                                                  "+0.00 +- 1.27 (2), p 1.000",
-                                                                  "-0.15 +- 0.64 (2), p 0.205"])
+            # One row: Holm over a column of one is its p.
+            self.assertEqual(row_of(pairs, ["single_bc", "5"]), ["single_bc", "5", "1",
+                                                                  "-0.10 +- 1.27 (2), p 0.500, Holm 0.500",
+                                                                  "+0.00 +- 1.27 (2), p 1.000, Holm 1.000",
+                                                                  "-0.15 +- 0.64 (2), p 0.205, Holm 0.205"])
             # The last checkpoint (step 1000 = steps): 0.5 and 0.7.
             self.assertEqual(row_of(rule, ["maps", "5"]), ["maps", "5", "1", "2", "500", "0.65 +- 0.64",
                                                            "0.60 +- 1.27", "0.80 +- 0.00", "+0.15 +- 0.64"])
             self.assertEqual(rows_of(rule, ["maps", "10"]), [])
             # A variant with no MAPS under it (a method of its own, as zoo-modern's Diffusion Policy) is paired with
             # base MAPS at each rule, as the paired tables pair it: the same differences as Single BC's above.
+            # Beside the base Single BC's row, each rule's column is a family of two: Holm doubles the smaller p
+            # (0.205 -> 0.410) and keeps the step-down's running maximum.
             cells = suite_results.load_suite(suite_dir).cells_of("mt10")
-            for c in cells:
-                if c.method == "single_bc":
-                    c.variant = "dp_like"
+            for c in [c for c in cells if c.method == "single_bc"]:
+                cells.append(dataclasses.replace(c, variant="dp_like"))
             pairs = "\n".join(tables.checkpoint_rule_pairs(cells))
-            self.assertEqual(row_of(pairs, ["single_bc (dp_like)", "5"])[3:], ["-0.10 +- 1.27 (2), p 0.500",
-                                                                                "+0.00 +- 1.27 (2), p 1.000",
-                                                                                "-0.15 +- 0.64 (2), p 0.205"])
+            for label in ("single_bc (dp_like)", "single_bc"):
+                self.assertEqual(row_of(pairs, [label, "5"])[3:], ["-0.10 +- 1.27 (2), p 0.500, Holm 1.000",
+                                                                    "+0.00 +- 1.27 (2), p 1.000, Holm 1.000",
+                                                                    "-0.15 +- 0.64 (2), p 0.205, Holm 0.410"])
 
 
 class SweepCells(unittest.TestCase):
@@ -713,6 +718,34 @@ class VariantsAsMethods(unittest.TestCase):
         self.assertEqual(len(set(colours)), 12)
         self.assertFalse(set(colours) & set(figures.COLORS.values()))
         self.assertEqual(figures.label_name("diffusion_policy (dp_mlp_h16)"), "Diffusion Policy (dp_mlp_h16)")
+
+    def test_the_denoisers_validation_curves_are_a_figure_of_their_own(self):
+        """Diffusion Policy's validation loss (the denoising loss) is drawn per denoiser, mean over seeds at the steps
+        every seed logged, apart from the other methods' BC losses; without Diffusion Policy cells, no figure."""
+        import figures
+        with tempfile.TemporaryDirectory() as tmp:
+            root = pathlib.Path(tmp)
+
+            def cell(variant, seed, losses, method="diffusion_policy"):
+                folder = root / f"{method}-{variant}_s{seed}"
+                folder.mkdir()
+                (folder / "curve.csv").write_text("step,validation_bc\n" + "".join(
+                    f"{50 * (i + 1)},{loss}\n" for i, loss in enumerate(losses)))
+                return suite_results.Cell(folder, f"mt10/{folder.name}", "g", "mt10", method, variant, 2, 1, seed,
+                                          {"method": method}, 100, 50, 10, 1.0, [])
+
+            cells = [cell("dp_mlp_h16", 0, [0.4, 0.2]), cell("dp_mlp_h16", 1, [0.2, 0.1, 0.05]),
+                     cell("dp_moe_h16", 0, [0.5, 0.3]), cell("base", 0, [0.9, 0.8], method="maps")]
+            self.assertEqual([f.file for f in figures.denoising_validation(cells, root)], ["denoising_validation.png"])
+            with (root / "denoising_validation.csv").open() as f:
+                rows = [(r["label"], r["step"], r["seeds"], round(float(r["validation_denoising"]), 6))
+                        for r in csv.DictReader(f)]
+            # The MLP's two seeds share steps 50 and 100 (the second's 150 is left out); MAPS is not drawn.
+            self.assertEqual(sorted(rows), [("diffusion_policy (dp_mlp_h16)", "100", "2", 0.15),
+                                            ("diffusion_policy (dp_mlp_h16)", "50", "2", 0.3),
+                                            ("diffusion_policy (dp_moe_h16)", "100", "1", 0.3),
+                                            ("diffusion_policy (dp_moe_h16)", "50", "1", 0.5)])
+            self.assertEqual(figures.denoising_validation(cells[3:], root), [])
 
     def test_routing_tables_take_the_variants_that_route(self):
         """The modular denoisers record module usage: with variants as methods they are rows of the routing summary
