@@ -94,6 +94,13 @@ def fmt_interval(value, bounds):
     return f"{value:.3f} [{bounds[0]:.3f}, {bounds[1]:.3f}]"
 
 
+def fmt_iqm(runs_by_tasks):
+    """The IQM of a runs x tasks matrix with its stratified bootstrap interval; the estimate alone for one run (a
+    bootstrap cannot vary a single run)."""
+    value, bounds = iqm_interval(runs_by_tasks)
+    return fmt_interval(value, bounds) if len(runs_by_tasks) > 1 else f"{value:.3f}"
+
+
 def fmt_improvement(x, y):
     """P(X > Y) of two runs x tasks matrices with its interval; the estimate alone where a side has one run (a
     bootstrap cannot vary a single run, so its interval would be a point)."""
@@ -112,8 +119,7 @@ def aggregate_table(cells):
         matrix = runs_by_tasks(runs, tasks)
         if matrix is None:
             continue
-        value, bounds = iqm_interval(matrix)
-        shown = fmt_interval(value, bounds) if len(runs) > 1 else f"{value:.3f}"  # one run: no interval
+        shown = fmt_iqm(matrix)
         poi = ""
         # A variant against MAPS under the same variant where that ran, else base MAPS (as the paired tables do).
         method = key.label.partition(" ")[0]

@@ -8,6 +8,7 @@
     fig6_module_usage.png  Fig. 6 (left): MAPS's per-task module usage on MT10, one seed
     zoo_routing.png        every routing method's per-task module usage (the zoo, docs/zoo.md), one seed each
     validation.png         validation BC loss against training step, mean over seeds per method
+    denoising_validation.png  Diffusion Policy's validation denoising loss against training step, per denoiser
 
 Each function returns the Figures it wrote ((file name, caption) pairs; the caption says what n is and what the
 score is), or [] when the suite has no data for it. One colour per method everywhere (the paper's). Beside a
@@ -638,13 +639,24 @@ def setting_axes(axes, sets, cells):
 
 
 def mean_validation_curve(runs):
-    """(steps, mean validation loss over the runs, runs counted) at the steps every run's curve.csv logged; empty
-    lists where no run has a curve."""
-    curves = [dict(zip(*curve)) for curve in (c.curve() for c in runs) if curve[0]]
-    if not curves:
-        return [], [], 0
-    steps = sorted(set.intersection(*(set(c) for c in curves)))
-    return steps, [mean([c[s] for c in curves]) for s in steps], len(curves)
+    """(steps, mean validation loss, the runs with a curve) at the steps every such run's curve.csv logged; empty
+    lists where no run has a curve or they share no step."""
+    with_curve = [(c, dict(zip(*curve))) for c, curve in ((c, c.curve()) for c in runs) if curve[0]]
+    if not with_curve:
+        return [], [], []
+    steps = sorted(set.intersection(*(set(curve) for _, curve in with_curve)))
+    return steps, [mean([curve[s] for _, curve in with_curve]) for s in steps], [c for c, _ in with_curve]
+
+
+def loss_panel(ax, set_name, demos, k, ylabel):
+    """A validation-loss panel's axes: log scale, its setting as the title."""
+    ax.set_yscale("log")
+    if ax.lines:
+        log_ticks(ax)
+    ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+    ax.set_xlabel("training step")
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3, which="both")
 
 
 def denoising_validation(cells, out):
@@ -661,22 +673,15 @@ def denoising_validation(cells, out):
     rows, drawn = [], []
     for ax, set_name, (demos, k), mine in setting_axes(axes, sets, cells):
         for label in labels:
-            runs = [c for c in mine if c.label == label]
-            steps, means, n = mean_validation_curve(runs)
+            steps, means, used = mean_validation_curve([c for c in mine if c.label == label])
             if not steps:
                 continue
             style = label_style(label, labels)
             ax.plot(steps, means, color=style["color"], linestyle=style.get("linestyle", "-"), label=label)
-            rows += [[set_name, label, demos, k, s, n, m] for s, m in zip(steps, means)]
-            drawn += runs
-        ax.set_yscale("log")
-        if ax.lines:
-            log_ticks(ax)
-        ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
-        ax.set_xlabel("training step")
-        ax.set_ylabel("validation denoising loss")
+            rows += [[set_name, label, demos, k, s, len(used), m] for s, m in zip(steps, means)]
+            drawn += used
+        loss_panel(ax, set_name, demos, k, "validation denoising loss")
         ax.locator_params(axis="x", nbins=5)
-        ax.grid(alpha=0.3, which="both")
     if not drawn:
         plt.close(fig)
         return []
@@ -694,35 +699,30 @@ def denoising_validation(cells, out):
 
 
 def validation(cells, out):
-    cells = base_cells(cells)
+    # Diffusion Policy's validation loss is the denoising loss, another quantity: its own figure.
+    cells = [c for c in base_cells(cells) if c.method != "diffusion_policy"]
     sets = order(SET_ORDER, {c.set for c in cells})
     if not sets:
         return []
     fig, axes, height = setting_panels([{(c.demos, c.subsample) for c in cells if c.set == s} for s in sets])
-    rows, drawn = [], False
+    rows, drawn = [], []
     for ax, set_name, (demos, k), mine in setting_axes(axes, sets, cells):
         for method in methods_of(mine):
-            steps, means, n = mean_validation_curve([c for c in mine if c.method == method])
+            steps, means, used = mean_validation_curve([c for c in mine if c.method == method])
             if not steps:
                 continue
             ax.plot(steps, means, color=color(method), label=name(method))
-            rows += [[set_name, method, demos, k, s, n, m] for s, m in zip(steps, means)]
-            drawn = True
-        ax.set_yscale("log")
-        if ax.lines:
-            log_ticks(ax)
-        ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
-        ax.set_xlabel("training step")
-        ax.set_ylabel("validation BC loss")
-        ax.grid(alpha=0.3, which="both")
+            rows += [[set_name, method, demos, k, s, len(used), m] for s, m in zip(steps, means)]
+            drawn += used
+        loss_panel(ax, set_name, demos, k, "validation BC loss")
     if not drawn:
         plt.close(fig)
         return []
     legend_below(fig, axes.flat, 6)
-    fig.suptitle(f"Validation BC loss (held-out states) against training step, mean over seeds\n{describe_n(cells)}")
+    fig.suptitle(f"Validation BC loss (held-out states) against training step, mean over seeds\n{describe_n(drawn)}")
     fig.tight_layout(rect=(0, 0.5 / height, 1, 1))
     save(fig, out, "validation.png")
     write_csv(out / "validation.csv", ["set", "method", "demos", "subsample", "step", "seeds", "validation_bc"], rows)
     return [Figure("validation.png", "Validation BC loss on held-out states against the training step, mean over"
                    " seeds per method (base variants; log scale); the checkpoint evaluated is each run's step of"
-                   f" lowest loss. {describe_n(cells)}.")]
+                   f" lowest loss. {describe_n(drawn)}.")]

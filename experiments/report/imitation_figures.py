@@ -43,14 +43,22 @@ def variant_name(method, variant):
     return name(method) + ("" if variant == "gail" else f" ({variant})")
 
 
-def bc_only_counts(cells, set_name, partners, xs, runs):
-    """A BC line's counts and runs (xs, runs) grown by the counts where its network ran BC alone, with no GAIL
-    setting to pair with: BC cells of the set with the partners' label (method and BC variant) and network, by seed."""
-    label, shape = partners[0][0].label, network(partners[0][0])
+def bc_identity(cell):
+    """What makes BC cells one line: the label (method and BC variant), the network and the subsampling."""
+    return cell.label, network(cell), cell.subsample
+
+
+def extend_bc_line(cells, set_name, xs, runs):
+    """A BC line's counts and runs (xs, runs) grown by the counts where its cells' network ran BC alone, with no GAIL
+    setting to pair with (the study's 10 on the cheetah): BC cells of the set of the line's one identity (bc_identity).
+    A line whose partners differ in identity from count to count is left as it is: there is no one curve to extend."""
+    identities = {bc_identity(c) for r in runs for c in r}
+    if len(identities) != 1:
+        return xs, runs
+    identity = identities.pop()
     more = {}
     for c in cells:
-        if (objective(c) == "bc" and c.set == set_name and c.label == label and network(c) == shape
-                and c.demos not in xs and c.subsample == partners[0][0].subsample):
+        if objective(c) == "bc" and c.set == set_name and bc_identity(c) == identity and c.demos not in xs:
             more.setdefault(c.demos, []).append(c)
     grown = sorted(list(zip(xs, runs)) + list(more.items()), key=lambda item: item[0])
     return [x for x, _ in grown], [r for _, r in grown]
@@ -66,6 +74,7 @@ def imitation_scores(cells, out):
     for ax, set_name in zip(axes[0], sets):
         mine = {s: runs for s, runs in settings.items() if s.set == set_name}
         means = []
+        bc_points = set()  # (BC identity, demos) drawn on this panel: two GAIL variants of one network share them
         for method, variant in dict.fromkeys((s.method, s.variant) for s in mine):
             for kind in ("bc", "gail"):
                 keys = sorted((s for s in mine if (s.method, s.variant) == (method, variant) and mine[s][kind]),
@@ -75,9 +84,13 @@ def imitation_scores(cells, out):
                     continue  # BC's line once per method and network (beside the suite's own GAIL variant)
                 xs, runs = [s.demos for s in keys], [mine[s][kind] for s in keys]
                 bc_label = mine[keys[0]]["bc"][0].label if mine[keys[0]]["bc"] else method
-                if kind == "bc":  # on to the counts only BC ran (the study's 10 on the cheetah): BC's whole curve
-                    partners = [mine[s]["bc"] for s in keys]
-                    xs, runs = bc_only_counts(cells, set_name, partners, xs, runs)
+                if kind == "bc":
+                    xs, runs = extend_bc_line(cells, set_name, xs, runs)
+                    kept = [(x, r) for x, r in zip(xs, runs) if (bc_identity(r[0]), x) not in bc_points]
+                    if not kept:
+                        continue
+                    xs, runs = [x for x, _ in kept], [r for _, r in kept]
+                    bc_points |= {(bc_identity(r[0]), x) for x, r in kept}
                 shown = (name(method) + bc_label[len(method):] if kind == "bc" else variant_name(method, variant))
                 # A width control (its BC partner a variant of the method, "mt_bc (w430)"): square markers.
                 style = dict(STYLES[kind], **({} if bc_label == method else {"marker": "s"}))
@@ -110,6 +123,7 @@ def imitation_scores(cells, out):
 def describe_curves(cells, seed_counts):
     """"n = 3 seeds per point, 2 training episodes per task per iteration (500 iterations)": what a curve's point
     averages, the training episodes (not the evaluation's), ranges where the cells differ."""
+    # 2: GailConfig's default (maps/adversarial/gail_config.h), for a config that leaves the key out.
     episodes = "/".join(str(e) for e in sorted({int(c.config.get("gail", {}).get("rollout_episodes", 2))
                                                  for c in cells}))
     iterations = "/".join(str(s) for s in sorted({c.steps for c in cells}))

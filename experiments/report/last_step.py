@@ -13,13 +13,14 @@ kept as files of their own, one per cell, named <set>-<cell>.json (the eval.json
     python3 experiments/report/last_step.py results/zoo-modern results/zoo-modern/last-checkpoint \\
         --out results/zoo-modern/last-checkpoint/report.md
 
-Every file is checked against its cell before it is used: the cell exists and has finished, the file's method, seed
-and demonstrations are the cell's, its best-checkpoint score is the cell's headline score (the same checkpoint
-evaluated on the same episodes: evaluation is deterministic), and its last step is the cell's last training step.
-Per (set, method, demonstrations): both rules' mean scores (mean +- 95% t interval over seeds), last - best validation
-paired by seed, and last - the base method (its headline checkpoint) paired by seed, with the paired t test and Holm
-over each set's rows (each comparison a family). The base method's own cells are not evaluated so (they are what
-every row is paired with)."""
+Every file is checked against its cell before it is used: the cell exists and has finished, the file's method, seed and
+demonstrations are the cell's, its best-checkpoint score is the cell's headline score (the same checkpoint evaluated on
+the same episodes: evaluation is deterministic), each of its tasks is one of the cell's, once, with the cell's score for
+that task, and its last step is the cell's last training step. Per (set, method, demonstrations): both rules' mean
+scores (mean +- 95% t interval over seeds), last - best validation paired by seed, and last - the base method (its
+headline checkpoint) paired by seed, with the paired t test and Holm over each set's rows (each comparison a family);
+and the aggregates of the last step's task scores: their IQM and the probability that a base-method run beats a
+last-step run on a task. The base method's own cells are not evaluated so (they are what every row is paired with)."""
 import argparse
 import math
 import pathlib
@@ -29,9 +30,8 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 import numpy as np  # noqa: E402
 
-import aggregates  # noqa: E402
-from aggregates import fmt_improvement, fmt_interval, iqm_interval, runs_by_tasks  # noqa: E402
-from suite_results import SuiteError, groups, load_suite, read_json, task_names  # noqa: E402
+from aggregates import fmt_improvement, fmt_iqm, runs_by_tasks  # noqa: E402
+from suite_results import SuiteError, groups, load_suite, read_json, task_names, task_score  # noqa: E402
 from suite_stats import fmt, fmt_p, holm_within, paired_p  # noqa: E402
 
 SECTION = "The last step against the best-validation checkpoint"
@@ -50,7 +50,8 @@ def finite(value, where):
 
 
 def read_last(path, cells_by_folder):
-    """(cell, last step's mean score) from one `maps eval --last` file, checked against its cell."""
+    """(cell, last step's mean score, {task: last step's score}) from one `maps eval --last` file, checked against
+    its cell."""
     name = path.stem
     set_name, dash, cell_name = name.partition("-")
     if not dash:
@@ -88,11 +89,23 @@ def read_last(path, cells_by_folder):
         finite(value, f"{path}: last.scores[{i}]")
     if abs(sum(scores) / len(scores) - score) > 1e-6:
         raise EvalFileError(f"{path}: last.mean_score {score!r} is not the mean of last.scores")
-    # last.scores follow the file's tasks, which must be the cell's: the per-task scores the aggregates compare.
+    # last.scores follow the file's tasks by position (maps eval writes both in one order), and the aggregates read
+    # them by name: each task must be one of the cell's, once, with the cell's score for it (the same checkpoint on
+    # the same episodes), so a renamed, repeated or foreign task is refused.
     tasks = record.get("tasks")
-    names = [t.get("task") if isinstance(t, dict) else None for t in tasks] if isinstance(tasks, list) else None
-    if names is None or sorted(map(str, names)) != sorted(t.task for t in cell.tasks):
-        raise EvalFileError(f"{path}: tasks are not the cell's {len(cell.tasks)} tasks")
+    if not isinstance(tasks, list) or len(tasks) != len(scores):
+        raise EvalFileError(f"{path}: tasks is not a list of {len(scores)} tasks, one per last.scores entry")
+    names = []
+    for i, task in enumerate(tasks):
+        name = task.get("task") if isinstance(task, dict) else None
+        if not isinstance(name, str) or task_score(cell, name) is None or name in names:
+            raise EvalFileError(f"{path}: tasks[{i}] names {name!r}; expected one of the cell's tasks"
+                                f" ({', '.join(t.task for t in cell.tasks)}), each once")
+        best_here = finite(task.get("score"), f"{path}: tasks[{i}].score")
+        if abs(best_here - task_score(cell, name)) > SAME_SCORE:
+            raise EvalFileError(f"{path}: tasks[{i}] ({name}) scored {best_here!r} here and {task_score(cell, name)!r}"
+                                " in the cell's result.json: not the same task or not the same evaluation")
+        names.append(name)
     return cell, score, dict(zip(names, scores))
 
 
@@ -117,11 +130,10 @@ def rows_of(suite, files, base):
                            and k.subsample == key.subsample), [])
         base_by_seed = {c.seed: c.mean_score for c in base_cells}
         tasks = task_names(with_last)
-        last_runs = np.asarray([[last_tasks[id(c)][t] for t in tasks] for c in sorted(with_last, key=lambda c: c.seed)])
-        base_runs = runs_by_tasks(sorted(base_cells, key=lambda c: c.seed), tasks) if base_cells else None
-        iqm = (fmt_interval(*iqm_interval(last_runs)) if len(last_runs) > 1
-               else f"{aggregates.iqm(last_runs):.3f}")  # one run: no interval to draw
-        rows.append(dict(iqm=iqm, improvement=fmt_improvement(base_runs, last_runs) if base_runs is not None else "-",
+        last_runs = np.asarray([[last_tasks[id(c)][t] for t in tasks] for c in with_last])
+        base_runs = runs_by_tasks(base_cells, tasks) if base_cells else None
+        rows.append(dict(iqm_text=fmt_iqm(last_runs),
+                         improvement_text=fmt_improvement(base_runs, last_runs) if base_runs is not None else "-",
                          set=key.set, method=key.label, demos=key.demos, k=key.subsample,
                          seeds=f"{len(with_last)} of {len(cells)}",
                          best=[c.mean_score for c in with_last], last=[last_score[id(c)] for c in with_last],
@@ -151,7 +163,7 @@ def table(rows, base):
                      f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} | {fmt_p(r['gain_holm'])} "
                      f"| {len(r['vs_base'])} | {fmt(r['headline_vs_base'], signed=True) if r['vs_base'] else '-'} "
                      f"| {fmt(r['vs_base'], signed=True) if r['vs_base'] else '-'} | {fmt_p(r['p'])} "
-                     f"| {fmt_p(r['holm'])} | {r['iqm']} | {r['improvement']} |")
+                     f"| {fmt_p(r['holm'])} | {r['iqm_text']} | {r['improvement_text']} |")
     return "\n".join(lines)
 
 
@@ -185,7 +197,8 @@ def main():
         " best-validation checkpoint); p: paired t test; Holm over each set's rows, each column a family. The"
         " aggregates (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x"
         f" runs scores with its stratified bootstrap interval, and P({args.base} > last step), the probability that a"
-        f" {args.base} run (its headline checkpoint) beats a last-step run on a task, with its interval.",
+        f" {args.base} run (its headline checkpoint) beats a last-step run on a task, with its interval ('-': no"
+        f" {args.base} cells at that setting, or one lacking a task of the row).",
         "", table(rows, args.base), ""])
     print(text)
     if args.out:

@@ -127,6 +127,7 @@ def main():
         parts.append(f"Training CPU time, float32 / bf16, over all {len(all_cpu)} pairs: median "
                      f"{statistics.median(all_cpu):.2f}x (range {min(all_cpu):.2f}-{max(all_cpu):.2f}x).")
     unused = ([f"{name}: not finished" for name in suite.missing] +
+              [f"{name}: dropped (no longer in the suite config)" for name in suite.dropped] +
               [f"{name}: failed at {stage}: {error}" for name, stage, error in suite.failed] +
               [f"{path}: damaged: {why}" for path, why in suite.damaged])
     if unused:

@@ -23,6 +23,7 @@ A damaged result.json is named in the report and skipped.
 Needs matplotlib and numpy (Debian: python3-matplotlib, python3-numpy)."""
 import argparse
 import csv
+import functools
 import pathlib
 import re
 import sys
@@ -321,6 +322,7 @@ def report_lines(suite, draw, beside=None):
     cells = suite.cells
     beside = beside or Beside()
     holm = holm_families(suite)
+    caveat = functools.partial(adaptive_seeds_caveat, suite)  # heads each set's paired tables
     lines = [f"# Suite report: {suite.root.name}", ""]
     if beside.quick:
         lines += [warning_line(beside), ""]
@@ -360,15 +362,13 @@ def report_lines(suite, draw, beside=None):
         lines += imitation_section(cells, draw)
     if {c.method for c in cells} - set(claims.COMPARED):
         # The zoo's methods: every set's paired differences in one place (the same tables as the sets' sections).
-        caveat = lambda set_name: adaptive_seeds_caveat(suite, set_name)  # noqa: E731
         lines += section("Against MAPS, every set", per_set(suite, lambda c: tables.paired_table(c, holm), caveat),
                          "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds).")
 
     compare = report_comparisons(suite)
     if compare:
         lines += section("Chosen comparisons (report.compare)",
-                         per_set(suite, lambda c: comparisons.compare_table(c, compare),
-                                 lambda set_name: adaptive_seeds_caveat(suite, set_name)),
+                         per_set(suite, lambda c: comparisons.compare_table(c, compare), caveat),
                          "No entry of report.compare has both its rows at the same demos, k and seeds.")
 
     lines += section("Aggregate statistics: IQM and probability of improvement",
@@ -384,7 +384,7 @@ def report_lines(suite, draw, beside=None):
             rules = tables.success_rules_table(mine)
             lines += [""] + rules if rules else []
         paired = tables.paired_table(mine, holm)
-        paired = adaptive_seeds_caveat(suite, set_name) + paired if paired else paired
+        paired = caveat(set_name) + paired if paired else paired
         lines += ["", "### Paired differences from MAPS", ""] + (paired or [
             "Nothing to pair with MAPS (no MAPS cells, or no other cells at the same demos and seeds)."])
         pooling = tables.pooling_table(mine)
@@ -411,7 +411,7 @@ def report_lines(suite, draw, beside=None):
     variants = per_set(suite, tables.variant_table, [])
     lines += section("Variants against their base (the paper's protocol, controls, ablations, module counts)",
                      variants, "No variant cells beside their base method's in this suite.")
-    rule = per_set(suite, tables.checkpoint_rule_table, lambda set_name: adaptive_seeds_caveat(suite, set_name))
+    rule = per_set(suite, tables.checkpoint_rule_table, caveat)
     lines += section("The paper's checkpoint rule", rule,
                      "No cells kept checkpoints (train.keep_every) to judge by the paper's rule.")
     lines += section("Fig. 6: module usage per task", embed(draw("fig6_module_usage")),

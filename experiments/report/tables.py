@@ -68,7 +68,8 @@ def protocol(suite):
 
 def cell_counts(suite):
     planned = len(suite.planned)
-    # A grid taken out of the config before its cells ran is a decision, not work left: counted apart from missing.
+    # A grid taken out of the config before its cells finished is a decision, not work left: counted apart from the
+    # missing cells.
     dropped = (f", {len(suite.dropped)} dropped (no longer in the suite config, never finished)" if suite.dropped
                else "")
     lines = [f"Cells: {len(suite.cells)} finished, {len(suite.missing)} missing (not run or not finished),"
@@ -475,18 +476,18 @@ def checkpoint_rule_pairs(cells):
         return []
     # Each rule asks the table's question again, so Holm runs over a column's rows (the set's comparisons at that
     # rule), not over the whole table.
-    columns = []
-    for r in range(len(rules)):
-        raw = [paired_p(d[r]) if d[r] else float("nan") for _, d in found]
-        columns.append((raw, holm(raw)))
+    p_raw = [[paired_p(d[r]) for _, d in found] for r in range(len(rules))]
+    p_holm = [holm(column) for column in p_raw]
     rows = []
     for i, (key, diffs) in enumerate(found):
-        cols = [f"{fmt(d, signed=True)} ({len(d)}), p {fmt_p(columns[r][0][i])}, Holm {fmt_p(columns[r][1][i])}"
-                if d else "-" for r, d in enumerate(diffs)]
+        cols = [f"{fmt(d, signed=True)} ({len(d)}), p {fmt_p(p_raw[r][i])}, Holm {fmt_p(p_holm[r][i])}" if d else "-"
+                for r, d in enumerate(diffs)]
         rows.append([key.label, key.demos, key.subsample] + cols)
+    sizes = ", ".join(f"{name} {sum(not math.isnan(p) for p in column)}" for (name, _), column in zip(rules, p_raw))
     return (["", "Method - MAPS (under the same variant where that ran, else base MAPS), paired over seeds, at each"
-             " rule (mean +- 95% CI (pairs), p: paired t test; Holm: over the column's rows, each rule one family):",
-             ""]
+             " rule (mean +- 95% CI (pairs), p: paired t test; Holm: over the column's rows with a p, each rule one"
+             f" family: {sizes}; the best-validation column's family is the rows that kept checkpoints, so its Holm"
+             " can differ from the paired table's for the same comparison):", ""]
             + table(["method", "demos", "k"] + [name for name, _ in rules], rows))
 
 

@@ -131,6 +131,8 @@ def not_finished_lines(suite):
             lines.append(f"- grid {grid}: {len(names)}" + (": " + ", ".join(f"`{n}`" for n in sorted(names))
                                                           if len(names) <= 10 else ""))
         lines.append("")
+    if suite.dropped:
+        lines += [f"{len(suite.dropped)} dropped (in suite.json, no longer in the suite config, never finished).", ""]
     return lines
 
 

@@ -230,7 +230,6 @@ class GailComputeTest(unittest.TestCase):
             self.assertIsNone(cell.gail_iteration_seconds())
 
 
-
 class FiguresTest(unittest.TestCase):
     def test_bc_runs_on_to_the_counts_only_bc_ran_and_the_curves_name_their_training_episodes(self):
         import csv
@@ -245,17 +244,34 @@ class FiguresTest(unittest.TestCase):
             gail = [gail_cell(root, "maps", seed, [0.5, 1.0]) for seed in (0, 1)]
             for c in gail:
                 c.config["gail"]["rollout_episodes"] = 3
-            # BC at the GAIL count (1) and at 10, where no GAIL cell ran; an ablation at 10 is not BC's line.
+            # BC at the GAIL count (1) and at 10, where no GAIL cell ran. Not BC's line: an ablation at 10, MAPS with
+            # other modules at 10 (another network) and MAPS at 10 on other subsampling.
             bc = [bc_cell("maps", 1, s, 0.2) for s in (0, 1)] + [bc_cell("maps", 10, s, 0.8) for s in (0, 1)]
             ablation = bc_cell("maps", 10, 0, 0.1)
             ablation.variant, ablation.name = "no_share", "s/maps-no_share_d10_s0"
+            other_network = bc_cell("maps", 10, 1, 0.3)
+            other_network.config["maps"] = {"modules": 4}
+            other_k = bc_cell("maps", 10, 0, 0.4)
+            other_k.subsample = 1
             out = pathlib.Path(root) / "report"
             out.mkdir()
-            imitation_figures.imitation_scores(bc + [ablation] + gail, out)
-            with open(out / "imitation_scores.csv") as f:
-                rows = [(r["objective"], r["demos"], r["seeds"], round(float(r["mean"]), 3))
-                        for r in csv.DictReader(f)]
-            self.assertEqual(sorted(rows), [("bc", "1", "2", 0.2), ("bc", "10", "2", 0.8), ("gail", "1", "2", 1.0)])
+
+            def scores_csv():
+                with open(out / "imitation_scores.csv") as f:
+                    return sorted((r["objective"], r["demos"], r["seeds"], round(float(r["mean"]), 3))
+                                  for r in csv.DictReader(f))
+
+            imitation_figures.imitation_scores(bc + [ablation, other_network, other_k] + gail, out)
+            self.assertEqual(scores_csv(), [("bc", "1", "2", 0.2), ("bc", "10", "2", 0.8), ("gail", "1", "2", 1.0)])
+            # A second GAIL variant of the same network at another count: its BC points are the same line's, drawn
+            # once (the line already runs through 10).
+            pilot = [gail_cell(root, f"maps_pilot{seed}", seed, [0.5, 1.0]) for seed in (0, 1)]
+            for c in pilot:
+                c.method, c.variant, c.demos = "maps", "pilot_b", 10
+                c.config["method"] = "maps"
+            imitation_figures.imitation_scores(bc + gail + pilot, out)
+            self.assertEqual(scores_csv(), [("bc", "1", "2", 0.2), ("bc", "10", "2", 0.8), ("gail", "1", "2", 1.0),
+                                            ("pilot_b", "10", "2", 1.0)])
             figures = imitation_figures.gail_curves(gail + bc, out)
             self.assertIn("n = 2 seeds per point, 3 training episodes per task per iteration (2 iterations)",
                           figures[0].caption)

@@ -46,7 +46,8 @@ class LastStepTest(unittest.TestCase):
 
     def test_the_aggregates_are_the_last_steps_task_scores_against_maps(self):
         """P(maps > last step) by hand for one row: over each task, the share of (MAPS run, last-step run) pairs MAPS
-        wins, ties counting a half, averaged over tasks; and the IQM of one run is that run's scores' IQM."""
+        wins, ties counting a half, averaged over tasks; the IQM is the mean of the middle half of the pooled last-step
+        scores (5 seeds x 5 tasks)."""
         proc = run(EVALS)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         row = next(line.split(" | ") for line in proc.stdout.splitlines()
@@ -63,6 +64,19 @@ class LastStepTest(unittest.TestCase):
             wins = sum((m[task] > l[task]) + 0.5 * (m[task] == l[task]) for m in maps for l in last)
             shares.append(wins / (len(maps) * len(last)))
         self.assertEqual(row[16].split(" [")[0], f"{sum(shares) / len(shares):.3f}")
+        pooled = sorted(score for seed in last for score in seed.values())
+        quarter = len(pooled) // 4  # 25 scores: the middle 13 after dropping 6 from each end
+        middle = pooled[quarter:len(pooled) - quarter]
+        self.assertEqual(len(pooled), 25)
+        self.assertEqual(row[15].split(" [")[0], f"{sum(middle) / len(middle):.3f}")
+
+    def test_tasks_reordered_with_their_scores_change_nothing(self):
+        """A file whose tasks and last.scores are both reordered says the same thing: the table reads tasks by name."""
+        record = json.loads(self.files[0].read_text())
+        record["tasks"].reverse()
+        record["last"]["scores"].reverse()
+        self.files[0].write_text(json.dumps(record))
+        self.assertEqual(run(self.evals).stdout, run(EVALS).stdout)
 
     def damaged(self, change):
         """The first file changed by `change` (a function of its JSON); returns the script's run on the folder."""
@@ -96,8 +110,13 @@ class LastStepTest(unittest.TestCase):
             (lambda r: r["last"].update(mean_score=r["last"]["mean_score"] + 0.5), "not the mean of last.scores"),
             (lambda r: r["last"]["scores"].pop(), "task scores"),
             (lambda r: r["last"]["scores"].__setitem__(0, "0.5"), "last.scores[0]"),
-            (lambda r: r["tasks"][0].update(task="gravity/9.9"), "tasks are not the cell's"),
-            (lambda r: r.pop("tasks"), "tasks are not the cell's"),
+            (lambda r: r["tasks"][0].update(task="gravity/9.9"), "tasks[0] names 'gravity/9.9'"),
+            (lambda r: r["tasks"][0].update(task=1), "tasks[0] names 1"),
+            (lambda r: r["tasks"][1].update(task=r["tasks"][0]["task"]), "each once"),
+            (lambda r: r.pop("tasks"), "tasks is not a list"),
+            (lambda r: r["tasks"].pop(), "tasks is not a list"),
+            (lambda r: r["tasks"][0].update(score="0.5"), "tasks[0].score"),
+            (lambda r: r["tasks"][0].update(score=r["tasks"][0]["score"] + 0.01), "not the same task"),
         ]
         original = self.files[0].read_text()
         for change, message in cases:
@@ -117,7 +136,8 @@ class LastStepTest(unittest.TestCase):
         self.assert_refused(run(self.evals), base, "method is 'diffusion_policy'")
         record = json.loads(self.files[0].read_text())
         cell = json.loads((SUITE / "cells/gravity/maps_d5_s0/result.json").read_text())
-        record.update(method="maps", seed=0, best_step=cell["eval"]["best_step"], mean_score=cell["eval"]["mean_score"])
+        record.update(method="maps", seed=0, best_step=cell["eval"]["best_step"], mean_score=cell["eval"]["mean_score"],
+                      tasks=[{"task": t["task"], "score": t["score"]} for t in cell["eval"]["tasks"]])
         base.write_text(json.dumps(record))
         self.assert_refused(run(self.evals), base, "a cell of maps, the method every row is paired with")
         base.unlink()

@@ -600,15 +600,23 @@ class CheckpointRule(unittest.TestCase):
             self.assertEqual(rows_of(rule, ["maps", "10"]), [])
             # A variant with no MAPS under it (a method of its own, as zoo-modern's Diffusion Policy) is paired with
             # base MAPS at each rule, as the paired tables pair it: the same differences as Single BC's above.
-            # Beside the base Single BC's row, each rule's column is a family of two: Holm doubles the smaller p
-            # (0.205 -> 0.410) and keeps the step-down's running maximum.
+            # Beside the base Single BC's row, each rule's column is a family of two. A copy scoring 0.1 lower at its
+            # best-validation checkpoint (0.4 and 0.5 against MAPS's 0.7 and 0.6: differences -0.3 and -0.1, t = -2 on
+            # 1 df, p 0.295) is the smaller p there: Holm doubles it (0.590) and the step-down keeps that running
+            # maximum for the base row (0.500 -> 0.590; Bonferroni would give it 1.000). The other two rules' columns
+            # hold equal p values: both rows get twice the p, capped at 1.
             cells = suite_results.load_suite(suite_dir).cells_of("mt10")
             for c in [c for c in cells if c.method == "single_bc"]:
-                cells.append(dataclasses.replace(c, variant="dp_like"))
-            pairs = "\n".join(tables.checkpoint_rule_pairs(cells))
+                lower = [dataclasses.replace(t, score=t.score - 0.1) for t in c.tasks]
+                cells.append(dataclasses.replace(c, variant="dp_like", tasks=lower))
+            pairs = tables.checkpoint_rule_pairs(cells)
+            self.assertIn("each rule one family: best validation 2, last checkpoint 2, best over checkpoints 2;",
+                          pairs[1])
+            pairs = "\n".join(pairs)
+            self.assertEqual(row_of(pairs, ["single_bc (dp_like)", "5"])[3], "-0.20 +- 1.27 (2), p 0.295, Holm 0.590")
+            self.assertEqual(row_of(pairs, ["single_bc", "5"])[3], "-0.10 +- 1.27 (2), p 0.500, Holm 0.590")
             for label in ("single_bc (dp_like)", "single_bc"):
-                self.assertEqual(row_of(pairs, [label, "5"])[3:], ["-0.10 +- 1.27 (2), p 0.500, Holm 1.000",
-                                                                    "+0.00 +- 1.27 (2), p 1.000, Holm 1.000",
+                self.assertEqual(row_of(pairs, [label, "5"])[4:], ["+0.00 +- 1.27 (2), p 1.000, Holm 1.000",
                                                                     "-0.15 +- 0.64 (2), p 0.205, Holm 0.410"])
 
 
@@ -811,6 +819,32 @@ class VariantsAsMethods(unittest.TestCase):
         for label in routed_variants:
             self.assertIn(f"| {suite_results.display_label(label)} |", routing)
         self.assertNotIn("## Routing of every method (the zoo)", plain)
+
+    def test_every_paired_table_of_a_set_with_added_seeds_is_headed_by_the_caveat(self):
+        """Seeds more_seeds.py added on a set make that set's p values indicative wherever they are printed: the
+        caveat heads its "Chosen comparisons" and "The paper's checkpoint rule" tables (as it heads its paired
+        differences from MAPS), not the other set's."""
+        import report
+        from unittest import mock
+        suite = suite_results.load_suite(FIXTURE)
+        added = next(i for i in suite.planned if isinstance(i, dict) and i.get("set") == "mt10")
+        added["grid"] = "comparison_seeds_3_4"
+        suite.config["report"] = {"compare": ["mt_bc - maps"]}
+
+        class Quiet:
+            failed = []
+
+            def __call__(self, name, **extra):
+                return []
+
+        with mock.patch.object(report.comparisons, "compare_table", return_value=["| compared |"]), \
+                mock.patch.object(report.tables, "checkpoint_rule_table", return_value=["| ruled |"]):
+            md = "\n".join(report.report_lines(suite, Quiet()))
+        caveat = "grids comparison_seeds_3_4 were added by more_seeds.py"
+        for section in ("## Chosen comparisons (report.compare)", "## The paper's checkpoint rule"):
+            body = between(md, section, "\n## ")
+            self.assertIn(caveat, between(body, "### mt10", "\n## "), section)
+            self.assertNotIn(caveat, between(body, "### gravity", "### mt10"), section)
 
 
 class Statistics(unittest.TestCase):
