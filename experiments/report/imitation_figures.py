@@ -16,8 +16,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_panels,  # noqa: E402
-                     write_csv)
+from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_axes,  # noqa: E402
+                     setting_panels, write_csv)
 from imitation import by_objective, network, objective, training_curve  # noqa: E402
 from suite_results import SET_ORDER, order, score_name, short_task, success_scored  # noqa: E402
 from suite_stats import ci95, describe_n, mean, span  # noqa: E402
@@ -140,51 +140,47 @@ def gail_curves(cells, out):
                                         for name_ in sets])
     rows, drawn, used, seed_counts = [], False, [], []
     variants = sorted({s.variant for s in settings}, key=lambda v: (v != "gail", v))
-    for axes_row, set_name in zip(axes, sets):
-        mine = {s: runs for s, runs in settings.items() if s.set == set_name}
-        panels = sorted({(s.demos, s.subsample) for s in mine})
-        for ax in axes_row[len(panels):]:
-            ax.set_visible(False)
-        for ax, (demos, k) in zip(axes_row, panels):
-            shown = []  # the panel's means and BC lines: its y range (a band of two seeds can span -1 to 3)
-            bc_drawn = set()
-            for setting in (s for s in mine if (s.demos, s.subsample) == (demos, k)):
-                curves = [c for c in (training_curve(c) for c in mine[setting]["gail"]) if c]
-                if not curves:
-                    continue
-                used += mine[setting]["gail"]
-                seed_counts.append(len(curves))
-                steps = sorted(set.intersection(*(set(c) for c in curves)))
-                values = [[c[s] for c in curves] for s in steps]
-                means = np.array([mean(v) for v in values])
-                half = np.array([ci95(v) for v in values])
-                ax.plot(steps, means, color=color(setting.method), linestyle=LINES[variants.index(setting.variant)
-                                                                                    % len(LINES)],
-                        label=f"{variant_name(setting.method, setting.variant)}, GAIL (training)")
-                ax.fill_between(steps, means - half, means + half, where=np.isfinite(half), alpha=0.15,
-                                color=color(setting.method), linewidth=0)
-                rows += [[set_name, setting.method, setting.variant, demos, k, s, len(curves), m, h]
-                         for s, m, h in zip(steps, means, half)]
-                shown += list(means)
-                # One BC line per BC partner: GAIL variants of one network share it, a width control has its own
-                # (drawn dash-dotted, labelled with its variant).
-                bc = mine[setting]["bc"]
-                partner = frozenset(id(c) for c in bc)
-                if bc and partner not in bc_drawn:
-                    bc_drawn.add(partner)
-                    shown.append(mean([c.mean_score for c in bc]))
-                    own = bc[0].label == bc[0].method
-                    ax.axhline(shown[-1], color=color(setting.method), linestyle=":" if own else (0, (1, 2, 4, 2)),
-                               label=f"{name(setting.method)}{'' if own else f' ({bc[0].variant})'}, BC (evaluated)")
-                drawn = True
-            ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
-            ax.set_xlabel("env steps per task")
-            ax.set_ylabel("success rate (training episodes)" if success_scored(set_name, mine_cells(mine))
-                          else "return / expert's return\n(mean over tasks)")
-            if shown:  # bands past the means' range by more than a tenth are clipped
-                low, high = min(shown), max(shown)
-                ax.set_ylim(min(low, 0.0) - 0.1, max(high, 1.0) + 0.1)
-            ax.grid(alpha=0.3)
+    for ax, set_name, (demos, k), panel in setting_axes(axes, sets, list(settings)):
+        mine = {s: settings[s] for s in panel}
+        shown = []  # the panel's means and BC lines: its y range (a band of two seeds can span -1 to 3)
+        bc_drawn = set()
+        for setting in panel:
+            curves = [c for c in (training_curve(c) for c in mine[setting]["gail"]) if c]
+            if not curves:
+                continue
+            used += mine[setting]["gail"]
+            seed_counts.append(len(curves))
+            steps = sorted(set.intersection(*(set(c) for c in curves)))
+            values = [[c[s] for c in curves] for s in steps]
+            means = np.array([mean(v) for v in values])
+            half = np.array([ci95(v) for v in values])
+            ax.plot(steps, means, color=color(setting.method), linestyle=LINES[variants.index(setting.variant)
+                                                                                % len(LINES)],
+                    label=f"{variant_name(setting.method, setting.variant)}, GAIL (training)")
+            ax.fill_between(steps, means - half, means + half, where=np.isfinite(half), alpha=0.15,
+                            color=color(setting.method), linewidth=0)
+            rows += [[set_name, setting.method, setting.variant, demos, k, s, len(curves), m, h]
+                     for s, m, h in zip(steps, means, half)]
+            shown += list(means)
+            # One BC line per BC partner: GAIL variants of one network share it, a width control has its own
+            # (drawn dash-dotted, labelled with its variant).
+            bc = mine[setting]["bc"]
+            partner = frozenset(id(c) for c in bc)
+            if bc and partner not in bc_drawn:
+                bc_drawn.add(partner)
+                shown.append(mean([c.mean_score for c in bc]))
+                own = bc[0].label == bc[0].method
+                ax.axhline(shown[-1], color=color(setting.method), linestyle=":" if own else (0, (1, 2, 4, 2)),
+                           label=f"{name(setting.method)}{'' if own else f' ({bc[0].variant})'}, BC (evaluated)")
+            drawn = True
+        ax.set_title(f"{set_name}, {demos} demos per task, k = {k}")
+        ax.set_xlabel("env steps per task")
+        ax.set_ylabel("success rate (training episodes)" if success_scored(set_name, mine_cells(mine))
+                      else "return / expert's return\n(mean over tasks)")
+        if shown:  # bands past the means' range by more than a tenth are clipped
+            low, high = min(shown), max(shown)
+            ax.set_ylim(min(low, 0.0) - 0.1, max(high, 1.0) + 0.1)
+        ax.grid(alpha=0.3)
     if not drawn:
         plt.close(fig)
         return []

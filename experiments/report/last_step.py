@@ -98,13 +98,14 @@ def read_last(path, cells_by_folder):
     names = []
     for i, task in enumerate(tasks):
         name = task.get("task") if isinstance(task, dict) else None
-        if not isinstance(name, str) or task_score(cell, name) is None or name in names:
+        in_cell = task_score(cell, name) if isinstance(name, str) else None
+        if in_cell is None or name in names:
             raise EvalFileError(f"{path}: tasks[{i}] names {name!r}; expected one of the cell's tasks"
                                 f" ({', '.join(t.task for t in cell.tasks)}), each once")
         best_here = finite(task.get("score"), f"{path}: tasks[{i}].score")
-        if abs(best_here - task_score(cell, name)) > SAME_SCORE:
-            raise EvalFileError(f"{path}: tasks[{i}] ({name}) scored {best_here!r} here and {task_score(cell, name)!r}"
-                                " in the cell's result.json: not the same task or not the same evaluation")
+        if abs(best_here - in_cell) > SAME_SCORE:
+            raise EvalFileError(f"{path}: tasks[{i}] ({name}) scored {best_here!r} here and {in_cell!r} in the cell's"
+                                " result.json: not the same task or not the same evaluation")
         names.append(name)
     return cell, score, dict(zip(names, scores))
 
