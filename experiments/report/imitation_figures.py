@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 
 from figures import (Figure, color, legend_below, line_with_band, name, save, score_limits, setting_axes,  # noqa: E402
                      setting_panels, write_csv)
-from imitation import by_objective, network, objective, training_curve  # noqa: E402
+from imitation import MAIN_VARIANTS, by_objective, network, objective, training_curve  # noqa: E402
 from suite_results import SET_ORDER, order, score_name, short_task, success_scored  # noqa: E402
 from suite_stats import ci95, describe_n, mean, span  # noqa: E402
 
@@ -39,8 +39,22 @@ def mine_cells(settings):
 
 
 def variant_name(method, variant):
-    """"MAPS", or "MAPS (pilot_b)" for a GAIL variant other than the suite's "gail"."""
-    return name(method) + ("" if variant == "gail" else f" ({variant})")
+    """"MAPS" for the suite's own GAIL runs (MAIN_VARIANTS: one line style and legend entry on every set, MT10's
+    settings said in the captions), "MAPS (pilot_b)" for another GAIL variant."""
+    return name(method) + ("" if variant in MAIN_VARIANTS else f" ({variant})")
+
+
+def main_variants_note(cells):
+    """Which of the suite's own GAIL variants ran on which set, where it ran more than one (their lines share a style
+    and a legend entry): " The suite's GAIL runs: gail on gravity and modified, gail_mt10 on mt10."; "" otherwise."""
+    sets = {}
+    for c in cells:
+        if objective(c) == "gail" and c.variant in MAIN_VARIANTS:
+            sets.setdefault(c.variant, set()).add(c.set)
+    if len(sets) < 2:
+        return ""
+    return (" The suite's GAIL runs (one style and legend entry): "
+            + ", ".join(f"{v} on {' and '.join(order(SET_ORDER, sets[v]))}" for v in MAIN_VARIANTS if v in sets) + ".")
 
 
 def bc_identity(cell):
@@ -117,7 +131,7 @@ def imitation_scores(cells, out):
                    " partner of the same width; BC's line runs on to the counts only BC ran); points are means"
                    " over seeds, the band the 95% CI"
                    f" over seeds. {describe_n(drawn)} (GAIL: iterations). The same evaluation for both"
-                   " (the mean action).")
+                   f" (the mean action).{main_variants_note(drawn)}")
 
 
 def describe_curves(cells, seed_counts):
@@ -139,7 +153,7 @@ def gail_curves(cells, out):
     fig, axes, height = setting_panels([{(s.demos, s.subsample) for s in settings if s.set == name_}
                                         for name_ in sets])
     rows, drawn, used, seed_counts = [], False, [], []
-    variants = sorted({s.variant for s in settings}, key=lambda v: (v != "gail", v))
+    others = sorted({s.variant for s in settings} - set(MAIN_VARIANTS))  # the suite's own runs: LINES[0]
     for ax, set_name, (demos, k), panel in setting_axes(axes, sets, list(settings)):
         mine = {s: settings[s] for s in panel}
         shown = []  # the panel's means and BC lines: its y range (a band of two seeds can span -1 to 3)
@@ -154,8 +168,8 @@ def gail_curves(cells, out):
             values = [[c[s] for c in curves] for s in steps]
             means = np.array([mean(v) for v in values])
             half = np.array([ci95(v) for v in values])
-            ax.plot(steps, means, color=color(setting.method), linestyle=LINES[variants.index(setting.variant)
-                                                                                % len(LINES)],
+            line = 0 if setting.variant in MAIN_VARIANTS else 1 + others.index(setting.variant)
+            ax.plot(steps, means, color=color(setting.method), linestyle=LINES[line % len(LINES)],
                     label=f"{variant_name(setting.method, setting.variant)}, GAIL (training)")
             ax.fill_between(steps, means - half, means + half, where=np.isfinite(half), alpha=0.15,
                             color=color(setting.method), linewidth=0)
@@ -196,7 +210,7 @@ def gail_curves(cells, out):
                    " and 0 to 1, with a tenth to spare, so a wider band is cut off), against env steps per task; the"
                    " dotted line is the same network's BC score at the same demos (evaluated, the mean action; a width"
                    " control's BC partner dash-dotted, labelled with its variant)."
-                   f" {describe_curves(used, seed_counts)}.")
+                   f" {describe_curves(used, seed_counts)}.{main_variants_note(used)}")
 
 
 def gail_module_usage(cells, out):

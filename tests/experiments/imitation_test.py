@@ -5,7 +5,8 @@ over the budget; a value counts as reached only when a trailing window's mean re
 not); the table pairs MAPS with each other method by seed, over the budget both ran, and adjusts by Holm over its rows;
 an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not; the score figure's BC
 line runs on to the counts only BC ran, and the learning curves' caption counts training episodes, not the
-evaluation's. Run by ctest (tests/CMakeLists.txt)."""
+evaluation's; the suite's own GAIL variants (gail, MT10's gail_mt10) share a Holm family and a legend entry. Run by
+ctest (tests/CMakeLists.txt)."""
 import pathlib
 import statistics
 import sys
@@ -276,6 +277,38 @@ class FiguresTest(unittest.TestCase):
             self.assertIn("n = 2 seeds per point, 3 training episodes per task per iteration (2 iterations)",
                           figures[0].caption)
             self.assertNotIn("100 episodes", figures[0].caption)
+
+    def test_the_suites_own_gail_variants_share_a_holm_family_a_line_style_and_a_legend_entry(self):
+        """MT10's GAIL runs are a variant of their own (gail_mt10: other rollout settings) but the suite's comparison,
+        as "gail" is on the cheetah sets: one Holm family, one legend entry per method, the captions saying which
+        variant ran where; any other variant (a pilot) keeps its name."""
+        import imitation_figures
+
+        with tempfile.TemporaryDirectory() as root:
+            cells = []
+            for set_name, variant in (("s", "gail"), ("t", "gail_mt10")):
+                folder = pathlib.Path(root) / set_name
+                folder.mkdir()
+                for method, curve in (("maps", [0.5, 1.0]), ("mt_bc", [0.2, 0.9])):
+                    for seed in (0, 1, 2):
+                        c = gail_cell(folder, method, seed, [v + 0.01 * seed for v in curve])
+                        c.set, c.variant, c.name = set_name, variant, f"{set_name}/{method}-{variant}_d1_s{seed}"
+                        cells.append(c)
+            speed = imitation.speed_table(cells)
+            self.assertIn("within each family (the suite's GAIL runs: 2)", speed[0])
+            self.assertIn("| t | MT-BC (gail_mt10) | 1 | 10 | 3 |", "\n".join(speed))
+            self.assertIn("a control's rows (a GAIL variant other than the suite's own, gail and gail_mt10)",
+                          imitation.maps_table(cells)[0])
+            self.assertEqual(imitation_figures.variant_name("maps", "gail_mt10"), "MAPS")
+            self.assertEqual(imitation_figures.variant_name("maps", "pilot_b"), "MAPS (pilot_b)")
+            out = pathlib.Path(root) / "report"
+            out.mkdir()
+            note = "The suite's GAIL runs (one style and legend entry): gail on s, gail_mt10 on t."
+            self.assertIn(note, imitation_figures.gail_curves(cells, out)[0].caption)
+            self.assertIn(note, imitation_figures.imitation_scores(cells, out)[0].caption)
+            # One main variant: nothing to say.
+            one = [c for c in cells if c.set == "s"]
+            self.assertNotIn("The suite's GAIL runs", imitation_figures.gail_curves(one, out)[0].caption)
 
 
 if __name__ == "__main__":
