@@ -213,16 +213,24 @@ def gail_curves(cells, out):
                    f" {describe_curves(used, seed_counts)}.{main_variants_note(used)}")
 
 
+def panel_rows(keys, sets):
+    """{set: its (demos, k) settings in order}, of keys (set, demos, k, ...): row r of a figure shows each set's r-th
+    setting, so that MT10's k = 1 and the cheetah sets' k = 10 share rows rather than each leaving the other's
+    empty."""
+    return {set_name: sorted({key[1:3] for key in keys if key[0] == set_name}) for set_name in sets}
+
+
 def gail_module_usage(cells, out):
     """MAPS's per-task module usage under BC and under GAIL side by side, a heatmap (tasks x modules) per objective for
-    each set (a pair of columns) and demo count (a row), one seed (the lowest both objectives ran: module indices mean
+    each set (a pair of columns) and setting (demos and k: the set's r-th in row r, so that a set's rows are not left
+    empty where another set has other settings), one seed (the lowest both objectives ran: module indices mean
     nothing across runs), the modules of each panel sorted by their total usage so that the two panels' shapes
     compare; one colour scale for all."""
     panels = {}
     for setting, runs in by_objective(cells).items():
         key = (setting.set, setting.demos, setting.subsample)
-        if setting.method != "maps" or (key in panels and setting.variant != "gail"):
-            continue  # one GAIL variant per setting: the suite's own ("gail"), else the first (a pilot's)
+        if setting.method != "maps" or (key in panels and setting.variant not in MAIN_VARIANTS):
+            continue  # one GAIL variant per setting: the suite's own (MAIN_VARIANTS), else the first (a pilot's)
         bc = {c.seed: c for c in runs["bc"] if c.has_usage}
         gail = {c.seed: c for c in runs["gail"] if c.has_usage}
         both = sorted(set(bc) & set(gail))
@@ -231,7 +239,6 @@ def gail_module_usage(cells, out):
     if not panels:
         return []
     sets = order(SET_ORDER, {key[0] for key in panels})
-    counts = sorted({key[1:] for key in panels})
     usage_of = {}
     for key, pair in panels.items():
         gail_tasks = {t.task for t in pair[1].tasks}
@@ -240,19 +247,26 @@ def gail_module_usage(cells, out):
             continue
         for kind, cell in zip(("bc", "gail"), pair[:2]):
             by_task = {t.task: t.usage for t in cell.tasks}
-            shown = OBJECTIVE_NAMES[kind] + (f" ({pair[2]})" if kind == "gail" and pair[2] != "gail" else "")
+            shown = OBJECTIVE_NAMES[kind] + (f" ({pair[2]})" if kind == "gail" and pair[2] not in MAIN_VARIANTS
+                                             else "")
             usage_of[key + (kind,)] = (tasks, cell.seed, np.array([by_task[task] for task in tasks], dtype=float),
                                        shown)
     if not usage_of:
         return []
     top = max(0.5, max(float(u.max()) for _, _, u, _ in usage_of.values()))
-    fig, axes = plt.subplots(len(counts), 2 * len(sets), figsize=(4.2 * len(sets) + 1.5, 2.9 * len(counts) + 1.2),
+    settings_of = panel_rows(usage_of, sets)
+    height = max(len(settings) for settings in settings_of.values())
+    fig, axes = plt.subplots(height, 2 * len(sets), figsize=(4.2 * len(sets) + 1.5, 2.9 * height + 1.2),
                              squeeze=False)
     rows, image = [], None
-    for r, (demos, k) in enumerate(counts):
-        for s_, set_name in enumerate(sets):
+    for s_, set_name in enumerate(sets):
+        for r in range(height):
             for c, kind in enumerate(("bc", "gail")):
                 ax = axes[r, 2 * s_ + c]
+                if r >= len(settings_of[set_name]):
+                    ax.set_visible(False)
+                    continue
+                demos, k = settings_of[set_name][r]
                 found = usage_of.get((set_name, demos, k, kind))
                 if found is None:
                     ax.set_visible(False)
@@ -261,7 +275,8 @@ def gail_module_usage(cells, out):
                 order_ = np.argsort(-usage.sum(axis=0), kind="stable")
                 image = ax.imshow(usage[:, order_], cmap="viridis", vmin=0, vmax=top, aspect="auto")
                 ax.set_yticks(range(len(tasks)), [short_task(t) for t in tasks] if c == 0 else [], fontsize=7)
-                ax.set_xticks(range(len(order_)), [f"m{m}" for m in order_], fontsize=6)
+                ax.set_xticks(range(len(order_)), [str(m) for m in order_], fontsize=6)
+                ax.set_xlabel("module (index as trained)", fontsize=7)
                 ax.set_title(f"{set_name}, {demos} demos, k = {k}\n{shown}, seed {seed}", fontsize=8)
                 rows += [[set_name, demos, k, kind, seed, task, m, usage[i, m]]
                          for i, task in enumerate(tasks) for m in range(usage.shape[1])]
@@ -277,4 +292,4 @@ def gail_module_usage(cells, out):
                    " evaluation states, under BC and under GAIL side by side, one seed per setting (the lowest both"
                    " ran: module indices mean nothing across runs, so the panels compare in shape, not module by"
                    " module); uniform routing over M modules is 1/M everywhere. The routing table above gives every"
-                   " seed's numbers.")
+                   f" seed's numbers.{main_variants_note([c for pair in panels.values() for c in pair[:2]])}")

@@ -306,6 +306,11 @@ class FiguresTest(unittest.TestCase):
             note = "The suite's GAIL runs (one style and legend entry): gail on s, gail_mt10 on t."
             self.assertIn(note, imitation_figures.gail_curves(cells, out)[0].caption)
             self.assertIn(note, imitation_figures.imitation_scores(cells, out)[0].caption)
+            # Each set's settings fill the rows from the top: t's k = 1 beside s's k = 10, not a row of its own.
+            keys = [("s", 1, 10, "bc"), ("s", 1, 10, "gail"), ("s", 5, 10, "gail"), ("t", 1, 1, "bc"),
+                    ("t", 2, 1, "bc")]
+            self.assertEqual(imitation_figures.panel_rows(keys, ["s", "t"]),
+                             {"s": [(1, 10), (5, 10)], "t": [(1, 1), (2, 1)]})
             # One main variant: nothing to say.
             one = [c for c in cells if c.set == "s"]
             self.assertNotIn("The suite's GAIL runs", imitation_figures.gail_curves(one, out)[0].caption)
