@@ -71,6 +71,33 @@ std::string external_target(hid_t group, const char* name, std::size_t size, hid
   return std::string(file) + ":" + object;
 }
 
+// HDF5's own filters. Any other filter in a dataset's pipeline is code HDF5 would look for in a plugin folder
+// (HDF5_PLUGIN_PATH) to read the data: a file from elsewhere would choose a shared object this process loads.
+bool built_in_filter(H5Z_filter_t id) {
+  return id == H5Z_FILTER_DEFLATE || id == H5Z_FILTER_SHUFFLE || id == H5Z_FILTER_FLETCHER32 || id == H5Z_FILTER_SZIP ||
+         id == H5Z_FILTER_NBIT || id == H5Z_FILTER_SCALEOFFSET;
+}
+
+// The refusal of the first filter of the dataset's pipeline that is not HDF5's own, or "".
+std::string check_filters(hid_t dcpl, const char* name) {
+  const int count = H5Pget_nfilters(dcpl);
+  if (count < 0) return quoted(name) + ": cannot read the dataset's filter pipeline";
+  for (int i = 0; i < count; ++i) {
+    unsigned flags = 0;
+    std::size_t values = 0;
+    char filter_name[128] = {0};
+    unsigned config = 0;
+    const H5Z_filter_t id = H5Pget_filter2(dcpl, static_cast<unsigned>(i), &flags, &values, nullptr,
+                                           sizeof(filter_name), filter_name, &config);
+    if (id < 0) return quoted(name) + ": cannot read filter " + std::to_string(i) + " of the dataset's pipeline";
+    if (!built_in_filter(id))
+      return quoted(name) + " is stored through filter " + std::to_string(id) + " ('" + filter_name +
+             "'), which HDF5 would load from a plugin: this tool reads a file with HDF5's built-in filters only "
+             "(deflate, shuffle, fletcher32, szip, nbit, scaleoffset)";
+  }
+  return "";
+}
+
 std::string check_dataset(hid_t group, const char* name) {
   const hid_t dataset = H5Dopen2(group, name, H5P_DEFAULT);
   if (dataset < 0) return quoted(name) + " is a dataset that cannot be opened";
@@ -91,6 +118,8 @@ std::string check_dataset(hid_t group, const char* name) {
           names += std::string(names.empty() ? "" : ", ") + "'" + file + "'";
       }
       error = quoted(name) + " keeps its data in external raw files (" + names + ")" + kWhy;
+    } else {
+      error = check_filters(dcpl, name);
     }
     H5Pclose(dcpl);
   }

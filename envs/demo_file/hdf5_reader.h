@@ -15,6 +15,23 @@
 // std::runtime_error "demo file '<file>': <object path>: <what>". Internal to envs/demo_file/.
 namespace maps::envs::demo_file_detail {
 
+// libhdf5 loads no filter plugin while one lives, whatever a file's pipeline or HDF5_PLUGIN_PATH says
+// (io::check_self_contained refuses such a dataset by name; this keeps a read it misses from loading code). The
+// state before is restored after: the Python module's host process may read its own files with plugins.
+class PluginsOff {
+ public:
+  PluginsOff() {
+    if (H5PLget_loading_state(&saved_) < 0) saved_ = H5PL_ALL_PLUGIN;
+    H5PLset_loading_state(0);
+  }
+  ~PluginsOff() { H5PLset_loading_state(saved_); }
+  PluginsOff(const PluginsOff&) = delete;
+  PluginsOff& operator=(const PluginsOff&) = delete;
+
+ private:
+  unsigned saved_ = H5PL_ALL_PLUGIN;
+};
+
 class Hdf5Reader {
  public:
   explicit Hdf5Reader(std::string file) : file_(std::move(file)) {}
@@ -66,6 +83,7 @@ class Hdf5Reader {
   std::vector<std::string> read_strings(hid_t object, bool is_attr, hid_t file_type, hsize_t n,
                                         const std::string& where) const;
 
+  PluginsOff plugins_off_;
   std::string file_;
 };
 

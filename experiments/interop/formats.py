@@ -7,17 +7,22 @@
 IN.h5 / OUT.h5 are this project's demo files (format 2, docs/datasets.md). What each format keeps and drops is in
 docs/interop.md. Every file written here goes to a temporary in the same folder first and is renamed over OUT, so a
 failed or killed conversion leaves no half-written file. Every HDF5 file is read from itself alone: one with an
-external link, external raw storage, a virtual dataset, a user-defined link or a soft link that does not resolve is
-refused before anything is read (open_hdf5). Errors name the file, the object and what was expected, and exit with
-status 1."""
+external link, external raw storage, a virtual dataset, a user-defined link, a soft link that does not resolve or a
+dataset stored through a filter HDF5 does not build in (a plugin's) is refused before anything is read (open_hdf5).
+Errors name the file, the object and what was expected, and exit with status 1."""
 import argparse
 import json
 import os
 import pathlib
 import sys
 
-import h5py
-import numpy as np
+# libhdf5 loads no filter plugin in this process (read when h5py starts the library): a file from elsewhere names the
+# filters its data needs, and would otherwise choose a shared object from HDF5_PLUGIN_PATH to be loaded.
+# check_self_contained refuses such a dataset by name; this keeps a read it misses from loading code.
+os.environ["HDF5_PLUGIN_PRELOAD"] = "::"
+
+import h5py  # noqa: E402
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "process"))
 import json_input  # noqa: E402
@@ -444,6 +449,8 @@ def import_robomimic(path, task_set=None, obs_keys=None):
 
 SELF_CONTAINED = ("this tool reads a file from itself alone (no external links, external storage, virtual datasets "
                   "or user-defined links)")
+BUILT_IN_FILTERS = {h5py.h5z.FILTER_DEFLATE, h5py.h5z.FILTER_SHUFFLE, h5py.h5z.FILTER_FLETCHER32, h5py.h5z.FILTER_SZIP,
+                    h5py.h5z.FILTER_NBIT, h5py.h5z.FILTER_SCALEOFFSET}
 
 
 def read_json(path):
@@ -472,7 +479,8 @@ def check_self_contained(f, path):
     """Refuses (FormatError naming the file and the object's path) every object whose data lives outside the file:
     an external link, a user-defined link, a dataset with external raw storage or a virtual layout (issue 41). A
     file downloaded from elsewhere could otherwise make an export copy any file of this machine into a file the user
-    then shares. Soft links must resolve inside the file, and a group may be reached by one path only, so that the
+    then shares. A dataset stored through a filter that is not HDF5's own is refused too: reading it would load a
+    plugin's code. Soft links must resolve inside the file, and a group may be reached by one path only, so that the
     walk ends. Attributes need no check: they are stored in their object's header."""
     def refuse(where, what):
         raise FormatError(f"{path}: '{where}' {what}")
@@ -527,6 +535,7 @@ def check_self_contained(f, path):
                     dcpl = obj.get_create_plist()
                     layout, externals = dcpl.get_layout(), dcpl.get_external_count()
                     files = [describe(dcpl.get_external(i)[0]) for i in range(externals)]
+                    filters = [dcpl.get_filter(i) for i in range(dcpl.get_nfilters())]
                 except (KeyError, RuntimeError, OSError, ValueError) as e:
                     refuse(where, f"is a dataset whose storage cannot be read ({e})")
                 if layout == h5py.h5d.VIRTUAL:
@@ -534,6 +543,11 @@ def check_self_contained(f, path):
                 if externals > 0:
                     listed = ", ".join(f"'{name}'" for name in files)
                     refuse(where, f"keeps its data in external raw files ({listed}): {SELF_CONTAINED}")
+                for code, _, _, filter_name in filters:
+                    if code not in BUILT_IN_FILTERS:
+                        refuse(where, f"is stored through filter {code} ('{describe(filter_name)}'), which HDF5 would "
+                                      "load from a plugin: this tool reads a file with HDF5's built-in filters only "
+                                      "(deflate, shuffle, fletcher32, szip, nbit, scaleoffset)")
     # Resolved only once every link is known to be hard or soft, so that resolving one never leaves the file.
     for group, name, where in soft_links:
         try:

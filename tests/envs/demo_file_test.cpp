@@ -218,6 +218,24 @@ TEST_F(DemoFileTest, LargeSeedAndEmptyMetadataRoundTrip) {
   EXPECT_TRUE(out.valid.empty());
 }
 
+// The reader turns libhdf5's plugin loading off while it reads (a file from elsewhere must not choose code to load)
+// and gives the host back the state it had: the Python module's host may read its own files with plugins.
+TEST_F(DemoFileTest, PluginLoadingIsRestoredAfterAReadAndARefusal) {
+  unsigned before = 0;
+  ASSERT_GE(H5PLget_loading_state(&before), 0);
+  ASSERT_GE(H5PLset_loading_state(H5PL_FILTER_PLUGIN), 0);  // not the default (all), so a reset would show
+  write_demo_file(path("demos.h5"), make_file());
+  read_demo_file(path("demos.h5"));
+  unsigned after = 0;
+  ASSERT_GE(H5PLget_loading_state(&after), 0);
+  EXPECT_EQ(after, static_cast<unsigned>(H5PL_FILTER_PLUGIN));
+  std::ofstream(path("not.h5")) << "not HDF5";
+  EXPECT_THAT(error_of([&] { read_demo_file(path("not.h5")); }), HasSubstr("not an HDF5 file"));
+  ASSERT_GE(H5PLget_loading_state(&after), 0);
+  EXPECT_EQ(after, static_cast<unsigned>(H5PL_FILTER_PLUGIN));
+  H5PLset_loading_state(before);
+}
+
 // The layout h5py/robomimic users rely on, checked with the plain HDF5 API.
 TEST_F(DemoFileTest, LayoutIsRobomimicStyle) {
   const DemoFile in = make_file();

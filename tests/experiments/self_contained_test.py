@@ -1,15 +1,16 @@
 #!/usr/bin/python3
 """A file is read from itself alone (issue 41, item 1): every HDF5 reader refuses an object whose data lives outside
 the file it was given (an external link, external raw storage, a virtual dataset, a user-defined link), a soft link
-that does not resolve inside the file and a group linked twice, naming the file and the object, writing no output
-and copying no byte of the file pointed at. Otherwise a demo file downloaded from the internet could make
-`maps data export` copy any file of the user's machine into a file they then share.
+that does not resolve inside the file, a group linked twice and a dataset stored through a filter HDF5 would load
+from a plugin, naming the file and the object, writing no output and copying no byte of the file pointed at.
+Otherwise a demo file downloaded from the internet could make `maps data export` copy any file of the user's machine
+into a file they then share.
 
 Readers: `maps data export` (this project's C++ reader, then experiments/interop/formats.py), `maps data import`
 (formats.py, then the C++ reader on the result), `maps train`, the Python module (maps.read_demo_file,
 maps.demo_arrays, maps.load_run's data_file) and formats.py run directly. Each bad file is a valid file with one
-member replaced, and the same replacement by an ordinary dataset or a resolving soft link is read fine (the
-controls), so a refusal comes from the check, not from a broken fixture.
+member replaced, and the same replacement by an ordinary dataset, a resolving soft link or a dataset compressed by
+HDF5's own filters is read fine (the controls), so a refusal comes from the check, not from a broken fixture.
 Run as: self_contained_test.py path/to/maps (needs python3-h5py)."""
 import concurrent.futures
 import importlib
@@ -52,8 +53,11 @@ KINDS = {
     "soft_link_loop": ("soft link", lambda dataset, group: [dataset, "loop_partner"]),
     "user_defined_link": ("user-defined link", lambda dataset, group: [dataset]),
     "hard_link_loop": ("linked twice", lambda dataset, group: [f"{group}/loop"]),
+    # Not a leak but code: a filter HDF5 does not build in is a shared object it would load from HDF5_PLUGIN_PATH.
+    "plugin_filter": ("load from a plugin", lambda dataset, group: [dataset]),
 }
-CONTROLS = ("plain", "resolving_soft_link")
+# Compressed data is common in files from elsewhere (robomimic's, D4RL's): HDF5's own filters are read.
+CONTROLS = ("plain", "resolving_soft_link", "built_in_filters")
 
 # h5py has no call to make a user-defined link, so this child process registers a link class in the libhdf5 h5py
 # loaded and makes one through ctypes (HDF5 1.10's H5L_class_t; a C++ test covers such links too). The class
@@ -191,6 +195,13 @@ class SelfContained(unittest.TestCase):
             elif kind == "plain":  # the member rewritten as an ordinary dataset: the replacing keeps a file valid
                 del f[dataset]
                 f[dataset] = original
+            elif kind == "plugin_filter":  # 32001, Blosc's id; optional, so that it can be written without Blosc
+                del f[dataset]
+                f.create_dataset(dataset, data=original, chunks=True, compression=32001, allow_unknown_filter=True)
+            elif kind == "built_in_filters":
+                del f[dataset]
+                f.create_dataset(dataset, data=original, chunks=True, compression="gzip", shuffle=True,
+                                 fletcher32=True)
             elif kind == "resolving_soft_link":  # soft links inside the file are fine
                 f.move(dataset, "/elsewhere/actions")
                 f[dataset] = h5py.SoftLink("/elsewhere/actions")

@@ -117,6 +117,34 @@ TEST_F(SelfContained, RefusesADatasetStoredInExternalRawFiles) {
   EXPECT_THAT(refusal(file), AllOf(HasSubstr("'/raw'"), HasSubstr("external raw files"), HasSubstr(secret)));
 }
 
+TEST_F(SelfContained, AcceptsHdf5sOwnFiltersAndRefusesAPluginsNamingIt) {
+  const std::string ok = make("ok.h5", [](hid_t f) {
+    const hsize_t chunk[1] = {2};
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    ASSERT_GE(H5Pset_chunk(dcpl, 1, chunk), 0);
+    ASSERT_GE(H5Pset_shuffle(dcpl), 0);
+    ASSERT_GE(H5Pset_deflate(dcpl, 4), 0);
+    ASSERT_GE(H5Pset_fletcher32(dcpl), 0);
+    write_doubles(f, "compressed", dcpl);
+    H5Pclose(dcpl);
+  });
+  EXPECT_EQ(refusal(ok), "");
+  // 32001 is Blosc's registered id: a plugin, not part of HDF5. Optional, so that the file can be written here
+  // without it (the chunks record it as skipped); the pipeline still names it, and a reader with the plugin would
+  // load it.
+  const std::string bad = make("bad.h5", [](hid_t f) {
+    const hsize_t chunk[1] = {2};
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    ASSERT_GE(H5Pset_chunk(dcpl, 1, chunk), 0);
+    ASSERT_GE(H5Pset_deflate(dcpl, 4), 0);
+    ASSERT_GE(H5Pset_filter(dcpl, 32001, H5Z_FLAG_OPTIONAL, 0, nullptr), 0);
+    write_doubles(f, "blosc", dcpl);
+    H5Pclose(dcpl);
+  });
+  EXPECT_THAT(refusal(bad), AllOf(HasSubstr("HDF5 file '" + bad + "'"), HasSubstr("'/blosc'"),
+                                  HasSubstr("filter 32001"), HasSubstr("load from a plugin")));
+}
+
 TEST_F(SelfContained, RefusesAVirtualDataset) {
   const std::string other = make("other.h5", [](hid_t) {});
   const std::string file = make("bad.h5", [&](hid_t f) {
