@@ -20,6 +20,7 @@ import os
 import pathlib
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 from collections import Counter, namedtuple
@@ -40,6 +41,9 @@ METHOD_NAMES = {"maps": "MAPS", "single_bc": "Single BC", "mt_bc": "MT-BC", "mt_
          "transfer": "MAPS transfer", "moore": "MOORE", "paco": "PaCo", "care": "CARE-style",
          "top_k_moe": "top-k MoE", "soft_modularization": "Soft Modularization", "diffusion_policy": "Diffusion Policy"}
 SELECTOR_TERMS = ["share", "explore", "sparse", "smooth"]
+# A GAIL iteration timed over this many times its run's median was a stopped process, not work: maps/training/
+# curve_cost.h's kStoppedFactor, which `maps suite status` uses (tests/experiments/imitation_test.py checks they agree).
+STOPPED_FACTOR = 30.0
 
 GroupKey = namedtuple("GroupKey", "set label demos subsample")
 
@@ -194,20 +198,32 @@ class Cell:
     def gail_iteration_seconds(self):
         """Seconds of a GAIL cell's iterations (rollouts, discriminator and PPO): the sum over curve.csv's rows of the
         iteration's env steps (its rise in env_steps_per_task over the row before, times the cell's tasks) over the
-        env steps per second it logged (train.log's steps/s), so a resumed run counts the attempt that wrote each kept
-        row; a pause inside an iteration (SIGSTOP) and cores shared with other runs count. None as _curve_sum_to:
-        the curve missing or unreadable, its env steps not rising row by row, a speed not a positive finite number,
-        or the rows not ending at the config's gail.env_steps_per_task."""
+        env steps per second it logged (train.log's steps/s, wall time), so a resumed run counts the attempt that
+        wrote each kept row and cores shared with other runs count; an iteration of a stopped process (over
+        STOPPED_FACTOR times the run's median: SIGSTOP, a suspended machine) counts at the median, as `maps suite
+        status` counts it (maps/training/curve_cost.h). None as _curve_sum_to: the curve missing or unreadable, its
+        env steps not rising row by row, a speed not a positive finite number, or the rows not ending at the
+        config's gail.env_steps_per_task."""
         budget = self.config.get("gail", {}).get("env_steps_per_task")
         if not isinstance(budget, int):
             return None
-        return self._curve_sum_to(budget, lambda at, previous, row: (at - previous) * len(self.tasks)
-                                  / float(row["env_steps_per_second"]), column="env_steps_per_task")
+        windows = self._curve_windows_to(budget, lambda at, previous, row: (at - previous) * len(self.tasks)
+                                         / float(row["env_steps_per_second"]), column="env_steps_per_task")
+        if windows is None:
+            return None
+        median = statistics.median(windows)
+        return sum(median if w > STOPPED_FACTOR * median else w for w in windows)
 
     def _curve_sum_to(self, step, window, column="step"):
-        """The sum of window(at, previous, row) over curve.csv's rows up to `step` in its `column`; None where the
-        curve is missing or unreadable, a window is not a positive number, or the rows do not end at `step`."""
-        seconds, previous = 0.0, 0
+        """The sum of window(at, previous, row) over curve.csv's rows up to `step` in its `column`; None as
+        _curve_windows_to."""
+        windows = self._curve_windows_to(step, window, column)
+        return None if windows is None else sum(windows)
+
+    def _curve_windows_to(self, step, window, column="step"):
+        """[window(at, previous, row)] of curve.csv's rows up to `step` in its `column`; None where the curve is
+        missing or unreadable, a window is not a positive number, or the rows do not end at `step`."""
+        seconds, previous = [], 0
         try:
             with (self.folder / "curve.csv").open() as f:
                 for row in csv.DictReader(f):
@@ -217,7 +233,7 @@ class Cell:
                     value = window(at, previous, row)
                     if not value > 0:
                         return None
-                    seconds += value
+                    seconds.append(value)
                     previous = at
         except (OSError, KeyError, ValueError, TypeError, ZeroDivisionError):
             return None

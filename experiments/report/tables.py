@@ -3,8 +3,8 @@ per set the score table (per-task mean +- 95% CI over seeds), paired differences
 and routing, Fig. 3's comparison with Single BC, the ablations and the module-count sweep."""
 import math
 
-from suite_results import (ablation_groups, compared_cells, control_cells, display_label, groups, maps_partner,
-                           module_sweep_cells, score_name, short_task, task_names, task_score)
+from suite_results import (STOPPED_FACTOR, ablation_groups, compared_cells, control_cells, display_label, groups,
+                           maps_partner, module_sweep_cells, score_name, short_task, task_names, task_score)
 from suite_stats import (MUCH_BETTER, USED_FACTOR, division, fmt, fmt_p, holm, holm_within, mean, mean_entropy, paired,
                          paired_p, routing, span, span_fixed, top_share, usage_distances)
 
@@ -508,7 +508,8 @@ def compute_table(cells):
     sources = {"cpu": "training's CPU seconds from curve.csv",
                "windows": "training's wall seconds per curve.csv window",
                "gail": "GAIL's iterations from curve.csv (each iteration's env steps over its logged env steps per"
-                       " second; shared cores and pauses count)",
+                       " second, so shared cores count; an iteration over"
+                       f" {STOPPED_FACTOR:g} times its run's median, a stopped process's, at the median)",
                "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
     counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
     mixed = len([cpus for cpus in cpu_counts(cells) if cpus]) > 1

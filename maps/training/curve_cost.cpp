@@ -1,8 +1,10 @@
 #include "maps/training/curve_cost.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <numeric>
 #include <sstream>
 #include <vector>
 
@@ -32,11 +34,11 @@ double number_of(const std::string& field) {
 
 using Window = std::function<double(double at, double previous, const std::vector<std::string>& row)>;
 
-// The seconds a curve records up to `target` in its column `step_name`: the sum over its rows of the window that
-// choose(column_of) makes from the header (std::nullopt: the curve cannot say), each row's step above the one before.
-// std::nullopt when the file is missing or unreadable, a row is cut, a window is not a positive finite number, or
-// the rows do not end at `target`.
-std::optional<double> sum_windows(
+// The seconds each window of a curve records up to `target` in its column `step_name`: the window that
+// choose(column_of) makes from the header (std::nullopt: the curve cannot say) of each row, each row's step above the
+// one before. std::nullopt when the file is missing or unreadable, a row is cut, a window is not a positive finite
+// number, or the rows do not end at `target`.
+std::optional<std::vector<double>> windows_of(
     const std::string& curve_path, const std::string& step_name, double target,
     const std::function<std::optional<Window>(const std::function<std::ptrdiff_t(const std::string&)>& column_of)>&
         choose) {
@@ -52,7 +54,8 @@ std::optional<double> sum_windows(
   const std::ptrdiff_t step_column = column_of(step_name);
   const std::optional<Window> window = choose(column_of);
   if (step_column < 0 || !window) return std::nullopt;
-  double seconds = 0.0, previous = 0.0;
+  std::vector<double> seconds;
+  double previous = 0.0;
   while (std::getline(in, line)) {
     const std::vector<std::string> row = split_row(line);
     if (row.size() != header.size()) return std::nullopt;
@@ -61,7 +64,7 @@ std::optional<double> sum_windows(
     if (at > target) break;
     const double value = (*window)(at, previous, row);
     if (!(value > 0.0) || !std::isfinite(value)) return std::nullopt;
-    seconds += value;
+    seconds.push_back(value);
     previous = at;
   }
   if (previous != target) return std::nullopt;
@@ -77,7 +80,7 @@ double field(const std::vector<std::string>& row, std::ptrdiff_t column) {
 
 std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std::int64_t steps) {
   CurveCost cost;
-  const auto seconds = sum_windows(curve_path, "step", static_cast<double>(steps), [&cost](const auto& column_of) {
+  const auto seconds = windows_of(curve_path, "step", static_cast<double>(steps), [&cost](const auto& column_of) {
     const std::ptrdiff_t speed = column_of("steps_per_second"), cpu = column_of("cpu_seconds");
     cost.cpu = cpu >= 0;
     if (cost.cpu) return std::optional<Window>([cpu](double, double, const auto& row) { return field(row, cpu); });
@@ -86,14 +89,14 @@ std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std:
         [speed](double at, double previous, const auto& row) { return (at - previous) / field(row, speed); });
   });
   if (!seconds) return std::nullopt;
-  cost.seconds = *seconds;
+  cost.seconds = std::accumulate(seconds->begin(), seconds->end(), 0.0);
   return cost;
 }
 
 std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path, std::int64_t env_steps_per_task,
                                                   std::int64_t tasks) {
   if (tasks <= 0) return std::nullopt;
-  const auto seconds = sum_windows(
+  const auto seconds = windows_of(
       curve_path, "env_steps_per_task", static_cast<double>(env_steps_per_task), [tasks](const auto& column_of) {
         const std::ptrdiff_t speed = column_of("env_steps_per_second");
         if (speed < 0) return std::optional<Window>();
@@ -102,7 +105,19 @@ std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path,
         });
       });
   if (!seconds) return std::nullopt;
-  return CurveCost{*seconds, false};
+  return CurveCost{sum_without_stops(*seconds), false};
+}
+
+double sum_without_stops(const std::vector<double>& seconds) {
+  if (seconds.empty()) return 0.0;
+  std::vector<double> sorted = seconds;
+  const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  double median = *middle;
+  if (sorted.size() % 2 == 0) median = (median + *std::max_element(sorted.begin(), middle)) / 2.0;
+  double sum = 0.0;
+  for (const double s : seconds) sum += s > kStoppedFactor * median ? median : s;
+  return sum;
 }
 
 }  // namespace maps::core

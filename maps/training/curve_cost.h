@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace maps::core {
 
@@ -19,11 +20,20 @@ struct CurveCost {
 std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std::int64_t steps);
 
 // A GAIL run's training cost from its curve: each iteration's env steps (its rise in env_steps_per_task over the row
-// before, times `tasks`) over the env steps per second it logged (rollouts, discriminator and PPO), so cores shared
-// with other runs and a pause inside an iteration count (cpu false). std::nullopt when the file is missing or
-// unreadable, the env steps do not rise row by row, a speed is not a positive number, or the rows do not end at
+// before, times `tasks`) over the env steps per second it logged (rollouts, discriminator and PPO; wall time, so
+// cores shared with other runs count, cpu false), summed by sum_without_stops. std::nullopt when the file is missing
+// or unreadable, the env steps do not rise row by row, a speed is not a positive number, or the rows do not end at
 // `env_steps_per_task`.
 std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path, std::int64_t env_steps_per_task,
                                                   std::int64_t tasks);
+
+// An iteration timed over kStoppedFactor times its run's median was a process stopped, not working (SIGSTOP while
+// another job had the cores, a suspended machine), and costs the median. In results/adversarial's GAIL cells, work
+// shared with other jobs slowed iterations to at most 14 times their run's median, stopped ones took 41 to 2,846
+// times it (an MT10 iteration of 2 s took 1.9 hours).
+inline constexpr double kStoppedFactor = 30.0;
+
+// The sum of a run's iteration times with each stopped one (above kStoppedFactor x the median) at the median.
+double sum_without_stops(const std::vector<double>& seconds);
 
 }  // namespace maps::core

@@ -17,6 +17,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "experiments" / "report"))
 
 import imitation  # noqa: E402
+import suite_results  # noqa: E402
 import tables  # noqa: E402
 from suite_results import Cell, TaskResult  # noqa: E402
 from suite_stats import paired_p  # noqa: E402
@@ -214,6 +215,18 @@ class GailComputeTest(unittest.TestCase):
         self.assertIn(f"In all: {(403 + 33) / 3600:.1f} CPU-hours over 2 finished cells", lines[-3])
         row = [line.strip("| ").split(" | ") for line in lines if line.startswith("| gail | s | maps")][0]
         self.assertEqual(row[3:6], ["1", f"{403 / 3600:.2f}", f"{403 / 60:.1f}"])
+
+    def test_an_iteration_of_a_stopped_process_costs_the_median_as_in_the_tools_status(self):
+        with tempfile.TemporaryDirectory() as root:
+            # 100, 100, 200 (shared cores: as logged), 100 s, and 8,000 s (stopped): the last counts at the median.
+            cell = timed_cell(root, "maps", 0, [40, 40, 20, 40, 0.5])
+            self.assertAlmostEqual(cell.gail_iteration_seconds(), 600.0)
+            # 25 times the median is still work (2,500 s: other jobs on the cores), 40 times is not.
+            self.assertAlmostEqual(timed_cell(root, "mt_bc", 0, [40, 40, 40, 1.6]).gail_iteration_seconds(), 2800.0)
+            self.assertAlmostEqual(timed_cell(root, "single_bc", 0, [40, 40, 40, 1.0]).gail_iteration_seconds(),
+                                   400.0)
+        header = (ROOT / "maps" / "training" / "curve_cost.h").read_text()
+        self.assertIn(f"kStoppedFactor = {suite_results.STOPPED_FACTOR};", header)
 
     def test_a_curve_that_cannot_be_timed_falls_back_to_the_attempts_wall_seconds(self):
         with tempfile.TemporaryDirectory() as root:

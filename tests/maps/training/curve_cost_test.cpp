@@ -81,6 +81,20 @@ TEST(GailCurveCost, EachIterationIsItsEnvStepsOverItsSpeed) {
   EXPECT_DOUBLE_EQ(first->seconds, 200.0);
 }
 
+TEST(GailCurveCost, AnIterationOfAStoppedProcessCostsTheMedian) {
+  // 100, 100, 200 (shared cores: logged), 100 s, then one stopped for two hours (7,200 s logged): it counts at the
+  // median, 100 s.
+  const std::string curve = std::string(kGailCurve) + "4,8000,1,1,40\n" + "5,10000,1,1,0.5555555555555556\n";
+  const auto cost = gail_curve_training_cost(curve_file("gail_stopped", curve).string(), 10000, 2);
+  ASSERT_TRUE(cost.has_value());
+  EXPECT_DOUBLE_EQ(cost->seconds, 600.0);
+  EXPECT_DOUBLE_EQ(sum_without_stops({}), 0.0);
+  EXPECT_DOUBLE_EQ(sum_without_stops({3.0}), 3.0);
+  // The median of an even count is the mean of its middle two (20): 30 x 20 = 600 stays, 601 counts as 20.
+  EXPECT_DOUBLE_EQ(sum_without_stops({10.0, 30.0, 600.0, 5.0}), 645.0);
+  EXPECT_DOUBLE_EQ(sum_without_stops({10.0, 30.0, 601.0, 5.0}), 65.0);
+}
+
 TEST(GailCurveCost, ACurveThatCannotSayIsNoAnswer) {
   const std::string header = "iteration,env_steps_per_task,env_steps_per_second\n";
   EXPECT_FALSE(gail_curve_training_cost("/nonexistent/curve.csv", 2000, 2).has_value());
