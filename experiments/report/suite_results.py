@@ -196,8 +196,9 @@ class Cell:
         return self.wall_seconds, "attempt"
 
     def gail_iteration_seconds(self):
-        """Seconds of a GAIL cell's iterations (rollouts, discriminator and PPO): the sum over curve.csv's rows of the
-        iteration's env steps (its rise in env_steps_per_task over the row before, times the cell's tasks) over the
+        """Seconds of a GAIL cell's iterations (rollouts, discriminator and PPO): the sum of curve.csv's cpu_seconds
+        (each iteration's process CPU time) where the curve has them, else the sum over its rows of the iteration's
+        env steps (its rise in env_steps_per_task over the row before, times the cell's tasks) over the
         env steps per second it logged (train.log's steps/s, wall time), so a resumed run counts the attempt that
         wrote each kept row and cores shared with other runs count; an iteration of a stopped process (over
         STOPPED_FACTOR times the run's median: SIGSTOP, a suspended machine) counts at the median, as `maps suite
@@ -207,6 +208,10 @@ class Cell:
         budget = self.config.get("gail", {}).get("env_steps_per_task")
         if not isinstance(budget, int):
             return None
+        cpu = self._curve_sum_to(budget, lambda at, previous, row: float(row["cpu_seconds"]),
+                                 column="env_steps_per_task")
+        if cpu is not None:  # process CPU time, which a stop does not grow (curves written since 2026-12-05)
+            return cpu
         windows = self._curve_windows_to(budget, lambda at, previous, row: (at - previous) * len(self.tasks)
                                          / float(row["env_steps_per_second"]), column="env_steps_per_task")
         if windows is None:

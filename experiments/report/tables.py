@@ -507,9 +507,10 @@ def compute_table(cells):
     total = sum(s for costs in by.values() for s, _ in costs if s == s)
     sources = {"cpu": "training's CPU seconds from curve.csv",
                "windows": "training's wall seconds per curve.csv window",
-               "gail": "GAIL's iterations from curve.csv (each iteration's env steps over its logged env steps per"
-                       " second, so shared cores count; an iteration over"
-                       f" {STOPPED_FACTOR:g} times its run's median, a stopped process's, at the median)",
+               "gail": "GAIL's iterations from curve.csv (their CPU seconds where the curve has them, else each"
+                       " iteration's env steps over its logged env steps per second, so shared cores count, an"
+                       f" iteration over {STOPPED_FACTOR:g} times its run's median, a stopped process's, at the"
+                       " median)",
                "attempt": "the finishing attempt's wall seconds (no curve or evaluation time)"}
     counted = "; ".join(f"{hows[how]} by {text}" for how, text in sources.items() if hows.get(how))
     mixed = len([cpus for cpus in cpu_counts(cells) if cpus]) > 1

@@ -9,6 +9,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <optional>
 #include <ostream>
 #include <random>
 #include <sstream>
@@ -69,6 +70,7 @@ struct IterationRecord {
   double policy_loss = 0.0, value_loss = 0.0, entropy = 0.0, approx_kl = 0.0, clip_fraction = 0.0, bc = 0.0;
   std::vector<std::pair<std::string, double>> regularizer;  // the method's own terms, averaged over minibatches
   double validation_bc = 0.0, learning_rate = 0.0, env_steps_per_second = 0.0;
+  std::optional<double> cpu_seconds;  // the iteration's process CPU time; none in a curve begun without the column
 };
 
 std::string curve_header(const IterationRecord& r, const std::vector<std::string>& task_names) {
@@ -79,6 +81,7 @@ std::string curve_header(const IterationRecord& r, const std::vector<std::string
       "value_loss,entropy,approx_kl,clip_fraction,bc";
   for (const auto& [name, value] : r.regularizer) header += "," + name;
   header += ",validation_bc,learning_rate,env_steps_per_second";
+  if (r.cpu_seconds) header += ",cpu_seconds";
   return header;
 }
 
@@ -92,6 +95,7 @@ std::string curve_row(const IterationRecord& r) {
       << r.approx_kl << "," << r.clip_fraction << "," << r.bc;
   for (const auto& [name, value] : r.regularizer) row << "," << value;
   row << "," << r.validation_bc << "," << r.learning_rate << "," << r.env_steps_per_second;
+  if (r.cpu_seconds) row << "," << *r.cpu_seconds;
   return row.str();
 }
 
@@ -210,10 +214,13 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
 
   std::int64_t iterations_here = 0;
   bool header_written = fs::exists(curve_path) && fs::file_size(curve_path) > 0;
+  // A curve begun by a build from before the column keeps its columns when resumed.
+  const bool cpu_column = core::curve_has_cpu_column(curve_path);
   while (state.env_steps_per_task < config.env_steps_per_task &&
          (max_iterations < 0 || iterations_here < max_iterations)) {
     const std::int64_t iteration = state.iteration + 1;
     const auto iteration_start = std::chrono::steady_clock::now();
+    const double iteration_cpu_start = core::process_cpu_seconds();
     IterationRecord record;
     record.iteration = iteration;
     record.learning_rate =
@@ -385,6 +392,7 @@ GailSummary train_gail(core::Policy& policy, const core::DemoDataset& data, cons
     state.env_steps_per_task += N / K;
     record.env_steps_per_task = state.env_steps_per_task;
     record.env_steps_per_second = static_cast<double>(N) / seconds_since(iteration_start);
+    if (cpu_column) record.cpu_seconds = core::process_cpu_seconds() - iteration_cpu_start;
     summary.env_steps_this_process += N;
     const bool best = config.checkpoint == "last" || record.validation_bc < state.best_validation;
     if (best) {

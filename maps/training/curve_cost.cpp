@@ -96,16 +96,22 @@ std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std:
 std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path, std::int64_t env_steps_per_task,
                                                   std::int64_t tasks) {
   if (tasks <= 0) return std::nullopt;
+  bool cpu = false;
   const auto seconds = windows_of(
-      curve_path, "env_steps_per_task", static_cast<double>(env_steps_per_task), [tasks](const auto& column_of) {
-        const std::ptrdiff_t speed = column_of("env_steps_per_second");
+      curve_path, "env_steps_per_task", static_cast<double>(env_steps_per_task), [tasks, &cpu](const auto& column_of) {
+        const std::ptrdiff_t speed = column_of("env_steps_per_second"), cpu_column = column_of("cpu_seconds");
+        cpu = cpu_column >= 0;
+        if (cpu)
+          return std::optional<Window>(
+              [cpu_column](double, double, const auto& row) { return field(row, cpu_column); });
         if (speed < 0) return std::optional<Window>();
         return std::optional<Window>([speed, tasks](double at, double previous, const auto& row) {
           return (at - previous) * static_cast<double>(tasks) / field(row, speed);
         });
       });
   if (!seconds) return std::nullopt;
-  return CurveCost{sum_without_stops(*seconds), false};
+  // CPU time does not grow while a process is stopped: only the speeds' wall times need the rule.
+  return CurveCost{cpu ? std::accumulate(seconds->begin(), seconds->end(), 0.0) : sum_without_stops(*seconds), cpu};
 }
 
 double sum_without_stops(const std::vector<double>& seconds) {

@@ -19,11 +19,12 @@ struct CurveCost {
 // unreadable, a window's time is not a positive number, or the rows do not end at `steps`.
 std::optional<CurveCost> curve_training_cost(const std::string& curve_path, std::int64_t steps);
 
-// A GAIL run's training cost from its curve: each iteration's env steps (its rise in env_steps_per_task over the row
-// before, times `tasks`) over the env steps per second it logged (rollouts, discriminator and PPO; wall time, so
-// cores shared with other runs count, cpu false), summed by sum_without_stops. std::nullopt when the file is missing
-// or unreadable, the env steps do not rise row by row, a speed is not a positive number, or the rows do not end at
-// `env_steps_per_task`.
+// A GAIL run's training cost from its curve: the sum of its iterations' cpu_seconds where the curve has the column
+// (cpu true; curves written since 2026-12-05), else each iteration's env steps (its rise in env_steps_per_task over
+// the row before, times `tasks`) over the env steps per second it logged (rollouts, discriminator and PPO; wall time,
+// so cores shared with other runs count, cpu false), summed by sum_without_stops. std::nullopt when the file is
+// missing or unreadable, the env steps do not rise row by row, a time is not a positive number, or the rows do not
+// end at `env_steps_per_task`.
 std::optional<CurveCost> gail_curve_training_cost(const std::string& curve_path, std::int64_t env_steps_per_task,
                                                   std::int64_t tasks);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <ctime>
 #include <fstream>
 #include <stdexcept>
 
@@ -31,6 +32,19 @@ void truncate_curve(const std::string& path, std::int64_t step) {
   }
   in.close();
   io::write_file_atomically(path, kept);
+}
+
+bool curve_has_cpu_column(const std::string& path) {
+  std::ifstream in(path);
+  std::string header;
+  if (!std::getline(in, header) || header.empty()) return true;
+  return header.size() >= 12 && header.compare(header.size() - 12, 12, ",cpu_seconds") == 0;
+}
+
+double process_cpu_seconds() {
+  timespec now{};
+  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
 }
 
 }  // namespace maps::core

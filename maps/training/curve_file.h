@@ -14,4 +14,12 @@ namespace maps::core {
 // naming the file and line.
 void truncate_curve(const std::string& path, std::int64_t step);
 
+// Whether curve.csv's rows carry cpu_seconds as their last column: a fresh (missing or empty) curve does; one begun by
+// a build from before the column (a resumed older run) keeps its header's columns.
+bool curve_has_cpu_column(const std::string& path);
+
+// CPU time of the whole process (every thread): the cost of a window of steps or an iteration whatever else shares
+// the cores, and which does not grow while the process is stopped (SIGSTOP) as wall time does.
+double process_cpu_seconds();
+
 }  // namespace maps::core

@@ -85,22 +85,6 @@ Progress load_last(const std::string& path, Policy& policy, optim::Adam& adam, W
   return progress;
 }
 
-// CPU time of the whole process (every thread), the cost of a window of steps whatever else shares the cores.
-double process_cpu_seconds() {
-  timespec now{};
-  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
-  return static_cast<double>(now.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec);
-}
-
-// Whether curve.csv's rows carry cpu_seconds: a fresh curve does; one begun by a build from before the column
-// (a resumed older run) keeps its header's columns.
-bool curve_has_cpu_column(const std::string& path) {
-  std::ifstream in(path);
-  std::string header;
-  if (!std::getline(in, header) || header.empty()) return true;
-  return header.size() >= 12 && header.compare(header.size() - 12, 12, ",cpu_seconds") == 0;
-}
-
 std::string format_seconds(double seconds) {
   const auto s = static_cast<long long>(seconds);
   char text[32];

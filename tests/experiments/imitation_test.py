@@ -228,6 +228,15 @@ class GailComputeTest(unittest.TestCase):
         header = (ROOT / "maps" / "training" / "curve_cost.h").read_text()
         self.assertIn(f"kStoppedFactor = {suite_results.STOPPED_FACTOR};", header)
 
+    def test_a_curve_with_cpu_seconds_costs_their_sum(self):
+        with tempfile.TemporaryDirectory() as root:
+            cell = timed_cell(root, "maps", 0, [40, 40, 0.5])  # the last iteration stopped for hours by the wall clock
+            lines = (cell.folder / "curve.csv").read_text().splitlines()
+            cpu = ["cpu_seconds", "90.5", "101", "99.25"]  # its CPU time did not grow while it was stopped
+            (cell.folder / "curve.csv").write_text("\n".join(f"{line},{c}" for line, c in zip(lines, cpu)) + "\n")
+            self.assertAlmostEqual(cell.gail_iteration_seconds(), 290.75)
+            self.assertEqual(cell.compute_seconds(), (293.75, "gail"))
+
     def test_a_curve_that_cannot_be_timed_falls_back_to_the_attempts_wall_seconds(self):
         with tempfile.TemporaryDirectory() as root:
             cell = timed_cell(root, "maps", 0, [40, 0])  # a speed of 0

@@ -214,14 +214,56 @@ TEST_F(GailTrainer, ResumesExactlyAndDoesNotDependOnTheThreadCount) {
     EXPECT_EQ(file_text(path(std::string("whole/") + file)), file_text(path(std::string("split/") + file))) << file;
     EXPECT_EQ(file_text(path(std::string("whole/") + file)), file_text(path(std::string("threads/") + file))) << file;
   }
-  // The curve's rows agree but for the measured speed, its last column.
-  const auto without_speed = [&](const std::string& file) {
+  // The curve's rows agree but for what was measured, its last two columns: the speed and the CPU seconds.
+  const auto without_timing = [&](const std::string& file) {
     std::string kept;
     std::ifstream in(path(file));
-    for (std::string line; std::getline(in, line);) kept += line.substr(0, line.rfind(',')) + "\n";
+    for (std::string line; std::getline(in, line);) {
+      line = line.substr(0, line.rfind(','));
+      kept += line.substr(0, line.rfind(',')) + "\n";
+    }
     return kept;
   };
-  EXPECT_EQ(without_speed("whole/curve.csv"), without_speed("split/curve.csv"));
+  EXPECT_EQ(without_timing("whole/curve.csv"), without_timing("split/curve.csv"));
+  std::ifstream curve(path("split/curve.csv"));
+  std::string header;
+  std::getline(curve, header);
+  EXPECT_THAT(header, testing::EndsWith(",env_steps_per_second,cpu_seconds"));
+}
+
+// Each iteration's process CPU time is a column of its own (the cost of the iteration, which a stopped process or
+// shared cores do not inflate as they do the speed); a curve begun by a build without that column keeps its columns
+// when the run resumes, rather than mixing rows of two widths.
+TEST_F(GailTrainer, CurvesCarryEachIterationsCpuSecondsOrKeepAnOlderCurvesColumns) {
+  GailConfig config = small_config();
+  config.env_steps_per_task = 30 * 4 * 4;
+  train_gail(*small_maps(3), data, reach_envs(), config, 5, path("run"), nullptr, 2);
+  const auto rows_of = [&]() {
+    std::vector<std::string> rows;
+    std::ifstream in(path("run/curve.csv"));
+    for (std::string line; std::getline(in, line);) rows.push_back(line);
+    return rows;
+  };
+  const auto commas = [](const std::string& line) { return std::count(line.begin(), line.end(), ','); };
+  std::vector<std::string> rows = rows_of();
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_THAT(rows[0], testing::EndsWith(",cpu_seconds"));
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    EXPECT_EQ(commas(rows[i]), commas(rows[0]));
+    const double cpu = std::stod(rows[i].substr(rows[i].rfind(',') + 1));
+    EXPECT_GT(cpu, 0.0) << rows[i];
+    EXPECT_LT(cpu, 60.0) << rows[i];
+  }
+  // The curve as an older build wrote it: no cpu_seconds column.
+  {
+    std::ofstream out(path("run/curve.csv"), std::ios::trunc);
+    for (const std::string& row : rows) out << row.substr(0, row.rfind(',')) << "\n";
+  }
+  train_gail(*small_maps(99), data, reach_envs(), config, 5, path("run"), nullptr);
+  rows = rows_of();
+  ASSERT_EQ(rows.size(), 5u);
+  EXPECT_THAT(rows[0], testing::EndsWith(",env_steps_per_second"));
+  for (const std::string& row : rows) EXPECT_EQ(commas(row), commas(rows[0])) << row;
 }
 
 // MAPS on raw inputs ("raw_clipped") undoes the standardisation with the data's statistics, as under BC: without

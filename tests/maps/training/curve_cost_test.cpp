@@ -95,6 +95,17 @@ TEST(GailCurveCost, AnIterationOfAStoppedProcessCostsTheMedian) {
   EXPECT_DOUBLE_EQ(sum_without_stops({10.0, 30.0, 601.0, 5.0}), 65.0);
 }
 
+TEST(GailCurveCost, ACurveWithCpuSecondsCostsTheirSum) {
+  // The last iteration was stopped for hours by the wall clock (a speed of 0.5); its CPU time did not grow.
+  const std::string curve =
+      "iteration,env_steps_per_task,return:a,return:b,env_steps_per_second,cpu_seconds\n"
+      "1,2000,1,1,40,90.5\n2,4000,1,1,40,101\n3,6000,1,1,0.5,99.25\n";
+  const auto cost = gail_curve_training_cost(curve_file("gail_cpu", curve).string(), 6000, 2);
+  ASSERT_TRUE(cost.has_value());
+  EXPECT_DOUBLE_EQ(cost->seconds, 290.75);
+  EXPECT_TRUE(cost->cpu);
+}
+
 TEST(GailCurveCost, ACurveThatCannotSayIsNoAnswer) {
   const std::string header = "iteration,env_steps_per_task,env_steps_per_second\n";
   EXPECT_FALSE(gail_curve_training_cost("/nonexistent/curve.csv", 2000, 2).has_value());
