@@ -91,8 +91,9 @@ std::string check_filters(hid_t dcpl, const char* name) {
                                            sizeof(filter_name), filter_name, &config);
     if (id < 0) return quoted(name) + ": cannot read filter " + std::to_string(i) + " of the dataset's pipeline";
     if (!built_in_filter(id))
-      return quoted(name) + " is stored through filter " + std::to_string(id) + " ('" + filter_name +
-             "'), which HDF5 would load from a plugin: this tool reads a file with HDF5's built-in filters only "
+      return quoted(name) + " is stored through filter " + std::to_string(id) +
+             (filter_name[0] != '\0' ? " ('" + std::string(filter_name) + "')" : std::string()) +
+             ", which HDF5 would load from a plugin: this tool reads a file with HDF5's built-in filters only "
              "(deflate, shuffle, fletcher32, szip, nbit, scaleoffset)";
   }
   return "";

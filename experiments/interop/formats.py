@@ -449,8 +449,10 @@ def import_robomimic(path, task_set=None, obs_keys=None):
 
 SELF_CONTAINED = ("this tool reads a file from itself alone (no external links, external storage, virtual datasets "
                   "or user-defined links)")
+# HDF5's own filters, and LZF, which h5py compiles in and registers itself (common in files h5py wrote): none is
+# loaded from a plugin folder.
 BUILT_IN_FILTERS = {h5py.h5z.FILTER_DEFLATE, h5py.h5z.FILTER_SHUFFLE, h5py.h5z.FILTER_FLETCHER32, h5py.h5z.FILTER_SZIP,
-                    h5py.h5z.FILTER_NBIT, h5py.h5z.FILTER_SCALEOFFSET}
+                    h5py.h5z.FILTER_NBIT, h5py.h5z.FILTER_SCALEOFFSET, h5py.h5z.FILTER_LZF}
 
 
 def read_json(path):
@@ -545,9 +547,10 @@ def check_self_contained(f, path):
                     refuse(where, f"keeps its data in external raw files ({listed}): {SELF_CONTAINED}")
                 for code, _, _, filter_name in filters:
                     if code not in BUILT_IN_FILTERS:
-                        refuse(where, f"is stored through filter {code} ('{describe(filter_name)}'), which HDF5 would "
-                                      "load from a plugin: this tool reads a file with HDF5's built-in filters only "
-                                      "(deflate, shuffle, fletcher32, szip, nbit, scaleoffset)")
+                        named = f" ('{describe(filter_name)}')" if describe(filter_name) else ""
+                        refuse(where, f"is stored through filter {code}{named}, which HDF5 would load from a plugin:"
+                                      " this tool reads a file with HDF5's built-in filters only (deflate, shuffle,"
+                                      " fletcher32, szip, nbit, scaleoffset; and h5py's lzf)")
     # Resolved only once every link is known to be hard or soft, so that resolving one never leaves the file.
     for group, name, where in soft_links:
         try:

@@ -97,18 +97,19 @@ def by_objective(cells):
 
 
 def maps_setting(settings, setting):
-    """MAPS's setting to pair a GAIL setting with: MAPS under the same GAIL variant, else under the suite's own
-    ("gail") where that ran GAIL alike (the same gail settings and input clamp: a width control such as gail_w430 has
-    no MAPS of its own); (None, None) otherwise."""
+    """MAPS's setting to pair a GAIL setting with: MAPS under the same GAIL variant, else under one of the suite's own
+    (MAIN_VARIANTS) where that ran GAIL alike (the same gail settings and input clamp: a width control such as
+    gail_w430 has no MAPS of its own); (None, None) otherwise."""
     own = settings.get(setting._replace(method="maps"))
     if own:
         return setting._replace(method="maps"), own
-    key = setting._replace(method="maps", variant="gail")
-    found = settings.get(key)
     runs = settings.get(setting, {}).get("gail", [])
-    if (found and runs and found["gail"] and found["gail"][0].config.get("gail") == runs[0].config.get("gail")
-            and clamp(found["gail"][0]) == clamp(runs[0])):
-        return key, found
+    for variant in MAIN_VARIANTS:
+        key = setting._replace(method="maps", variant=variant)
+        found = settings.get(key)
+        if (found and runs and found["gail"] and found["gail"][0].config.get("gail") == runs[0].config.get("gail")
+                and clamp(found["gail"][0]) == clamp(runs[0])):
+            return key, found
     return None, None
 
 
@@ -117,7 +118,8 @@ def has_gail(cells):
 
 
 def name(method, variant="gail"):
-    """"MAPS"; "MAPS (pilot_b)" for a GAIL variant other than the suite's "gail"."""
+    """"MAPS"; "MAPS (gail_mt10)" for any GAIL variant but "gail", the suite's own among them (a table names the
+    settings each row ran; the figures name only the others, imitation_figures.variant_name)."""
     return METHOD_NAMES.get(method, method) + ("" if variant == "gail" else f" ({variant})")
 
 

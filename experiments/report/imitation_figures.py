@@ -93,8 +93,9 @@ def imitation_scores(cells, out):
             for kind in ("bc", "gail"):
                 keys = sorted((s for s in mine if (s.method, s.variant) == (method, variant) and mine[s][kind]),
                               key=lambda s: s.demos)
-                if not keys or (kind == "bc" and variant != "gail" and any(
-                        mine.get(s._replace(variant="gail"), {}).get("bc") == mine[s]["bc"] for s in keys)):
+                if not keys or (kind == "bc" and variant not in MAIN_VARIANTS and any(
+                        mine.get(s._replace(variant=main), {}).get("bc") == mine[s]["bc"]
+                        for s in keys for main in MAIN_VARIANTS)):
                     continue  # BC's line once per method and network (beside the suite's own GAIL variant)
                 xs, runs = [s.demos for s in keys], [mine[s][kind] for s in keys]
                 bc_label = mine[keys[0]]["bc"][0].label if mine[keys[0]]["bc"] else method

@@ -101,6 +101,9 @@ class Cell:
     cpus: tuple = ()
     # train.best_validation_bc (None where not recorded).
     best_validation_bc: float = None
+    # A GAIL run's train.env_steps_per_task: where its curve ends, past gail.env_steps_per_task when an iteration's
+    # env steps do not divide the budget (MT10's 1,500 into 10^6: 1,000,500). None where not recorded.
+    trained_env_steps: int = None
 
     @property
     def label(self):
@@ -204,20 +207,29 @@ class Cell:
         STOPPED_FACTOR times the run's median: SIGSTOP, a suspended machine) counts at the median, as `maps suite
         status` counts it (maps/training/curve_cost.h). None as _curve_sum_to: the curve missing or unreadable, its
         env steps not rising row by row, a speed not a positive finite number, or the rows not ending at the
-        config's gail.env_steps_per_task."""
-        budget = self.config.get("gail", {}).get("env_steps_per_task")
-        if not isinstance(budget, int):
+        env steps per task the run trained (result.json's train.env_steps_per_task)."""
+        budget = self.trained_env_steps  # as `maps suite status` reads it
+        if budget is None:
             return None
-        cpu = self._curve_sum_to(budget, lambda at, previous, row: float(row["cpu_seconds"]),
-                                 column="env_steps_per_task")
-        if cpu is not None:  # process CPU time, which a stop does not grow (curves written since 2026-12-05)
-            return cpu
+        if self._curve_columns() is None:
+            return None
+        if "cpu_seconds" in self._curve_columns():  # process CPU time, which a stop does not grow (since 2026-12-05)
+            return self._curve_sum_to(budget, lambda at, previous, row: float(row["cpu_seconds"]),
+                                      column="env_steps_per_task")
         windows = self._curve_windows_to(budget, lambda at, previous, row: (at - previous) * len(self.tasks)
                                          / float(row["env_steps_per_second"]), column="env_steps_per_task")
         if windows is None:
             return None
         median = statistics.median(windows)
         return sum(median if w > STOPPED_FACTOR * median else w for w in windows)
+
+    def _curve_columns(self):
+        """curve.csv's header as a list of column names; None where it is missing or unreadable."""
+        try:
+            with (self.folder / "curve.csv").open() as f:
+                return next(csv.reader(f), [])
+        except (OSError, UnicodeDecodeError, csv.Error):
+            return None
 
     def _curve_sum_to(self, step, window, column="step"):
         """The sum of window(at, previous, row) over curve.csv's rows up to `step` in its `column`; None as
@@ -370,7 +382,9 @@ def read_cell(path):
                 int(ev.get("episodes", config.get("eval", {}).get("episodes", 0))),
                 float(result.get("wall_seconds", float("nan"))), tasks, best_over, last[0] if last else None,
                 optional_float(ev.get("seconds")), cpus=cpus_of(result),
-                best_validation_bc=optional_float(train.get("best_validation_bc")))
+                best_validation_bc=optional_float(train.get("best_validation_bc")),
+                trained_env_steps=train.get("env_steps_per_task") if type(train.get("env_steps_per_task")) is int
+                else None)
 
 
 def cpus_of(result):

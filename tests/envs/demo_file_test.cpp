@@ -17,6 +17,7 @@
 #include <tuple>
 #include <vector>
 
+#include "envs/demo_file/hdf5_reader.h"
 #include "tests/common/temp_folder.h"
 
 namespace maps::envs {
@@ -233,6 +234,22 @@ TEST_F(DemoFileTest, PluginLoadingIsRestoredAfterAReadAndARefusal) {
   EXPECT_THAT(error_of([&] { read_demo_file(path("not.h5")); }), HasSubstr("not an HDF5 file"));
   ASSERT_GE(H5PLget_loading_state(&after), 0);
   EXPECT_EQ(after, static_cast<unsigned>(H5PL_FILTER_PLUGIN));
+  H5PLset_loading_state(before);
+}
+
+// While a reader lives libhdf5 loads no plugin, whatever the state before (the security claim; the test above checks
+// the state is given back).
+TEST_F(DemoFileTest, NoPluginIsLoadedWhileAReaderLives) {
+  unsigned before = 0, state = 99;
+  ASSERT_GE(H5PLget_loading_state(&before), 0);
+  ASSERT_GE(H5PLset_loading_state(H5PL_ALL_PLUGIN), 0);
+  {
+    const demo_file_detail::Hdf5Reader reader(path("any.h5"));
+    ASSERT_GE(H5PLget_loading_state(&state), 0);
+    EXPECT_EQ(state, 0u);
+  }
+  ASSERT_GE(H5PLget_loading_state(&state), 0);
+  EXPECT_EQ(state, static_cast<unsigned>(H5PL_ALL_PLUGIN));
   H5PLset_loading_state(before);
 }
 

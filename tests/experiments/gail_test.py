@@ -99,6 +99,8 @@ class Gail(unittest.TestCase):
         timing = {"env_steps_per_second": None, "cpu_seconds": None}  # measured, not computed
         self.assertEqual([dict(row, **timing) for row in curve_rows("killed")],
                          [dict(row, **timing) for row in curve_rows("uninterrupted")])
+        for name in ("killed", "uninterrupted"):  # the resumed curve keeps every column
+            self.assertEqual(list(curve_rows(name)[0])[-2:], ["env_steps_per_second", "cpu_seconds"], name)
 
     def test_a_bc_run_starts_a_gail_run(self):
         bc = write_config("bc", imitation="bc", gail={}, train={"steps": 30, "validate_every": 10,

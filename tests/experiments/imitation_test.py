@@ -5,7 +5,7 @@ over the budget; a value counts as reached only when a trailing window's mean re
 not); the table pairs MAPS with each other method by seed, over the budget both ran, and adjusts by Holm over its rows;
 an iteration costs its env steps over its logged speed, and a curve that cannot be timed is not; the score figure's BC
 line runs on to the counts only BC ran, and the learning curves' caption counts training episodes, not the
-evaluation's; the suite's own GAIL variants (gail, MT10's gail_mt10) share a Holm family and a legend entry. Run by
+evaluation's; the suite's own GAIL variants (gail, MT10's gail_mt10) share a Holm family and a figure label. Run by
 ctest (tests/CMakeLists.txt)."""
 import pathlib
 import statistics
@@ -39,7 +39,7 @@ def gail_cell(root, method, seed, fractions, steps_per_iteration=10000, budget=N
     config = {"method": method, "imitation": "gail",
               "gail": {"env_steps_per_task": budget or len(fractions) * steps_per_iteration}}
     return Cell(folder, f"s/{method}-gail_d1_s{seed}", "gail", "s", method, "gail", 1, 10, seed, config,
-                len(fractions), len(fractions), 10, 1.0, tasks)
+                len(fractions), len(fractions), 10, 1.0, tasks, trained_env_steps=len(fractions) * steps_per_iteration)
 
 
 class LearningSpeedTest(unittest.TestCase):
@@ -228,6 +228,16 @@ class GailComputeTest(unittest.TestCase):
         header = (ROOT / "maps" / "training" / "curve_cost.h").read_text()
         self.assertIn(f"kStoppedFactor = {suite_results.STOPPED_FACTOR};", header)
 
+    def test_a_budget_that_iterations_do_not_divide_is_read_where_the_curve_ends(self):
+        """MT10's iterations of 1,500 env steps per task end a 10^6 budget at 1,000,500: the cost is read up to what
+        the run trained (train.env_steps_per_task), not the config's budget, which no row ends at."""
+        with tempfile.TemporaryDirectory() as root:
+            cell = timed_cell(root, "maps", 0, [40, 40, 20])  # 6,000 env steps per task trained
+            cell.config["gail"]["env_steps_per_task"] = 5000
+            self.assertAlmostEqual(cell.gail_iteration_seconds(), 400.0)
+            cell.trained_env_steps = None  # a result.json without it: no curve cost, the attempt's wall seconds
+            self.assertEqual(cell.compute_seconds(), (cell.wall_seconds, "attempt"))
+
     def test_a_curve_with_cpu_seconds_costs_their_sum(self):
         with tempfile.TemporaryDirectory() as root:
             cell = timed_cell(root, "maps", 0, [40, 40, 0.5])  # the last iteration stopped for hours by the wall clock
@@ -236,6 +246,10 @@ class GailComputeTest(unittest.TestCase):
             (cell.folder / "curve.csv").write_text("\n".join(f"{line},{c}" for line, c in zip(lines, cpu)) + "\n")
             self.assertAlmostEqual(cell.gail_iteration_seconds(), 290.75)
             self.assertEqual(cell.compute_seconds(), (293.75, "gail"))
+            # A bad CPU value is no answer (as in `maps suite status`), not a fall back to the speeds.
+            (cell.folder / "curve.csv").write_text("\n".join(f"{line},{c}" for line, c in
+                                                              zip(lines, cpu[:3] + [""])) + "\n")
+            self.assertIsNone(cell.gail_iteration_seconds())
 
     def test_a_curve_that_cannot_be_timed_falls_back_to_the_attempts_wall_seconds(self):
         with tempfile.TemporaryDirectory() as root:
@@ -302,8 +316,9 @@ class FiguresTest(unittest.TestCase):
 
     def test_the_suites_own_gail_variants_share_a_holm_family_a_line_style_and_a_legend_entry(self):
         """MT10's GAIL runs are a variant of their own (gail_mt10: other rollout settings) but the suite's comparison,
-        as "gail" is on the cheetah sets: one Holm family, one legend entry per method, the captions saying which
-        variant ran where; any other variant (a pilot) keeps its name."""
+        as "gail" is on the cheetah sets: one Holm family, one figure label per method (variant_name, which the
+        figures' legends are built from), the captions saying which variant ran where; any other variant (a pilot)
+        keeps its name."""
         import imitation_figures
 
         with tempfile.TemporaryDirectory() as root:
