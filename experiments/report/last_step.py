@@ -20,7 +20,12 @@ that task, and its last step is the cell's last training step. Per (set, method,
 scores (mean +- 95% t interval over seeds), last - best validation paired by seed, and last - the base method (its
 headline checkpoint) paired by seed, with the paired t test and Holm over each set's rows (each comparison a family);
 and the aggregates of the last step's task scores: their IQM and the probability that a base-method run beats a
-last-step run on a task. The base method's own cells are not evaluated so (they are what every row is paired with)."""
+last-step run on a task. The base method's own cells are not evaluated so (they are what every row is paired with);
+with `--base none` every method's may be, and no row is paired with another method. `--against SUITE VARIANT` adds
+a table of SUITE's VARIANT cells (trained otherwise: GAIL's) against each row's two rules, paired by seed:
+
+    python3 experiments/report/last_step.py results/adversarial/bc-last results/adversarial/bc-last/last-checkpoint \
+        --base none --against results/adversarial gail_mt10"""
 import argparse
 import math
 import pathlib
@@ -115,7 +120,7 @@ def rows_of(suite, files, base):
     last_score, last_tasks = {}, {}
     for path in files:
         cell, score, per_task = read_last(path, cells_by_folder)
-        if cell.label == base:
+        if base is not None and cell.label == base:
             raise EvalFileError(f"{path}: a cell of {base}, the method every row is paired with at its headline "
                                 "checkpoint (evaluate the others)")
         last_score[id(cell)] = score
@@ -127,7 +132,7 @@ def rows_of(suite, files, base):
         if not with_last:
             continue
         base_cells = next((g for k, g in grouped.items()
-                           if k.set == key.set and k.label == base and k.demos == key.demos
+                           if base is not None and k.set == key.set and k.label == base and k.demos == key.demos
                            and k.subsample == key.subsample), [])
         base_by_seed = {c.seed: c.mean_score for c in base_cells}
         tasks = task_names(with_last)
@@ -136,7 +141,7 @@ def rows_of(suite, files, base):
         rows.append(dict(iqm_text=fmt_iqm(last_runs),
                          improvement_text=fmt_improvement(base_runs, last_runs) if base_runs is not None else "-",
                          set=key.set, method=key.label, demos=key.demos, k=key.subsample,
-                         seeds=f"{len(with_last)} of {len(cells)}",
+                         seeds=f"{len(with_last)} of {len(cells)}", seed_list=[c.seed for c in with_last],
                          best=[c.mean_score for c in with_last], last=[last_score[id(c)] for c in with_last],
                          gain=[last_score[id(c)] - c.mean_score for c in with_last],
                          headline_vs_base=[c.mean_score - base_by_seed[c.seed] for c in with_last
@@ -154,7 +159,54 @@ def rows_of(suite, files, base):
     return rows
 
 
+def against_rows(rows, other, variant):
+    """Each row's last step and best-validation checkpoint against the cells of `variant` in the suite `other` at the
+    same set, method, demos and k (GAIL's, trained otherwise), paired by seed: the differences other - last step and
+    other - best validation, the paired t test, Holm over each set's rows (each column a family)."""
+    found = []
+    for row in rows:
+        theirs = {c.seed: c.mean_score for c in other.cells
+                  if (c.set, c.method, c.variant, c.demos, c.subsample) == (row["set"], row["method"], variant,
+                                                                          row["demos"], row["k"])}
+        seeds = [s for s in row["seed_list"] if s in theirs]
+        if not seeds:
+            continue
+        last = dict(zip(row["seed_list"], row["last"]))
+        best = dict(zip(row["seed_list"], row["best"]))
+        found.append(dict(set=row["set"], method=row["method"], demos=row["demos"], k=row["k"], pairs=len(seeds),
+                          other=[theirs[s] for s in seeds], last=[last[s] for s in seeds],
+                          best=[best[s] for s in seeds], vs_last=[theirs[s] - last[s] for s in seeds],
+                          vs_best=[theirs[s] - best[s] for s in seeds]))
+    sets = [r["set"] for r in found]
+    for column in ("vs_last", "vs_best"):
+        for r in found:
+            r[column + "_p"] = paired_p(r[column])
+        for r, adjusted in zip(found, holm_within([r[column + "_p"] for r in found], sets)):
+            r[column + "_holm"] = adjusted
+    return found
+
+
+def against_table(found, variant):
+    lines = [f"| set | method | demos | k | pairs | {variant} | last step | best validation | {variant} - last step | p "
+             f"| p (Holm) | {variant} - best validation | p | p (Holm) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in found:
+        lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['pairs']} | {fmt(r['other'])} "
+                     f"| {fmt(r['last'])} | {fmt(r['best'])} | {fmt(r['vs_last'], signed=True)} "
+                     f"| {fmt_p(r['vs_last_p'])} | {fmt_p(r['vs_last_holm'])} | {fmt(r['vs_best'], signed=True)} "
+                     f"| {fmt_p(r['vs_best_p'])} | {fmt_p(r['vs_best_holm'])} |")
+    return "\n".join(lines)
+
+
 def table(rows, base):
+    if base is None:  # no base method: the last step against the best-validation checkpoint only
+        lines = ["| set | method | demos | k | seeds | best validation | last step | last - best validation | p "
+                 "| p (Holm) | IQM last step [95% CI] |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for r in rows:
+            lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['seeds']} | {fmt(r['best'])} "
+                         f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} "
+                         f"| {fmt_p(r['gain_holm'])} | {r['iqm_text']} |")
+        return "\n".join(lines)
     lines = [f"| set | method | demos | k | seeds | best validation | last step | last - best validation | p | p (Holm) "
              f"| pairs with {base} | best validation - {base} | last step - {base} | p (last) | p (last, Holm) "
              f"| IQM last step [95% CI] | P({base} > last step) [95% CI] |",
@@ -168,15 +220,25 @@ def table(rows, base):
     return "\n".join(lines)
 
 
+AGAINST_SECTION = "Another objective against both checkpoint rules"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("suite", help="the suite folder whose cells were evaluated")
     parser.add_argument("evals", help="folder of <set>-<cell>.json files written by maps eval --last")
-    parser.add_argument("--base", default="maps", help="the method each row is paired with (default: maps)")
+    parser.add_argument("--base", default="maps",
+                        help="the method each row is paired with (default: maps; none: no pairing, every method's"
+                             " cells may be evaluated)")
+    parser.add_argument("--against", nargs=2, metavar=("SUITE", "VARIANT"),
+                        help="also pair each row with SUITE's cells of VARIANT at the same set, method, demos and k,"
+                             " by seed (GAIL's against BC's two checkpoint rules: results/adversarial gail_mt10)")
     parser.add_argument("--out", help="also write the markdown here")
     args = parser.parse_args()
+    base = None if args.base == "none" else args.base
     try:
         suite = load_suite(args.suite)
+        other = load_suite(args.against[0]) if args.against else None
     except SuiteError as e:
         print(f"last_step.py: {e}", file=sys.stderr)
         return 2
@@ -185,22 +247,38 @@ def main():
         print(f"last_step.py: {args.evals}: no <set>-<cell>.json files (maps eval --last's eval.json)", file=sys.stderr)
         return 2
     try:
-        rows = rows_of(suite, files, args.base)
+        rows = rows_of(suite, files, base)
     except EvalFileError as e:
         print(f"last_step.py: {e}", file=sys.stderr)
         return 2
-    text = "\n".join([
+    against = ""
+    if base is not None:
+        against = (f"; against {base}: each method's seeds paired with {base}'s headline cells (its best-validation"
+                   " checkpoint)")
+    aggregates = (f", and P({base} > last step), the probability that a {base} run (its headline checkpoint) beats a"
+                  f" last-step run on a task, with its interval ('-': no {base} cells at that setting, or one lacking a"
+                  " task of the row)" if base is not None else "")
+    parts = [
         f"## {SECTION}", "",
         f"{len(files)} cells of {args.suite} scored at their last training step (maps eval --last, the same episodes as"
         " their headline evaluation) beside their best-validation checkpoint (the suite's headline rule), mean +- 95%"
         " CI over seeds (seeds: the group's cells evaluated so, of its finished ones); last - best validation paired"
-        f" by seed; against {args.base}: each method's seeds paired with {args.base}'s headline cells (its"
-        " best-validation checkpoint); p: paired t test; Holm over each set's rows, each column a family. The"
-        " aggregates (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x"
-        f" runs scores with its stratified bootstrap interval, and P({args.base} > last step), the probability that a"
-        f" {args.base} run (its headline checkpoint) beats a last-step run on a task, with its interval ('-': no"
-        f" {args.base} cells at that setting, or one lacking a task of the row).",
-        "", table(rows, args.base), ""])
+        f" by seed{against}; p: paired t test; Holm over each set's rows, each column a family. The aggregates"
+        " (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x runs scores"
+        f" with its stratified bootstrap interval{aggregates}.",
+        "", table(rows, base), ""]
+    if other is not None:
+        other_root, variant = args.against
+        found = against_rows(rows, other, variant)
+        if not found:
+            print(f"last_step.py: {other_root} has no finished cells of variant {variant!r} at the rows' settings",
+                  file=sys.stderr)
+            return 2
+        parts += [f"## {AGAINST_SECTION}", "",
+                  f"{other_root}'s {variant} cells against these cells at their last step and at their best-validation"
+                  " checkpoint, paired by seed (the seeds both ran); mean +- 95% CI over seeds; p: paired t test; Holm"
+                  " over each set's rows, each column a family.", "", against_table(found, variant), ""]
+    text = "\n".join(parts)
     print(text)
     if args.out:
         pathlib.Path(args.out).write_text(f"# The final-checkpoint rule: {args.suite}\n\n{text}")

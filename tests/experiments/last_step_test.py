@@ -4,7 +4,8 @@ last-checkpoint evaluations it writes the committed report.md; every way an eval
 cell (another method, seed, count, checkpoint step or episode count, a value of the wrong type, another
 checkpoint's score, a step short of training's end, no "last", a non-finite or inconsistent score, tasks other than
 the cell's, a cell the suite lacks, a cell of the base method itself, a file that is not JSON) is refused with the file
-named, never used; the probability of improvement is the last step's task scores against MAPS's, by hand.
+named, never used; the probability of improvement is the last step's task scores against MAPS's, by hand; without a
+base method the rows stand alone, and another suite's variant is paired by seed with both rules.
 Run by ctest (tests/CMakeLists.txt)."""
 import contextlib
 import functools
@@ -180,6 +181,45 @@ class LastStepTest(unittest.TestCase):
         proc = run(empty)
         self.assertEqual(proc.returncode, 2)
         self.assertIn("no <set>-<cell>.json files", proc.stderr)
+
+    def test_without_a_base_method_the_rows_are_last_against_best_alone(self):
+        proc = run(EVALS, "--base", "none")
+        self.assertEqual(proc.returncode, 0, proc.stderr)
+        header = next(line for line in proc.stdout.splitlines() if line.startswith("| set |"))
+        self.assertNotIn("pairs with", header)
+        self.assertEqual(header.count("|"), 12)
+        with_base = run(EVALS)
+        # The same rows, their first ten columns alike.
+        rows = [line.split(" | ")[:9] for line in proc.stdout.splitlines() if line.startswith("| gravity |")]
+        self.assertEqual(rows, [line.split(" | ")[:9] for line in with_base.stdout.splitlines()
+                                if line.startswith("| gravity |")])
+        self.assertTrue(rows)
+
+    def test_another_suites_variant_is_paired_by_seed_with_both_rules(self):
+        """GAIL's cells against BC's last step and best-validation checkpoint: by seed, a seed only one ran left out,
+        another variant or count not used; the differences and p by hand."""
+        rows = [dict(set="mt10", method="maps", demos=2, k=1, seed_list=[0, 1, 2], best=[0.4, 0.56, 0.28],
+                     last=[0.52, 0.6, 0.5]),
+                dict(set="mt10", method="mt_bc", demos=2, k=1, seed_list=[0], best=[0.6], last=[0.7])]
+
+        def cell(method, variant, demos, seed, score):
+            return types.SimpleNamespace(set="mt10", method=method, variant=variant, demos=demos, subsample=1,
+                                         seed=seed, mean_score=score)
+        other = types.SimpleNamespace(cells=[cell("maps", "gail_mt10", 2, 0, 0.5), cell("maps", "gail_mt10", 2, 1, 0.7),
+                                             cell("maps", "gail_mt10", 2, 3, 0.9),  # no BC seed 3
+                                             cell("maps", "gail", 2, 2, 0.1),  # another variant
+                                             cell("maps", "gail_mt10", 1, 2, 0.1),  # another count
+                                             cell("mt_bc", "gail_mt10", 2, 0, 0.65)])
+        found = last_step.against_rows(rows, other, "gail_mt10")
+        self.assertEqual([(r["method"], r["pairs"]) for r in found], [("maps", 2), ("mt_bc", 1)])
+        maps_row = found[0]
+        for got, want in zip(maps_row["vs_last"], [0.5 - 0.52, 0.7 - 0.6]):
+            self.assertAlmostEqual(got, want)
+        for got, want in zip(maps_row["vs_best"], [0.5 - 0.4, 0.7 - 0.56]):
+            self.assertAlmostEqual(got, want)
+        self.assertEqual(maps_row["vs_last_p"], last_step.paired_p(maps_row["vs_last"]))
+        text = last_step.against_table(found, "gail_mt10")
+        self.assertIn("| mt10 | mt_bc | 2 | 1 | 1 | 0.65 | 0.70 | 0.60 | -0.05 |", text)
 
 
 if __name__ == "__main__":
