@@ -38,6 +38,7 @@ import numpy as np  # noqa: E402
 from aggregates import fmt_improvement, fmt_iqm, runs_by_tasks  # noqa: E402
 from suite_results import SuiteError, groups, load_suite, read_json, task_names, task_score  # noqa: E402
 from suite_stats import fmt, fmt_p, holm_within, paired_p  # noqa: E402
+from tables import table as markdown_table  # noqa: E402
 
 SECTION = "The last step against the best-validation checkpoint"
 # The file's best-checkpoint score must be the cell's to this precision (both printed from the same double).
@@ -187,37 +188,29 @@ def against_rows(rows, other, variant):
 
 
 def against_table(found, variant):
-    lines = [f"| set | method | demos | k | pairs | {variant} | last step | best validation | {variant} - last step | p "
-             f"| p (Holm) | {variant} - best validation | p | p (Holm) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in found:
-        lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['pairs']} | {fmt(r['other'])} "
-                     f"| {fmt(r['last'])} | {fmt(r['best'])} | {fmt(r['vs_last'], signed=True)} "
-                     f"| {fmt_p(r['vs_last_p'])} | {fmt_p(r['vs_last_holm'])} | {fmt(r['vs_best'], signed=True)} "
-                     f"| {fmt_p(r['vs_best_p'])} | {fmt_p(r['vs_best_holm'])} |")
-    return "\n".join(lines)
+    return "\n".join(markdown_table(
+        ["set", "method", "demos", "k", "pairs", variant, "last step", "best validation", f"{variant} - last step", "p",
+         "p (Holm)", f"{variant} - best validation", "p", "p (Holm)"],
+        [[r["set"], r["method"], r["demos"], r["k"], r["pairs"], fmt(r["other"]), fmt(r["last"]), fmt(r["best"]),
+          fmt(r["vs_last"], signed=True), fmt_p(r["vs_last_p"]), fmt_p(r["vs_last_holm"]),
+          fmt(r["vs_best"], signed=True), fmt_p(r["vs_best_p"]), fmt_p(r["vs_best_holm"])] for r in found]))
 
 
 def table(rows, base):
-    if base is None:  # no base method: the last step against the best-validation checkpoint only
-        lines = ["| set | method | demos | k | seeds | best validation | last step | last - best validation | p "
-                 "| p (Holm) | IQM last step [95% CI] |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-        for r in rows:
-            lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['seeds']} | {fmt(r['best'])} "
-                         f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} "
-                         f"| {fmt_p(r['gain_holm'])} | {r['iqm_text']} |")
-        return "\n".join(lines)
-    lines = [f"| set | method | demos | k | seeds | best validation | last step | last - best validation | p | p (Holm) "
-             f"| pairs with {base} | best validation - {base} | last step - {base} | p (last) | p (last, Holm) "
-             f"| IQM last step [95% CI] | P({base} > last step) [95% CI] |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['set']} | {r['method']} | {r['demos']} | {r['k']} | {r['seeds']} | {fmt(r['best'])} "
-                     f"| {fmt(r['last'])} | {fmt(r['gain'], signed=True)} | {fmt_p(r['gain_p'])} | {fmt_p(r['gain_holm'])} "
-                     f"| {len(r['vs_base'])} | {fmt(r['headline_vs_base'], signed=True) if r['vs_base'] else '-'} "
-                     f"| {fmt(r['vs_base'], signed=True) if r['vs_base'] else '-'} | {fmt_p(r['p'])} "
-                     f"| {fmt_p(r['holm'])} | {r['iqm_text']} | {r['improvement_text']} |")
-    return "\n".join(lines)
+    """The rows' table; without a base method (base None) its columns of the pairing with one are left out."""
+    header = ["set", "method", "demos", "k", "seeds", "best validation", "last step", "last - best validation", "p",
+              "p (Holm)"]
+    cells = [[r["set"], r["method"], r["demos"], r["k"], r["seeds"], fmt(r["best"]), fmt(r["last"]),
+              fmt(r["gain"], signed=True), fmt_p(r["gain_p"]), fmt_p(r["gain_holm"])] for r in rows]
+    if base is None:
+        return "\n".join(markdown_table(header + ["IQM last step [95% CI]"],
+                                         [row + [r["iqm_text"]] for row, r in zip(cells, rows)]))
+    header += [f"pairs with {base}", f"best validation - {base}", f"last step - {base}", "p (last)", "p (last, Holm)",
+               "IQM last step [95% CI]", f"P({base} > last step) [95% CI]"]
+    cells = [row + [len(r["vs_base"]), fmt(r["headline_vs_base"], signed=True) if r["vs_base"] else "-",
+                    fmt(r["vs_base"], signed=True) if r["vs_base"] else "-", fmt_p(r["p"]), fmt_p(r["holm"]),
+                    r["iqm_text"], r["improvement_text"]] for row, r in zip(cells, rows)]
+    return "\n".join(markdown_table(header, cells))
 
 
 AGAINST_SECTION = "Another objective against both checkpoint rules"

@@ -211,25 +211,21 @@ class Cell:
         budget = self.trained_env_steps  # as `maps suite status` reads it
         if budget is None:
             return None
-        if self._curve_columns() is None:
-            return None
-        if "cpu_seconds" in self._curve_columns():  # process CPU time, which a stop does not grow (since 2026-12-05)
-            return self._curve_sum_to(budget, lambda at, previous, row: float(row["cpu_seconds"]),
-                                      column="env_steps_per_task")
-        windows = self._curve_windows_to(budget, lambda at, previous, row: (at - previous) * len(self.tasks)
-                                         / float(row["env_steps_per_second"]), column="env_steps_per_task")
+        by_cpu = []
+
+        def window(at, previous, row):
+            if "cpu_seconds" in row:  # process CPU time, which a stop does not grow (curves since 2026-12-05)
+                by_cpu.append(True)
+                return float(row["cpu_seconds"])
+            return (at - previous) * len(self.tasks) / float(row["env_steps_per_second"])
+
+        windows = self._curve_windows_to(budget, window, column="env_steps_per_task")
         if windows is None:
             return None
+        if by_cpu:
+            return sum(windows)
         median = statistics.median(windows)
         return sum(median if w > STOPPED_FACTOR * median else w for w in windows)
-
-    def _curve_columns(self):
-        """curve.csv's header as a list of column names; None where it is missing or unreadable."""
-        try:
-            with (self.folder / "curve.csv").open() as f:
-                return next(csv.reader(f), [])
-        except (OSError, UnicodeDecodeError, csv.Error):
-            return None
 
     def _curve_sum_to(self, step, window, column="step"):
         """The sum of window(at, previous, row) over curve.csv's rows up to `step` in its `column`; None as
