@@ -1,5 +1,6 @@
 #include "nn/module.h"
 
+#include <cmath>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -175,7 +176,7 @@ void Module::load_state_dict(const NamedTensors& state) {
   for (const auto& e : state)
     if (!given.emplace(e.name, &e.tensor).second) duplicated.push_back(e.name);
 
-  std::vector<std::string> missing, mismatched, unexpected;
+  std::vector<std::string> missing, mismatched, unexpected, not_finite;
   std::unordered_map<std::string, bool> known;
   for (const auto& e : own) {
     known[e.name] = true;
@@ -186,18 +187,27 @@ void Module::load_state_dict(const NamedTensors& state) {
       mismatched.push_back(e.name + " (expected " + describe(e.tensor) + ", got an undefined tensor)");
     } else if (it->second->shape() != e.tensor.shape() || it->second->dtype() != e.tensor.dtype()) {
       mismatched.push_back(e.name + " (expected " + describe(e.tensor) + ", got " + describe(*it->second) + ")");
+    } else {
+      // A state from a file is untrusted: a NaN or infinity would train or act silently wrong from here on.
+      const std::vector<double> values = it->second->to_vector();
+      for (std::size_t i = 0; i < values.size(); ++i)
+        if (!std::isfinite(values[i])) {
+          not_finite.push_back(e.name + " (entry " + std::to_string(i) + ")");
+          break;
+        }
     }
   }
   for (const auto& e : state)
     if (!known.count(e.name)) unexpected.push_back(e.name);
 
-  if (!missing.empty() || !unexpected.empty() || !mismatched.empty() || !duplicated.empty()) {
+  if (!missing.empty() || !unexpected.empty() || !mismatched.empty() || !duplicated.empty() || !not_finite.empty()) {
     std::ostringstream msg;
     msg << type_name_ << "::load_state_dict: state does not match the module.";
     if (!missing.empty()) msg << " Missing: " << join(missing) << ".";
     if (!unexpected.empty()) msg << " Unexpected: " << join(unexpected) << ".";
     if (!mismatched.empty()) msg << " Mismatched: " << join(mismatched) << ".";
     if (!duplicated.empty()) msg << " Given twice: " << join(duplicated) << ".";
+    if (!not_finite.empty()) msg << " Not finite: " << join(not_finite) << ".";
     throw std::invalid_argument(msg.str());
   }
   ag::NoGradGuard no_grad;

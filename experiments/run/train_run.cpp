@@ -63,8 +63,7 @@ std::int64_t progress_of(const core::RunConfig& config, const std::string& out) 
 // Trains by GAIL and writes train.json; returns its summary line.
 std::string train_adversarially(const core::RunConfig& config, core::Policy& policy, const core::DemoDataset& data,
                                 const std::string& out, std::ostream& log, const nlohmann::json& common) {
-  adversarial::GailConfig gail = config.gail;
-  gail.validation_states_per_task = config.train.validation_states_per_task;
+  const adversarial::GailConfig gail = core::gail_config_of(config);
   const core::EnvFactory make_env = [](const std::string& task) { return envs::make_env(task); };
   const adversarial::GailSummary summary =
       adversarial::train_gail(policy, data, make_env, gail, config.seed, out, &log);

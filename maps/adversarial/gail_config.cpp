@@ -62,7 +62,8 @@ void check_gail_config(const GailConfig& c) {
   require(c.checkpoint == "last" || c.checkpoint == "validation", "checkpoint", "\"last\" or \"validation\"",
           "\"" + c.checkpoint + "\"");
   check_whole(c.checkpoint_every, "checkpoint_every", 1, 1'000'000);
-  check_whole(c.validation_states_per_task, "validation_states_per_task", 1, 1'000'000);
+  // 0: every validation state (the run config's train.validation_states_per_task, whose range this is).
+  check_whole(c.validation_states_per_task, "validation_states_per_task", 0, 100'000'000);
 }
 
 }  // namespace maps::adversarial

@@ -49,7 +49,7 @@ struct GailConfig : rl::PPOUpdateConfig {
   std::string checkpoint = "last";
   int checkpoint_every = 1;  // iterations between writes of last.ckpt (and at the end)
   // The validation states scored each iteration (evenly spaced through each task's validation demonstrations; the
-  // run config's train.validation_states_per_task).
+  // run config's train.validation_states_per_task; 0: every validation state).
   std::int64_t validation_states_per_task = 2000;
 };
 

@@ -31,6 +31,8 @@ void read_engine(const Json& record, const char* key, std::mt19937_64& engine, c
   engine = read;
 }
 
+constexpr std::int64_t kMaxEnvStepsPerTask = 1'000'000'000'000LL;
+
 std::int64_t read_count(const Json& record, const char* key, std::int64_t low, const std::string& where) {
   if (!record.contains(key) || !record[key].is_number_integer() || record[key].get<std::int64_t>() < low)
     throw std::runtime_error(where + ": \"" + key + "\" must be a whole number >= " + std::to_string(low));
@@ -85,6 +87,12 @@ GailState read_gail_record(const std::string& text, const std::string& where, st
   state.iteration = read_count(record, "iteration", 1, where);
   state.env_steps_per_task = read_count(record, "env_steps_per_task", 1, where);
   state.best_iteration = read_count(record, "best_iteration", 0, where);
+  // Every iteration takes at least one env step per task; the bound is far above any budget (gail.env_steps_per_task
+  // is at most 10^10), so the counters' products cannot overflow.
+  if (state.env_steps_per_task > kMaxEnvStepsPerTask || state.iteration > state.env_steps_per_task)
+    throw std::runtime_error(where + ": iteration " + std::to_string(state.iteration) + " and env_steps_per_task " +
+                             std::to_string(state.env_steps_per_task) +
+                             " must satisfy iteration <= env_steps_per_task <= 10^12");
   if (state.best_iteration > state.iteration)
     throw std::runtime_error(where + ": best_iteration " + std::to_string(state.best_iteration) +
                              " is after the iteration " + std::to_string(state.iteration));

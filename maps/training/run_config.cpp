@@ -74,6 +74,10 @@ void check_imitation_keys(const RunConfig& c) {
   if (c.train.keep_every != defaults.keep_every)
     refuse("keep_every", "not available (gail.checkpoint chooses best.ckpt)");
   if (c.train.ema_power != defaults.ema_power) refuse("ema_power", "not available (PPO's policy keeps no average)");
+  if (!c.train.validation_tasks.empty())
+    refuse("validation_tasks", "not available (GAIL's validation BC error is of every task)");
+  // The trainer's own checks, here so that a config it would refuse never starts a run folder.
+  adversarial::check_gail_config(gail_config_of(c));
 }
 
 void check_across_keys(const RunConfig& c, const PolicyMethod& chosen) {
@@ -221,6 +225,12 @@ Json to_json(const RunConfig& c) {
   for (const RunConfigField& field : run_config_fields()) out[io::key_pointer(field.spec.key)] = field.get(c);
   if (!c.method_options.empty()) out[c.method] = c.method_options;
   return out;
+}
+
+adversarial::GailConfig gail_config_of(const RunConfig& config) {
+  adversarial::GailConfig gail = config.gail;
+  gail.validation_states_per_task = config.train.validation_states_per_task;
+  return gail;
 }
 
 chunking::ActionChunking action_chunking(const RunConfig& config) {

@@ -79,6 +79,9 @@ RunConfig parse_run_config(const nlohmann::json& json);
 // Every field, defaults included: what a run folder records.
 nlohmann::json to_json(const RunConfig& config);
 
+// The GAIL trainer's settings of a run: `gail` with the validation subset of `train` (the one train key GAIL reads).
+adversarial::GailConfig gail_config_of(const RunConfig& config);
+
 // The run config that teaches `task` from `demos` of its demonstrations to a MAPS run that never saw it (`maps
 // transfer` and the suite's transfer cells; the caller sets "init"): the task alone, the given parameter prefixes
 // frozen, the modules' learning rate scaled (1: not), judged and evaluated on the task. A source that itself

@@ -16,12 +16,13 @@ using Json = nlohmann::json;
 
 // Far above any run of this library, low enough that a typo (an extra zero or three) is caught at load rather than
 // hours into a run or inside an allocation.
-constexpr long double kMaxDemos = 1000000;   // demonstrations per task, subsampling strides
-constexpr long double kMaxSteps = 1e12;      // optimiser steps and intervals between events
-constexpr long double kMaxRows = 100000000;  // states per task in a batch or a validation set
-constexpr long double kMaxModules = 4096;    // MAPS's M
-constexpr long double kMaxWidth = 65536;     // a layer's size (as `maps demo --hidden`)
-constexpr long double kMaxWeight = 1e6;      // a loss weight
+constexpr long double kMaxDemos = 1000000;     // demonstrations per task, subsampling strides
+constexpr long double kMaxSteps = 1e12;        // optimiser steps and intervals between events
+constexpr long double kMaxRows = 100000000;    // states per task in a batch or a validation set
+constexpr long double kMaxGailRows = 1000000;  // rows per task of a GAIL minibatch (check_gail_config's bound)
+constexpr long double kMaxModules = 4096;      // MAPS's M
+constexpr long double kMaxWidth = 65536;       // a layer's size (as `maps demo --hidden`)
+constexpr long double kMaxWeight = 1e6;        // a loss weight
 
 // The spec's parts an entry sets; the kind, the type's own bounds and the default come from the member it names.
 struct Limits {
@@ -421,13 +422,14 @@ std::vector<RunConfigField> make_fields() {
       "episodes per task per iteration, every task's stepped in lockstep with one policy call a step");
   add(
       "gail.threads", [](RunConfig & c) -> auto& { return c.gail.threads; }, range(1, ag::kMaxThreads),
-      "threads stepping the envs and running ops (results do not depend on it)");
+      "threads stepping the envs and running ops (the rollouts' threads change no result; past 2^18 multiply-adds "
+      "the ops split gradient sums by thread, as any run's --threads)");
   add(
       "gail.epochs", [](RunConfig & c) -> auto& { return c.gail.epochs; }, range(1, 1000),
       "PPO epochs over each iteration's rollout");
   add(
-      "gail.minibatch_per_task", [](RunConfig & c) -> auto& { return c.gail.minibatch_per_task; }, range(1, kMaxRows),
-      "rows of every task in a PPO minibatch (balanced, as MAPS's selector losses expect)");
+      "gail.minibatch_per_task", [](RunConfig & c) -> auto& { return c.gail.minibatch_per_task; },
+      range(1, kMaxGailRows), "rows of every task in a PPO minibatch (balanced, as MAPS's selector losses expect)");
   add(
       "gail.clip", [](RunConfig & c) -> auto& { return c.gail.clip; }, above(0, 1), "PPO's clip range");
   add(
@@ -488,7 +490,7 @@ std::vector<RunConfigField> make_fields() {
       range(0, 100000), "discriminator steps per iteration");
   add(
       "gail.discriminator_batch_per_task", [](RunConfig & c) -> auto& { return c.gail.discriminator_batch_per_task; },
-      range(1, kMaxRows), "demonstration pairs per task in a discriminator step, and as many of the policy's");
+      range(1, kMaxGailRows), "demonstration pairs per task in a discriminator step, and as many of the policy's");
   add(
       "gail.discriminator_warmup_iterations",
       [](RunConfig & c) -> auto& { return c.gail.discriminator_warmup_iterations; }, range(0, 1000000),
@@ -500,8 +502,8 @@ std::vector<RunConfigField> make_fields() {
       "gail.bc_weight", [](RunConfig & c) -> auto& { return c.gail.bc_weight; }, range(0, kMaxWeight),
       "weight of a BC term (the method's own BC loss with its regularisers) beside the adversarial one (0: off)");
   add(
-      "gail.bc_states_per_task", [](RunConfig & c) -> auto& { return c.gail.bc_states_per_task; }, range(1, kMaxRows),
-      "demonstration states per task in that term's batch");
+      "gail.bc_states_per_task", [](RunConfig & c) -> auto& { return c.gail.bc_states_per_task; },
+      range(1, kMaxGailRows), "demonstration states per task in that term's batch");
   add(
       "gail.checkpoint", [](RunConfig & c) -> auto& { return c.gail.checkpoint; }, one_of({"last", "validation"}),
       "best.ckpt: the policy after the `last` iteration, or the iteration of lowest `validation` BC loss");

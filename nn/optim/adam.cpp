@@ -76,8 +76,18 @@ void Adam::load_state(const nn::NamedTensors& tensors) {
                                     "'s shape and dtype");
     }
     const double count = step->numel() == 1 ? step->item() : -1.0;
-    if (!(count >= 1.0) || count != std::floor(count))
-      throw std::invalid_argument("Adam state: 'step." + index + "' must be a whole number >= 1");
+    // 2^53: past it a double skips whole numbers, and far past it the cast to int64 below is undefined.
+    if (!(count >= 1.0) || count > 9007199254740992.0 || count != std::floor(count))
+      throw std::invalid_argument("Adam state: 'step." + index + "' must be a whole number in [1, 2^53]");
+    // An infinite second moment would freeze its parameter for good (m / inf = 0) without a word.
+    const auto check_moment = [](const std::string& name, const ag::Tensor& t, bool non_negative) {
+      for (const double value : t.to_vector())
+        if (!std::isfinite(value) || (non_negative && value < 0.0))
+          throw std::invalid_argument("Adam state: '" + name + "' must hold finite values" +
+                                      (non_negative ? " >= 0" : "") + ", got " + std::to_string(value));
+    };
+    check_moment("exp_avg." + index, *m, false);
+    check_moment("exp_avg_sq." + index, *v, true);
     loaded[i].step = static_cast<std::int64_t>(count);
     loaded[i].exp_avg = m->detach().clone();
     loaded[i].exp_avg_sq = v->detach().clone();

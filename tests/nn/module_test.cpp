@@ -1,3 +1,4 @@
+#include <cmath>
 #include <memory>
 
 #include "nn_test_util.h"
@@ -133,6 +134,23 @@ TEST(Module, LoadStateDictListsEveryProblem) {
   EXPECT_THAT(msg, HasSubstr("fc1.weight (expected [3, 2] float32, got [2, 3] float32)"));
   EXPECT_THAT(msg, HasSubstr("scale (expected [3] float32, got [3] float64)"));
   // Nothing was copied.
+  EXPECT_EQ(m.state_dict()[1].tensor.to_vector(), before);
+}
+
+// A state from a file may hold a NaN or an infinity: refused by name, the module left as it was.
+TEST(Module, LoadStateDictRefusesValuesThatAreNotFinite) {
+  ag::Generator gen(6);
+  TwoLayer m(gen);
+  const auto before = m.state_dict()[1].tensor.to_vector();
+  for (const double bad : {std::nan(""), double(INFINITY), -double(INFINITY)}) {
+    auto state = m.state_dict();
+    for (auto& e : state)
+      if (e.name == "fc1.bias") {
+        e.tensor = e.tensor.detach().clone();
+        e.tensor.data<float>()[1] = static_cast<float>(bad);
+      }
+    EXPECT_THAT(error_of([&] { m.load_state_dict(state); }), HasSubstr("Not finite: fc1.bias (entry 1)")) << bad;
+  }
   EXPECT_EQ(m.state_dict()[1].tensor.to_vector(), before);
 }
 

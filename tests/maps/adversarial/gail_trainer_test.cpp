@@ -195,8 +195,9 @@ TEST_F(GailTrainer, LearnsTwoToyTasksFromDemonstrationsAlone) {
 }
 
 // Stopped after 3 iterations and resumed in a fresh process's objects, a run ends with the same bytes as one that
-// ran its 6 iterations at once; with 2 threads stepping the envs, too.
-TEST_F(GailTrainer, ResumesExactlyAndDoesNotDependOnTheThreadCount) {
+// ran its 6 iterations at once; with 2 threads stepping the envs, too (the ops here stay under the 2^18
+// multiply-adds past which they split their gradient sums by thread, as they do in any run: docs/suite.md).
+TEST_F(GailTrainer, ResumesExactlyAndItsRolloutThreadsChangeNoByte) {
   GailConfig config = small_config();
   config.env_steps_per_task = 30 * 4 * 6;
   config.bc_weight = 0.1;  // the BC term's and the penalty's draws must resume too
@@ -326,6 +327,20 @@ TEST_F(GailTrainer, RefusesADamagedCheckpointNamingWhatIsWrong) {
   EXPECT_THAT(damaged("validation", with("best_validation", -1.0), good.tensors), HasSubstr("\"best_validation\""));
   EXPECT_THAT(damaged("rng", with("rng", "not an engine"), good.tensors), HasSubstr("\"rng\" is not a random"));
   EXPECT_THAT(damaged("iteration", with("iteration", 0), good.tensors), HasSubstr("\"iteration\" must be"));
+  // Counters no run reaches (an iteration takes an env step per task at least), whose products could overflow.
+  EXPECT_THAT(damaged("ahead", with("iteration", record["env_steps_per_task"].get<std::int64_t>() + 1), good.tensors),
+              HasSubstr("must satisfy iteration <= env_steps_per_task <= 10^12"));
+  nlohmann::json huge = with("env_steps_per_task", std::int64_t{1} << 62);
+  huge["iteration"] = std::int64_t{1} << 61;
+  EXPECT_THAT(damaged("huge", huge, good.tensors), HasSubstr("must satisfy iteration <= env_steps_per_task"));
+  nn::NamedTensors nan_policy = good.tensors;
+  for (auto& t : nan_policy)
+    if (t.name.rfind("policy.", 0) == 0 && t.tensor.dtype() == ag::Dtype::Float32) {
+      t.tensor = t.tensor.detach().clone();
+      t.tensor.data<float>()[0] = std::nanf("");
+      break;
+    }
+  EXPECT_THAT(damaged("nan_policy", record, nan_policy), HasSubstr("Not finite: "));
   nn::NamedTensors bad_stats = good.tensors, extra = good.tensors, missing_policy;
   for (auto& t : bad_stats)
     if (t.name == "return_stats")

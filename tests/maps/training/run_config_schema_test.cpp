@@ -101,5 +101,35 @@ TEST(RunConfig, RawInputsAndAClampAreRefusedTogether) {
   EXPECT_NO_THROW(parse_run_config(config));
 }
 
+// Under GAIL the trainer's own checks run when the config is read, so a config it would refuse never makes a run
+// folder; a train key GAIL would ignore is refused by name; 0 validation states means every one, as under BC.
+TEST(RunConfig, AGailConfigIsCheckedWhenItIsRead) {
+  Json config = {{"method", "mt_bc"}, {"imitation", "gail"}, {"data", {{"file", "x.h5"}}}};
+  config["train"]["validation_states_per_task"] = 0;
+  EXPECT_EQ(gail_config_of(parse_run_config(config)).validation_states_per_task, 0);
+  const auto refusal = [](const Json& bad) {
+    try {
+      parse_run_config(bad);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  for (const char* key : {"critic_hidden", "discriminator_hidden"}) {
+    Json deep = config;
+    deep["gail"][key] = std::vector<int>(9, 16);
+    EXPECT_THAT(refusal(deep),
+                ::testing::HasSubstr(std::string("config gail.") + key + ": expected 1 to 8 layer sizes"));
+  }
+  Json subset = config;
+  subset["train"]["validation_tasks"] = {"gravity/1.0"};
+  EXPECT_THAT(refusal(subset), ::testing::HasSubstr("config train.validation_tasks: not available"));
+  for (const char* key : {"minibatch_per_task", "discriminator_batch_per_task", "bc_states_per_task"}) {
+    Json big = config;
+    big["gail"][key] = 1000001;
+    EXPECT_THAT(refusal(big), ::testing::HasSubstr(std::string("config gail.") + key + ": expected")) << key;
+  }
+}
+
 }  // namespace
 }  // namespace maps::core

@@ -1,3 +1,5 @@
+#include <cmath>
+
 #include "optim_test_util.h"
 
 namespace nntest {
@@ -173,6 +175,38 @@ TEST(Adam, LoadStateRejectsMismatchesAndKeepsItsState) {
   EXPECT_THAT([&] { adam.load_state(bad); },
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("name no parameter")));
   EXPECT_EQ(adam.step_count(0), 0);
+}
+
+// A state from a file: a step count past 2^53 (whose cast to a whole number would be undefined), and moments that
+// are not finite or a negative second moment (an infinite one would freeze its parameter without a word).
+TEST(Adam, LoadStateRefusesCountsAndMomentsNoRunCouldHave) {
+  std::vector<ag::Tensor> p = {ag::zeros({3}, ag::Dtype::Float64)};
+  maps::optim::Adam adam(p);
+  const auto state = [](double step, double first, double second) {
+    maps::nn::NamedTensors s = {{"step.0", ag::scalar_tensor(step, ag::Dtype::Float64)},
+                                {"exp_avg.0", ag::zeros({3}, ag::Dtype::Float64)},
+                                {"exp_avg_sq.0", ag::zeros({3}, ag::Dtype::Float64)}};
+    s[1].tensor.data<double>()[2] = first;
+    s[2].tensor.data<double>()[0] = second;
+    return s;
+  };
+  EXPECT_NO_THROW(adam.load_state(state(9007199254740992.0, -1.5, 0.25)));
+  EXPECT_EQ(adam.step_count(0), 9007199254740992LL);
+  for (const double step : {1e300, 9007199254740994.0, 0.0, 2.5})
+    EXPECT_THAT(
+        [&] { adam.load_state(state(step, 0.0, 0.0)); },
+        ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("'step.0' must be a whole number")))
+        << step;
+  for (const double bad : {std::nan(""), double(INFINITY)})
+    EXPECT_THAT([&] { adam.load_state(state(2.0, bad, 0.0)); },
+                ::testing::ThrowsMessage<std::invalid_argument>(::testing::HasSubstr("'exp_avg.0' must hold finite")))
+        << bad;
+  for (const double bad : {std::nan(""), double(INFINITY), -1e-30})
+    EXPECT_THAT([&] { adam.load_state(state(2.0, 0.0, bad)); },
+                ::testing::ThrowsMessage<std::invalid_argument>(
+                    ::testing::HasSubstr("'exp_avg_sq.0' must hold finite values >= 0")))
+        << bad;
+  EXPECT_EQ(adam.step_count(0), 9007199254740992LL);  // the refused states left the loaded one
 }
 
 }  // namespace
