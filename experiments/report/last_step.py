@@ -10,8 +10,10 @@ kept as files of their own, one per cell, named <set>-<cell>.json (the eval.json
       t=/tmp/last/$(basename $d); mkdir -p $t; cp $d/config.json $d/best.ckpt $d/last.ckpt $t/
       build/bin/maps eval --run $t --last && cp $t/eval.json results/zoo-modern/last-checkpoint/gravity-$(basename $d).json
     done
-    python3 experiments/report/last_step.py results/zoo-modern results/zoo-modern/last-checkpoint \\
-        --out results/zoo-modern/last-checkpoint/report.md
+    python3 experiments/report/last_step.py results/zoo-modern results/zoo-modern/last-checkpoint
+
+`maps report DIR` writes the same tables to DIR/report/last_step.md where DIR/last-checkpoint/ holds such files, paired
+as the suite config's report.last_step_base and report.last_step_against say.
 
 Every file is checked against its cell before it is used: the cell exists and has finished, the file's method, seed and
 demonstrations are the cell's, its best-checkpoint score is the cell's headline score (the same checkpoint evaluated on
@@ -216,6 +218,55 @@ def table(rows, base):
 AGAINST_SECTION = "Another objective against both checkpoint rules"
 
 
+class LastStepError(Exception):
+    """What makes the table impossible, said as the script says it (the caller adds its own name)."""
+
+
+def report_text(suite_name, suite, evals, base, against=None):
+    """The markdown of the last-step tables (without the page's title): `suite` loaded from the folder named
+    `suite_name`, the evaluations the *.json files of the folder `evals`, `base` the method each row is paired with
+    (None: none), `against` (the other suite's name, its loaded suite, a variant) or None. LastStepError when there is
+    nothing to tabulate or a file disagrees with its cell."""
+    files = sorted(pathlib.Path(evals).glob("*.json"))
+    if not files:
+        raise LastStepError(f"{evals}: no <set>-<cell>.json files (maps eval --last's eval.json)")
+    try:
+        rows = rows_of(suite, files, base)
+    except EvalFileError as e:
+        raise LastStepError(str(e)) from None
+    pairing = ""
+    if base is not None:
+        pairing = (f"; against {base}: each method's seeds paired with {base}'s headline cells (its best-validation"
+                   " checkpoint)")
+    aggregates = (f", and P({base} > last step), the probability that a {base} run (its headline checkpoint) beats a"
+                  f" last-step run on a task, with its interval ('-': no {base} cells at that setting, or one lacking a"
+                  " task of the row)" if base is not None else "")
+    parts = [
+        f"## {SECTION}", "",
+        f"{len(files)} cells of {suite_name} scored at their last training step (maps eval --last, the same episodes as"
+        " their headline evaluation) beside their best-validation checkpoint (the suite's headline rule), mean +- 95%"
+        " CI over seeds (seeds: the group's cells evaluated so, of its finished ones); last - best validation paired"
+        f" by seed{pairing}; p: paired t test; Holm over each set's rows, each column a family. The aggregates"
+        " (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x runs scores"
+        f" with its stratified bootstrap interval{aggregates}.",
+        "", table(rows, base), ""]
+    if against is not None:
+        other_name, other, variant = against
+        found = against_rows(rows, other, variant)
+        if not found:
+            raise LastStepError(f"{other_name} has no finished cells of variant {variant!r} at the rows' settings")
+        parts += [f"## {AGAINST_SECTION}", "",
+                  f"{other_name}'s {variant} cells against these cells at their last step and at their best-validation"
+                  " checkpoint, paired by seed (the seeds both ran); mean +- 95% CI over seeds; p: paired t test; Holm"
+                  " over each set's rows, each column a family.", "", against_table(found, variant), ""]
+    return "\n".join(parts)
+
+
+def page(suite_name, text):
+    """The file the tables are written as: a title naming the suite, then the tables."""
+    return f"# The final-checkpoint rule: {suite_name}\n\n{text}"
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("suite", help="the suite folder whose cells were evaluated")
@@ -231,50 +282,14 @@ def main():
     base = None if args.base == "none" else args.base
     try:
         suite = load_suite(args.suite)
-        other = load_suite(args.against[0]) if args.against else None
-    except SuiteError as e:
+        against = (args.against[0], load_suite(args.against[0]), args.against[1]) if args.against else None
+        text = report_text(args.suite, suite, args.evals, base, against)
+    except (SuiteError, LastStepError) as e:
         print(f"last_step.py: {e}", file=sys.stderr)
         return 2
-    files = sorted(pathlib.Path(args.evals).glob("*.json"))
-    if not files:
-        print(f"last_step.py: {args.evals}: no <set>-<cell>.json files (maps eval --last's eval.json)", file=sys.stderr)
-        return 2
-    try:
-        rows = rows_of(suite, files, base)
-    except EvalFileError as e:
-        print(f"last_step.py: {e}", file=sys.stderr)
-        return 2
-    against = ""
-    if base is not None:
-        against = (f"; against {base}: each method's seeds paired with {base}'s headline cells (its best-validation"
-                   " checkpoint)")
-    aggregates = (f", and P({base} > last step), the probability that a {base} run (its headline checkpoint) beats a"
-                  f" last-step run on a task, with its interval ('-': no {base} cells at that setting, or one lacking a"
-                  " task of the row)" if base is not None else "")
-    parts = [
-        f"## {SECTION}", "",
-        f"{len(files)} cells of {args.suite} scored at their last training step (maps eval --last, the same episodes as"
-        " their headline evaluation) beside their best-validation checkpoint (the suite's headline rule), mean +- 95%"
-        " CI over seeds (seeds: the group's cells evaluated so, of its finished ones); last - best validation paired"
-        f" by seed{against}; p: paired t test; Holm over each set's rows, each column a family. The aggregates"
-        " (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x runs scores"
-        f" with its stratified bootstrap interval{aggregates}.",
-        "", table(rows, base), ""]
-    if other is not None:
-        other_root, variant = args.against
-        found = against_rows(rows, other, variant)
-        if not found:
-            print(f"last_step.py: {other_root} has no finished cells of variant {variant!r} at the rows' settings",
-                  file=sys.stderr)
-            return 2
-        parts += [f"## {AGAINST_SECTION}", "",
-                  f"{other_root}'s {variant} cells against these cells at their last step and at their best-validation"
-                  " checkpoint, paired by seed (the seeds both ran); mean +- 95% CI over seeds; p: paired t test; Holm"
-                  " over each set's rows, each column a family.", "", against_table(found, variant), ""]
-    text = "\n".join(parts)
     print(text)
     if args.out:
-        pathlib.Path(args.out).write_text(f"# The final-checkpoint rule: {args.suite}\n\n{text}")
+        pathlib.Path(args.out).write_text(page(args.suite, text))
     return 0
 
 

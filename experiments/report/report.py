@@ -11,7 +11,10 @@ writes to OUT
   module-count sweep (Fig. 5), every variant against its base method and the paper's checkpoint rule beside the
   best-validation one, where those cells exist, and the figures;
 - the figures (fig2_scores.png, fig2_tasks_<set>.png, fig3_vs_single_bc.png, fig4_ablations.png,
-  fig5_modules_heatmap.png, fig6_module_usage.png, validation.png), each with its numbers in a CSV beside it.
+  fig5_modules_heatmap.png, fig6_module_usage.png, validation.png), each with its numbers in a CSV beside it;
+- last_step.md, where DIR/last-checkpoint/ holds `maps eval --last` files of its cells: the last training step against
+  the best-validation checkpoint (last_step.py), paired as the suite config's report.last_step_base and
+  report.last_step_against say.
 A quick-scale suite (trained at most a quarter of the committed study's steps: scripts/run.sh's quick.json, medium.json)
 ranks the methods otherwise than the study does, so its report says so in its first line and puts beside each number
 of its main table, and in Fig. 2 and Fig. 4's scores, the study's for the same set, method and demos (results/study of
@@ -24,6 +27,7 @@ Needs matplotlib and numpy (Debian: python3-matplotlib, python3-numpy)."""
 import argparse
 import csv
 import functools
+import os
 import pathlib
 import re
 import sys
@@ -35,6 +39,7 @@ import aggregates
 import claims
 import comparisons
 import imitation
+import last_step
 import suite_results
 import tables
 from suite_results import SET_ORDER, SuiteError, groups, load_suite, read_json, score_name, success_scored
@@ -43,7 +48,7 @@ from suite_stats import describe_n, fmt, vs_single_bc
 
 OWN_FILES = ["results.csv", "report.md", "fig[2-6]_*.png", "fig[2-6]_*.csv", "validation.png", "validation.csv",
              "zoo_routing.png", "zoo_routing.csv", "imitation_scores.png", "imitation_scores.csv", "gail_curves.png",
-             "gail_curves.csv", "gail_module_usage.png", "gail_module_usage.csv"]
+             "gail_curves.csv", "gail_module_usage.png", "gail_module_usage.csv", "last_step.md"]
 RESULT_COLUMNS = ["set", "method", "variant", "modules", "demos", "subsample", "seed", "task", "score", "success",
                   "success_at_end", "return_mean", "return_unclipped_cost", "best_step", "steps", "wall_seconds",
                   "compute_seconds", "grid", "cell"]
@@ -254,6 +259,13 @@ def check_report_config(suite):
             comparisons.parse(entry)
         except ValueError as error:
             raise SuiteError(f"{where}.compare[{i}]: {str(error).partition(': ')[2]}") from None
+    base = report.get("last_step_base", "maps")
+    if not isinstance(base, str) or not base:
+        raise SuiteError(f"{where}.last_step_base: expected a method's name or \"none\", got {base!r}")
+    against = report.get("last_step_against", [])
+    if not (isinstance(against, list) and len(against) in (0, 2) and all(isinstance(e, str) and e for e in against)):
+        raise SuiteError(f"{where}.last_step_against: expected [] or [SUITE, VARIANT] (two non-empty strings), got"
+                         f" {against!r}")
 
 
 def report_comparisons(suite):
@@ -428,6 +440,28 @@ def report_lines(suite, draw, beside=None):
     return lines
 
 
+def write_last_step(suite, root, out):
+    """OUT/last_step.md, the last-step tables of last_step.py, when the suite folder holds `maps eval --last` files of
+    its cells in last-checkpoint/ (last_step.py says how they are made): each row paired with the suite config's
+    report.last_step_base (default maps; none: no pairing) and, with report.last_step_against [SUITE, VARIANT] (SUITE
+    relative to the suite folder), with that suite's VARIANT cells. The path written, or None where there are no such
+    files. SuiteError or last_step.LastStepError when the files or the other suite cannot be read."""
+    evals = pathlib.Path(root) / "last-checkpoint"
+    if not any(evals.glob("*.json")):
+        return None
+    settings = suite.config.get("report") or {}
+    base = settings.get("last_step_base", "maps")
+    against = None
+    if settings.get("last_step_against"):
+        other_path, variant = settings["last_step_against"]
+        other_name = os.path.normpath(os.path.join(str(root), other_path))
+        against = (other_name, load_suite(other_name), variant)
+    text = last_step.report_text(str(root), suite, evals, None if base == "none" else base, against)
+    path = out / "last_step.md"
+    path.write_text(last_step.page(str(root), text))
+    return path
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -468,12 +502,19 @@ def main(argv=None):
     write_results_csv(suite, out / "results.csv")
     draw = Drawer(figures, suite.cells, out)
     (out / "report.md").write_text("\n".join(report_lines(suite, draw, beside)) + "\n")
+    try:
+        last_step_page = write_last_step(suite, args.dir, out)
+    except (SuiteError, last_step.LastStepError) as error:
+        print(f"report: the last-step tables: {error}", file=sys.stderr)
+        return 2
     dropped = f", {len(suite.dropped)} dropped" if suite.dropped else ""
     print(f"{len(suite.cells)} finished, {len(suite.missing)} missing, {len(suite.failed)} failed,"
           f" {len(suite.damaged)} damaged{dropped} of {len(suite.planned)} cells\n")
     if beside.quick:
         print(warning_line(beside).replace("**", "") + "\n")
     print("\n".join(main_results_beside(suite.cells, beside) if beside.cells else tables.main_results(suite.cells)))
+    if last_step_page:
+        print(f"last step: {last_step_page}")
     print(f"report: {out / 'report.md'}")
     return 1 if draw.failed else 0
 

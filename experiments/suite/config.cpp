@@ -225,10 +225,23 @@ Suite parse_suite(const Json& json, const std::string& where) {
   // Read by `maps report` alone (experiments/report/tables.py); checked here so that a typo fails at plan time.
   if (json.contains("report")) {
     if (!json["report"].is_object()) throw std::invalid_argument(where + ".report: expected an object");
-    check_keys(json["report"], where + ".report", {"holm", "compare"});
+    check_keys(json["report"], where + ".report", {"holm", "compare", "last_step_base", "last_step_against"});
     if (json["report"].contains("holm")) checked(json["report"]["holm"], "report.holm", where + ".report.holm");
     if (json["report"].contains("compare"))
       checked(json["report"]["compare"], "report.compare", where + ".report.compare");
+    if (json["report"].contains("last_step_base"))
+      checked(json["report"]["last_step_base"], "report.last_step_base", where + ".report.last_step_base");
+    if (json["report"].contains("last_step_against")) {
+      const Json& against = json["report"]["last_step_against"];
+      checked(against, "report.last_step_against", where + ".report.last_step_against");
+      const bool pair =
+          against.size() == 2 && !against[0].get<std::string>().empty() && !against[1].get<std::string>().empty();
+      if (!against.empty() && !pair)
+        throw std::invalid_argument(where +
+                                    ".report.last_step_against: expected [] or [SUITE, VARIANT] (two "
+                                    "non-empty strings), got " +
+                                    against.dump());
+    }
   }
   // Loaded first: the grids may name their methods and the cells' configs their selector losses. load_suite has
   // made the paths absolute (relative to the config's folder); a JSON parsed on its own has them from the working

@@ -89,6 +89,18 @@ std::vector<io::Field> make_schema() {
                    "set, demos and k both ran, Holm over a set's rows, and the probability of improvement"));
   s.back().default_value = nlohmann::json::array();
   s.back().unique = true;
+  s.push_back(make("report.last_step_base", ValueKind::kString, "string",
+                   "where the suite folder holds `maps eval --last` files of its cells in `last-checkpoint/`, the "
+                   "method each row of `maps report`'s last_step.md (the last training step against the "
+                   "best-validation checkpoint) is paired with by seed, or `none`: no pairing, every method's cells "
+                   "may be evaluated"));
+  s.back().default_value = "maps";
+  s.back().non_empty = true;
+  s.push_back(make("report.last_step_against", ValueKind::kStringList, "string list",
+                   "[SUITE, VARIANT] or []: last_step.md also pairs each row by seed with the cells of VARIANT in the "
+                   "suite folder SUITE (relative to this suite's folder), at both checkpoint rules (GAIL's cells "
+                   "against BC's: experiments/suites/adversarial-bc-last.json)"));
+  s.back().default_value = nlohmann::json::array();
   s.push_back(make("grids[].name", ValueKind::kString, "string",
                    "the grid's name (lower-case letters, digits and _; unique in the suite)"));
   s.back().non_empty = true;

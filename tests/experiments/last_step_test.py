@@ -8,6 +8,7 @@ named, never used; the probability of improvement is the last step's task scores
 base method the rows stand alone, and another suite's variant is paired by seed with both rules.
 Run by ctest (tests/CMakeLists.txt)."""
 import contextlib
+import copy
 import functools
 import io
 import json
@@ -71,7 +72,7 @@ class LastStepTest(unittest.TestCase):
         out = pathlib.Path(self.tmp.name) / "report.md"
         proc = run_process(EVALS, "--out", str(out))
         self.assertEqual(proc.returncode, 0, proc.stderr)
-        committed = (EVALS / "report.md").read_text()
+        committed = (SUITE / "report" / "last_step.md").read_text()  # as `maps report results/zoo-modern` wrote it
         self.assertEqual(out.read_text(), committed)
         self.assertIn("| gravity | diffusion_policy (dp_mlp_h1) | 5 | 10 |", proc.stdout)
 
@@ -220,6 +221,51 @@ class LastStepTest(unittest.TestCase):
         self.assertEqual(maps_row["vs_last_p"], last_step.paired_p(maps_row["vs_last"]))
         text = last_step.against_table(found, "gail_mt10")
         self.assertIn("| mt10 | mt_bc | 2 | 1 | 1 | 0.65 | 0.70 | 0.60 | -0.05 |", text)
+
+
+class ReportLastStepTest(unittest.TestCase):
+    """`maps report DIR` writes DIR/report/last_step.md from DIR/last-checkpoint/, paired as the suite config's
+    report.last_step_base and report.last_step_against say; a suite.json edited to say otherwise is refused by key."""
+
+    @classmethod
+    def setUpClass(cls):
+        import report
+        cls.report = report
+
+    def write(self, root, suite):
+        with tempfile.TemporaryDirectory() as tmp:
+            cwd = os.getcwd()
+            try:
+                os.chdir(ROOT)
+                path = self.report.write_last_step(suite, root, pathlib.Path(tmp))
+            finally:
+                os.chdir(cwd)
+            return path.name, path.read_text()
+
+    def test_the_committed_pages_are_the_reports_own(self):
+        for root in ("results/zoo-modern", "results/adversarial/bc-last"):
+            with self.subTest(root=root):
+                suite = last_step.load_suite(str(ROOT / root))
+                name, text = self.write(root, suite)
+                self.assertEqual(name, "last_step.md")
+                self.assertEqual(text, (ROOT / root / "report" / "last_step.md").read_text())
+        # bc-last's config asks for no base method and GAIL's cells beside: both show.
+        self.assertIn("## Another objective against both checkpoint rules", text)
+        self.assertIn("results/adversarial's gail_mt10 cells", text)
+        self.assertNotIn("P(", text.split("## Another")[0].splitlines()[2])
+
+    def test_a_suite_without_evaluations_gets_no_page(self):
+        suite = last_step.load_suite(str(ROOT / "results" / "adversarial"))
+        self.assertIsNone(self.report.write_last_step(suite, ROOT / "results" / "adversarial", pathlib.Path("/nowhere")))
+
+    def test_bad_settings_are_refused_by_key(self):
+        suite = copy.copy(last_step.load_suite(str(ROOT / "results" / "adversarial" / "bc-last")))  # not the cached one
+        for key, value in [("last_step_base", ""), ("last_step_base", 3), ("last_step_against", ["..", ""]),
+                           ("last_step_against", [".."]), ("last_step_against", "..")]:
+            with self.subTest(key=key, value=value):
+                suite.config = dict(suite.config, report={key: value})
+                with self.assertRaisesRegex(last_step.SuiteError, f"config.report.{key}: expected"):
+                    self.report.check_report_config(suite)
 
 
 if __name__ == "__main__":

@@ -217,6 +217,12 @@ class SuiteTest(unittest.TestCase):
              'report.compare[1]: "maps - mt_bc" is an earlier entry reversed: the same test twice'),
             (lambda c: (c["grids"][1].update(demos=[7]), c.update(report={"compare": ["maps (no_share) - mt_bc"]})),
              'report.compare[0]: "maps (no_share)" and "mt_bc" share no set, demonstration count and k'),
+            (lambda c: c.update(report={"last_step_base": ""}), ".report.last_step_base: expected"),
+            (lambda c: c.update(report={"last_step_against": [".."]}),
+             '.report.last_step_against: expected [] or [SUITE, VARIANT] (two non-empty strings), got [".."]'),
+            (lambda c: c.update(report={"last_step_against": ["..", ""]}), ".report.last_step_against: expected []"),
+            (lambda c: c.update(report={"last_step_against": ["a", "b", "c"]}),
+             ".report.last_step_against: expected [] or [SUITE, VARIANT]"),
         ]
         for mutate, message in cases:
             config = copy.deepcopy(base)
