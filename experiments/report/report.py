@@ -20,7 +20,9 @@ ranks the methods otherwise than the study does, so its report says so in its fi
 of its main table, and in Fig. 2 and Fig. 4's scores, the study's for the same set, method and demos (results/study of
 this checkout, or --study DIR2; where there is none, one line says why and the report goes on without it).
 Prints the main results table and, last, "report: OUT/report.md". Exit code 2: no suite.json, no finished cells,
-or no matplotlib / numpy; 1: a figure could not be drawn (the rest is written; stderr and report.md say which).
+no matplotlib / numpy, or last_step.md cannot be made (a file of last-checkpoint/ disagrees with its cell, or the suite
+report.last_step_against names cannot be read: report.md is written, stderr names the file); 1: a figure could not
+be drawn (the rest is written; stderr and report.md say which).
 A damaged result.json is named in the report and skipped.
 
 Needs matplotlib and numpy (Debian: python3-matplotlib, python3-numpy)."""

@@ -258,6 +258,15 @@ class ReportLastStepTest(unittest.TestCase):
         suite = last_step.load_suite(str(ROOT / "results" / "adversarial"))
         self.assertIsNone(self.report.write_last_step(suite, ROOT / "results" / "adversarial", pathlib.Path("/nowhere")))
 
+    def test_an_other_suite_that_cannot_be_read_is_an_error_naming_it(self):
+        suite = copy.copy(last_step.load_suite(str(ROOT / "results" / "adversarial" / "bc-last")))
+        suite.config = dict(suite.config, report={"last_step_base": "none", "last_step_against": ["../nowhere", "x"]})
+        with self.assertRaisesRegex(last_step.SuiteError, "nowhere"):
+            self.write("results/adversarial/bc-last", suite)
+        suite.config = dict(suite.config, report={"last_step_base": "none", "last_step_against": ["..", "gail_nothing"]})
+        with self.assertRaisesRegex(last_step.LastStepError, "no finished cells of variant 'gail_nothing'"):
+            self.write("results/adversarial/bc-last", suite)
+
     def test_bad_settings_are_refused_by_key(self):
         suite = copy.copy(last_step.load_suite(str(ROOT / "results" / "adversarial" / "bc-last")))  # not the cached one
         for key, value in [("last_step_base", ""), ("last_step_base", 3), ("last_step_against", ["..", ""]),
