@@ -24,7 +24,10 @@ headline checkpoint) paired by seed, with the paired t test and Holm over each s
 and the aggregates of the last step's task scores: their IQM and the probability that a base-method run beats a
 last-step run on a task. The base method's own cells are not evaluated so (they are what every row is paired with);
 with `--base none` every method's may be, and no row is paired with another method. `--against SUITE VARIANT` adds
-a table of SUITE's VARIANT cells (trained otherwise: GAIL's) against each row's two rules, paired by seed:
+a table of SUITE's VARIANT cells (trained otherwise: GAIL's) against each row's two rules, paired by seed. Files whose
+"last" carries the last step's routing (a policy that routes; maps eval --last since 2026-12-05) add a table of it
+beside the best-validation checkpoint's (and SUITE's VARIANT cells', with their usage distance between tasks paired
+by seed):
 
     python3 experiments/report/last_step.py results/adversarial/bc-last results/adversarial/bc-last/last-checkpoint \
         --base none --against results/adversarial gail_mt10"""
@@ -32,6 +35,7 @@ import argparse
 import math
 import pathlib
 import sys
+import types
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
@@ -39,10 +43,11 @@ import numpy as np  # noqa: E402
 
 from aggregates import fmt_improvement, fmt_iqm, runs_by_tasks  # noqa: E402
 from suite_results import SuiteError, groups, load_suite, read_json, task_names, task_score  # noqa: E402
-from suite_stats import fmt, fmt_p, holm_within, paired_p  # noqa: E402
+from suite_stats import fmt, fmt_p, holm_within, mean, paired_p, usage_distances  # noqa: E402
 from tables import table as markdown_table  # noqa: E402
 
 SECTION = "The last step against the best-validation checkpoint"
+ROUTING_SECTION = "Routing at the last step"
 # The file's best-checkpoint score must be the cell's to this precision (both printed from the same double).
 SAME_SCORE = 1e-9
 
@@ -58,8 +63,8 @@ def finite(value, where):
 
 
 def read_last(path, cells_by_folder):
-    """(cell, last step's mean score, {task: last step's score}) from one `maps eval --last` file, checked against
-    its cell."""
+    """(cell, last step's mean score, {task: last step's score}, the last step's routing or None) from one `maps eval
+    --last` file, checked against its cell."""
     name = path.stem
     set_name, dash, cell_name = name.partition("-")
     if not dash:
@@ -115,19 +120,58 @@ def read_last(path, cells_by_folder):
             raise EvalFileError(f"{path}: tasks[{i}] ({name}) scored {best_here!r} here and {in_cell!r} in the cell's"
                                 " result.json: not the same task or not the same evaluation")
         names.append(name)
-    return cell, score, dict(zip(names, scores))
+    return cell, score, dict(zip(names, scores)), read_routing(path, last, cell)
+
+
+def read_routing(path, last, cell):
+    """last.routing (files of `maps eval --last` since 2026-12-05, for a policy that routes) as routing(): each of the
+    cell's tasks once, its usage a distribution over the cell's modules, entropy in [0, ln M], top score in [1/M, 1].
+    None where the file has none (an older file, or a policy that does not route)."""
+    entries = last.get("routing")
+    if entries is None:
+        return None
+    modules = len(cell.tasks[0].usage or [])
+    if not modules:
+        raise EvalFileError(f"{path}: last.routing for a cell whose evaluation has no module usage")
+    if not isinstance(entries, list) or sorted(str(e.get("task")) if isinstance(e, dict) else "" for e in entries) != \
+            sorted(t.task for t in cell.tasks):
+        raise EvalFileError(f"{path}: last.routing must hold each of the cell's {len(cell.tasks)} tasks once")
+    tasks = []
+    for i, entry in enumerate(entries):
+        where = f"{path}: last.routing[{i}]"
+        usage = entry.get("module_usage")
+        if not isinstance(usage, list) or len(usage) != modules:
+            raise EvalFileError(f"{where}.module_usage is not a list of {modules} shares")
+        usage = [finite(u, f"{where}.module_usage") for u in usage]
+        if min(usage) < 0 or abs(sum(usage) - 1.0) > 1e-4:
+            raise EvalFileError(f"{where}.module_usage is not a distribution (shares >= 0 summing to 1)")
+        entropy = finite(entry.get("selector_entropy"), f"{where}.selector_entropy")
+        top = finite(entry.get("selector_top_score"), f"{where}.selector_top_score")
+        if not 0.0 <= entropy <= math.log(modules) + 1e-6 or not 1.0 / modules - 1e-6 <= top <= 1.0:
+            raise EvalFileError(f"{where}: selector_entropy {entropy} or selector_top_score {top} outside [0, ln"
+                                f" {modules}] and [1/{modules}, 1]")
+        tasks.append(types.SimpleNamespace(task=entry["task"], usage=usage, entropy=entropy, top_score=top))
+    return routing(types.SimpleNamespace(tasks=tasks))
+
+
+def routing(cell):
+    """(per-state selector entropy, top score, usage distance between tasks (TV)), each the mean over the tasks."""
+    return (mean([t.entropy for t in cell.tasks]), mean([t.top_score for t in cell.tasks]),
+            mean(usage_distances(cell)))
 
 
 def rows_of(suite, files, base):
     cells_by_folder = {(c.set, c.folder.name): c for c in suite.cells}
-    last_score, last_tasks = {}, {}
+    last_score, last_tasks, last_routing = {}, {}, {}
     for path in files:
-        cell, score, per_task = read_last(path, cells_by_folder)
+        cell, score, per_task, routed = read_last(path, cells_by_folder)
         if base is not None and cell.label == base:
             raise EvalFileError(f"{path}: a cell of {base}, the method every row is paired with at its headline "
                                 "checkpoint (evaluate the others)")
         last_score[id(cell)] = score
         last_tasks[id(cell)] = per_task
+        if routed is not None:
+            last_routing[id(cell)] = routed
     grouped = groups(suite.cells)
     rows = []
     for key, cells in grouped.items():
@@ -150,7 +194,9 @@ def rows_of(suite, files, base):
                          headline_vs_base=[c.mean_score - base_by_seed[c.seed] for c in with_last
                                            if c.seed in base_by_seed],
                          vs_base=[last_score[id(c)] - base_by_seed[c.seed] for c in with_last
-                                  if c.seed in base_by_seed]))
+                                  if c.seed in base_by_seed],
+                         routing={c.seed: (routing(c), last_routing[id(c)]) for c in with_last
+                                  if id(c) in last_routing}))
     for row in rows:
         row["gain_p"] = paired_p(row["gain"])
         row["p"] = paired_p(row["vs_base"])
@@ -187,6 +233,47 @@ def against_rows(rows, other, variant):
         for r, adjusted in zip(found, holm_within([r[column + "_p"] for r in found], sets)):
             r[column + "_holm"] = adjusted
     return found
+
+
+def routing_rows(rows, other=None, variant=None):
+    """Per row whose files carry the last step's routing: entropy, top score and usage distance between tasks (TV) at
+    the best-validation checkpoint and at the last step, per seed; with another suite's variant, its cells' routing at
+    the same seeds and variant - last step in TV paired by seed (p: paired t test; Holm over each set's rows)."""
+    found = []
+    for row in rows:
+        if not row["routing"]:
+            continue
+        seeds = sorted(row["routing"])
+        theirs = {}
+        if other is not None:
+            theirs = {c.seed: routing(c) for c in other.cells
+                      if (c.set, c.method, c.variant, c.demos, c.subsample) == (row["set"], row["method"], variant,
+                                                                              row["demos"], row["k"]) and c.has_usage}
+        paired = [s for s in seeds if s in theirs]
+        found.append(dict(set=row["set"], method=row["method"], demos=row["demos"], k=row["k"], seeds=len(seeds),
+                          best=[row["routing"][s][0] for s in seeds], last=[row["routing"][s][1] for s in seeds],
+                          other=[theirs[s] for s in paired],
+                          vs_last=[theirs[s][2] - row["routing"][s][1][2] for s in paired]))
+    for r in found:
+        r["vs_last_p"] = paired_p(r["vs_last"])
+    for r, adjusted in zip(found, holm_within([r["vs_last_p"] for r in found], [r["set"] for r in found])):
+        r["vs_last_holm"] = adjusted
+    return found
+
+
+def routing_table(found, variant=None):
+    column = lambda runs, i: fmt([run[i] for run in runs]) if runs else "-"  # noqa: E731
+    header = ["set", "method", "demos", "k", "seeds", "entropy: best validation", "entropy: last step",
+              "top score: best validation", "top score: last step", "TV: best validation", "TV: last step"]
+    cells = [[r["set"], r["method"], r["demos"], r["k"], r["seeds"], column(r["best"], 0), column(r["last"], 0),
+              column(r["best"], 1), column(r["last"], 1), column(r["best"], 2), column(r["last"], 2)] for r in found]
+    if variant is not None:
+        header += ["pairs", f"entropy: {variant}", f"top score: {variant}", f"TV: {variant}",
+                   f"TV: {variant} - last step", "p", "p (Holm)"]
+        cells = [row + [len(r["other"]), column(r["other"], 0), column(r["other"], 1), column(r["other"], 2),
+                        fmt(r["vs_last"], signed=True) if r["vs_last"] else "-", fmt_p(r["vs_last_p"]),
+                        fmt_p(r["vs_last_holm"])] for row, r in zip(cells, found)]
+    return "\n".join(markdown_table(header, cells))
 
 
 def against_table(found, variant):
@@ -250,8 +337,18 @@ def report_text(suite_name, suite, evals, base, against=None):
         " (Agarwal et al., NeurIPS 2021; aggregates.py): the interquartile mean of the last step's tasks x runs scores"
         f" with its stratified bootstrap interval{aggregates}.",
         "", table(rows, base), ""]
+    other_name, other, variant = against if against is not None else (None, None, None)
+    routed = routing_rows(rows, other, variant)
+    if routed:
+        parts += [f"## {ROUTING_SECTION}", "",
+                  "How the policies that route use their modules at the best-validation checkpoint and at the last"
+                  " training step, on the same evaluation episodes (maps eval --last's last.routing): per-state"
+                  " selector entropy (nats) and top score, mean over tasks, and the usage distance between tasks (TV:"
+                  " each task's usage from the tasks' mean, total variation, mean over tasks), mean +- 95% CI over"
+                  " seeds" + (f"; {other_name}'s {variant} cells at the same seeds, and {variant} - last step in TV"
+                              " paired by seed, p: paired t test, Holm over each set's rows" if other is not None
+                              else "") + ".", "", routing_table(routed, variant), ""]
     if against is not None:
-        other_name, other, variant = against
         found = against_rows(rows, other, variant)
         if not found:
             raise LastStepError(f"{other_name} has no finished cells of variant {variant!r} at the rows' settings")

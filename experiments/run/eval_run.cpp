@@ -225,9 +225,26 @@ int run_eval(const EvalRunOptions& options) {
                 best_over["mean_score"].get<double>(), best_over["step"].get<long long>());
   }
   if (final_policy) {
+    core::Policy& last_policy = *final_policy->policy;
+    core::ModuleUsageFn last_usage;
+    if (last_policy.routed_modules() > 0)
+      last_usage = [&last_policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
+        return last_policy.routing(obs, tasks);
+      };
     const core::EvaluationResult r =
-        core::evaluate(*final_policy->policy, standardizer, names, expert_returns, eval, nullptr);
+        core::evaluate(last_policy, standardizer, names, expert_returns, eval, last_usage ? &last_usage : nullptr);
     record["last"] = {{"step", final_policy->step}, {"mean_score", r.mean_score}, {"scores", task_scores(r)}};
+    // A policy that routes: how it routes at its last step, beside best.ckpt's in tasks[] (the checkpoint rule can
+    // pick a step before the selector's losses have shaped it).
+    nlohmann::json routing = nlohmann::json::array();
+    for (const auto& t : r.tasks)
+      if (t.module_usage.size() > 0)
+        routing.push_back({{"task", t.task},
+                           {"module_usage",
+                            std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size())},
+                           {"selector_entropy", t.selector_entropy},
+                           {"selector_top_score", t.selector_top_score}});
+    if (!routing.empty()) record["last"]["routing"] = routing;
     std::printf("last step %lld (%s): mean score %.3f (%.1f s)\n", static_cast<long long>(final_policy->step),
                 run_files::kLastCheckpoint, r.mean_score, r.seconds);
   }

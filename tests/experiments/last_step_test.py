@@ -14,6 +14,7 @@ import io
 import json
 import os
 import pathlib
+import re
 import shutil
 import subprocess
 import sys
@@ -266,6 +267,34 @@ class ReportLastStepTest(unittest.TestCase):
         suite.config = dict(suite.config, report={"last_step_base": "none", "last_step_against": ["..", "gail_nothing"]})
         with self.assertRaisesRegex(last_step.LastStepError, "no finished cells of variant 'gail_nothing'"):
             self.write("results/adversarial/bc-last", suite)
+
+    def test_the_last_steps_routing_is_tabulated_and_a_damaged_one_refused(self):
+        """last.routing (maps eval --last for a policy that routes): the routing table's last-step columns are the
+        files' means; a routing that lacks a task, is no distribution, or has an entropy past ln M is refused, naming
+        the file."""
+        root = ROOT / "results" / "adversarial" / "bc-last"
+        suite = last_step.load_suite(str(root))
+        text = (root / "report" / "last_step.md").read_text()
+        self.assertIn("## Routing at the last step", text)
+        record = json.loads((root / "last-checkpoint" / "mt10-maps_d1_s0.json").read_text())
+        entropies = [r["selector_entropy"] for r in record["last"]["routing"]]
+        self.assertEqual(len(entropies), 10)
+        cells = {(c.set, c.folder.name): c for c in suite.cells}
+        _, _, _, routed = last_step.read_last(root / "last-checkpoint" / "mt10-maps_d1_s0.json", cells)
+        self.assertAlmostEqual(routed[0], sum(entropies) / len(entropies))
+        damages = [(lambda r: r["last"]["routing"].pop(), "must hold each of the cell's 10 tasks once"),
+                   (lambda r: r["last"]["routing"][0]["module_usage"].__setitem__(0, 0.9), "is not a distribution"),
+                   (lambda r: r["last"]["routing"][0].__setitem__("selector_entropy", 2.4), "outside [0, ln 10]"),
+                   (lambda r: r["last"]["routing"][0].__setitem__("module_usage", [0.5, 0.5]), "not a list of 10"),
+                   (lambda r: r["last"]["routing"][0].__setitem__("selector_top_score", float("nan")), "finite")]
+        for damage, message in damages:
+            with self.subTest(message=message), tempfile.TemporaryDirectory() as tmp:
+                bad = copy.deepcopy(record)
+                damage(bad)
+                path = pathlib.Path(tmp) / "mt10-maps_d1_s0.json"
+                path.write_text(json.dumps(bad))
+                with self.assertRaisesRegex(last_step.EvalFileError, f"{path}.*{re.escape(message)}"):
+                    last_step.read_last(path, cells)
 
     def test_bad_settings_are_refused_by_key(self):
         suite = copy.copy(last_step.load_suite(str(ROOT / "results" / "adversarial" / "bc-last")))  # not the cached one

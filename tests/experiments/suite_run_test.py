@@ -8,6 +8,7 @@ import copy
 import csv
 import fcntl
 import json
+import math
 import os
 import pathlib
 import re
@@ -899,7 +900,7 @@ class SuiteTest(unittest.TestCase):
         config["variants"] = {"ema": {"train": {"ema_power": 0.75},
                                       "diffusion_policy": {"denoiser": "mlp", "horizon": 1, "execute": 1, "width": 32,
                                                            "inference_steps": 2}}}
-        config["grids"] = [{"name": "last", "sets": ["gravity"], "methods": ["mt_bc"], "seeds": [0]},
+        config["grids"] = [{"name": "last", "sets": ["gravity"], "methods": ["mt_bc", "maps"], "seeds": [0]},
                            {"name": "ema", "sets": ["gravity"], "methods": ["diffusion_policy"], "variants": ["ema"],
                             "seeds": [0]}]
         path = write_config(self.dir, config)
@@ -914,6 +915,19 @@ class SuiteTest(unittest.TestCase):
             self.assertEqual(evaluation["last"]["step"], 60)
             self.assertEqual(evaluation["last"]["mean_score"], kept[0]["mean_score"], name)
             self.assertEqual(evaluation["last"]["scores"], kept[0]["scores"], name)
+            self.assertNotIn("routing", evaluation["last"])  # neither routes
+        # A policy that routes: its last step's routing per task, beside best.ckpt's in tasks[].
+        cell = out / "cells/gravity/maps_d2_s0"
+        maps("eval", "--run", cell, "--last")
+        evaluation = json.loads((cell / "eval.json").read_text())
+        routing = evaluation["last"]["routing"]
+        self.assertEqual([r["task"] for r in routing], [t["task"] for t in evaluation["tasks"]])
+        modules = len(evaluation["tasks"][0]["module_usage"])
+        for r in routing:
+            self.assertEqual(len(r["module_usage"]), modules)
+            self.assertAlmostEqual(sum(r["module_usage"]), 1.0, places=5)
+            self.assertTrue(0.0 <= r["selector_entropy"] <= math.log(modules) + 1e-9, r)
+            self.assertTrue(1.0 / modules - 1e-9 <= r["selector_top_score"] <= 1.0, r)
         # last.ckpt and the run config must agree on the average (else which weights are "the last" is unclear).
         cell = out / "cells/gravity/diffusion_policy-ema_d2_s0"
         bare = self.dir / "bare"
