@@ -37,6 +37,21 @@ core::EvalProgressFn progress_lines(const std::vector<std::string>& tasks) {
   };
 }
 
+// What evaluate() asks a policy that routes (its selector's scores per state); empty for one that does not.
+core::ModuleUsageFn routing_of(core::Policy& policy) {
+  if (policy.routed_modules() == 0) return {};
+  return
+      [&policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) { return policy.routing(obs, tasks); };
+}
+
+// A task's routing (module usage, selector entropy and top score) into its JSON entry, where its policy routes.
+void add_routing(nlohmann::json& entry, const core::TaskEvaluation& t) {
+  if (t.module_usage.size() == 0) return;
+  entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());
+  entry["selector_entropy"] = t.selector_entropy;
+  entry["selector_top_score"] = t.selector_top_score;
+}
+
 std::vector<double> task_scores(const core::EvaluationResult& result) {
   std::vector<double> scores;
   for (const auto& t : result.tasks) scores.push_back(t.score);
@@ -146,7 +161,6 @@ int run_eval(const EvalRunOptions& options) {
   for (const auto& name : config.eval_tasks)
     if (std::find(names.begin(), names.end(), name) == names.end())
       throw std::invalid_argument("eval.tasks: " + name + " is not a task of " + options.run);
-  core::ModuleUsageFn usage;
   auto* maps_policy = dynamic_cast<core::MAPSPolicy*>(policy.get());
   if (options.each_module) {
     if (maps_policy == nullptr)
@@ -154,15 +168,11 @@ int run_eval(const EvalRunOptions& options) {
                                   " run; only MAPS has modules");
     return evaluate_each_module(options.run, *maps_policy, data, names, expert_returns, eval, best);
   }
-  const bool routed = policy->routed_modules() > 0;
-  if (routed)
-    usage = [&policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
-      return policy->routing(obs, tasks);
-    };
+  const core::ModuleUsageFn usage = routing_of(*policy);
   std::printf("maps eval: %s, %d episodes per task\n", options.run.c_str(), eval.episodes);
   std::fflush(stdout);
   const core::EvaluationResult result = core::evaluate(*policy, standardizer, names, expert_returns, eval,
-                                                       routed ? &usage : nullptr, progress_lines(names));
+                                                       usage ? &usage : nullptr, progress_lines(names));
 
   nlohmann::json tasks = nlohmann::json::array();
   std::printf("| task | score (95%% CI) | return | success |\n|---|---|---|---|\n");
@@ -187,11 +197,7 @@ int run_eval(const EvalRunOptions& options) {
                          {"returns", t.returns}};
     // The score's normaliser, so that a reader can put other returns (a GAIL run's training curve) on its scale.
     if (by_return) entry["expert_return"] = expert_returns.at(i);
-    if (t.module_usage.size() > 0) {
-      entry["module_usage"] = std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size());
-      entry["selector_entropy"] = t.selector_entropy;
-      entry["selector_top_score"] = t.selector_top_score;
-    }
+    add_routing(entry, t);
     tasks.push_back(entry);
   }
   std::printf("mean score %.3f (%.1f s)\n", result.mean_score, result.seconds);
@@ -225,25 +231,19 @@ int run_eval(const EvalRunOptions& options) {
                 best_over["mean_score"].get<double>(), best_over["step"].get<long long>());
   }
   if (final_policy) {
-    core::Policy& last_policy = *final_policy->policy;
-    core::ModuleUsageFn last_usage;
-    if (last_policy.routed_modules() > 0)
-      last_usage = [&last_policy](const ag::Tensor& obs, const std::vector<std::int64_t>& tasks) {
-        return last_policy.routing(obs, tasks);
-      };
-    const core::EvaluationResult r =
-        core::evaluate(last_policy, standardizer, names, expert_returns, eval, last_usage ? &last_usage : nullptr);
+    const core::ModuleUsageFn last_usage = routing_of(*final_policy->policy);
+    const core::EvaluationResult r = core::evaluate(*final_policy->policy, standardizer, names, expert_returns, eval,
+                                                    last_usage ? &last_usage : nullptr);
     record["last"] = {{"step", final_policy->step}, {"mean_score", r.mean_score}, {"scores", task_scores(r)}};
     // A policy that routes: how it routes at its last step, beside best.ckpt's in tasks[] (the checkpoint rule can
     // pick a step before the selector's losses have shaped it).
     nlohmann::json routing = nlohmann::json::array();
-    for (const auto& t : r.tasks)
-      if (t.module_usage.size() > 0)
-        routing.push_back({{"task", t.task},
-                           {"module_usage",
-                            std::vector<double>(t.module_usage.data(), t.module_usage.data() + t.module_usage.size())},
-                           {"selector_entropy", t.selector_entropy},
-                           {"selector_top_score", t.selector_top_score}});
+    for (const auto& t : r.tasks) {
+      if (t.module_usage.size() == 0) continue;
+      nlohmann::json entry{{"task", t.task}};
+      add_routing(entry, t);
+      routing.push_back(entry);
+    }
     if (!routing.empty()) record["last"]["routing"] = routing;
     std::printf("last step %lld (%s): mean score %.3f (%.1f s)\n", static_cast<long long>(final_policy->step),
                 run_files::kLastCheckpoint, r.mean_score, r.seconds);
