@@ -155,7 +155,11 @@ def read_routing(path, last, cell):
 
 
 def routing(cell):
-    """(per-state selector entropy, top score, usage distance between tasks (TV)), each the mean over the tasks."""
+    """(per-state selector entropy, top score, usage distance between tasks (TV)), each the mean over the tasks; None
+    where a task lacks its entropy or top score (a result.json from before evaluations recorded them), as the mean of
+    the others would be another quantity."""
+    if any(t.entropy is None or t.top_score is None for t in cell.tasks):
+        return None
     return (mean([t.entropy for t in cell.tasks]), mean([t.top_score for t in cell.tasks]),
             mean(usage_distances(cell)))
 
@@ -196,7 +200,7 @@ def rows_of(suite, files, base):
                          vs_base=[last_score[id(c)] - base_by_seed[c.seed] for c in with_last
                                   if c.seed in base_by_seed],
                          routing={c.seed: (routing(c), last_routing[id(c)]) for c in with_last
-                                  if id(c) in last_routing}))
+                                  if id(c) in last_routing and routing(c) is not None}))
     for row in rows:
         row["gain_p"] = paired_p(row["gain"])
         row["p"] = paired_p(row["vs_base"])
@@ -248,7 +252,8 @@ def routing_rows(rows, other=None, variant=None):
         if other is not None:
             theirs = {c.seed: routing(c) for c in other.cells
                       if (c.set, c.method, c.variant, c.demos, c.subsample) == (row["set"], row["method"], variant,
-                                                                              row["demos"], row["k"]) and c.has_usage}
+                                                                              row["demos"], row["k"])
+                      and c.has_usage and routing(c) is not None}
         paired = [s for s in seeds if s in theirs]
         found.append(dict(set=row["set"], method=row["method"], demos=row["demos"], k=row["k"], seeds=len(seeds),
                           best=[row["routing"][s][0] for s in seeds], last=[row["routing"][s][1] for s in seeds],

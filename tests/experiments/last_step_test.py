@@ -296,6 +296,29 @@ class ReportLastStepTest(unittest.TestCase):
                 with self.assertRaisesRegex(last_step.EvalFileError, f"{path}.*{re.escape(message)}"):
                     last_step.read_last(path, cells)
 
+    def test_a_cell_without_recorded_entropies_has_no_routing_row_entry(self):
+        """A result.json from before evaluations recorded the selector's entropy and top score: its cell is left out of
+        the routing table (neither a crash nor a mean over the tasks that have them), on either side of a pair."""
+        def task(name, usage, entropy, top):
+            return types.SimpleNamespace(task=name, usage=usage, entropy=entropy, top_score=top)
+        whole = [task("a", [0.9, 0.1], 0.3, 0.9), task("b", [0.2, 0.8], 0.4, 0.8)]
+        old = [task("a", [0.9, 0.1], None, None), task("b", [0.2, 0.8], 0.4, 0.8)]
+        self.assertIsNone(last_step.routing(types.SimpleNamespace(tasks=old)))
+        entropy, top, tv = last_step.routing(types.SimpleNamespace(tasks=whole))
+        self.assertAlmostEqual(entropy, 0.35)
+        self.assertAlmostEqual(top, 0.85)
+        self.assertAlmostEqual(tv, 0.35)  # each task 0.35 from the tasks' mean usage (0.55, 0.45)
+
+        def cell(seed, tasks):
+            return types.SimpleNamespace(set="mt10", method="maps", variant="gail_mt10", demos=1, subsample=1,
+                                         seed=seed, has_usage=True, tasks=tasks)
+        bc = (entropy, top, tv - 0.1)
+        rows = [dict(set="mt10", method="maps", demos=1, k=1, routing={0: (bc, bc), 1: (bc, bc)})]
+        found = last_step.routing_rows(rows, types.SimpleNamespace(cells=[cell(0, whole), cell(1, old)]), "gail_mt10")
+        self.assertEqual(len(found[0]["other"]), 1)
+        self.assertEqual(len(found[0]["vs_last"]), 1)
+        self.assertAlmostEqual(found[0]["vs_last"][0], 0.1)
+
     def test_bad_settings_are_refused_by_key(self):
         suite = copy.copy(last_step.load_suite(str(ROOT / "results" / "adversarial" / "bc-last")))  # not the cached one
         for key, value in [("last_step_base", ""), ("last_step_base", 3), ("last_step_against", ["..", ""]),
