@@ -257,14 +257,16 @@ class ReportLastStepTest(unittest.TestCase):
 
     def test_a_suite_without_evaluations_gets_no_page(self):
         suite = last_step.load_suite(str(ROOT / "results" / "adversarial"))
-        self.assertIsNone(self.report.write_last_step(suite, ROOT / "results" / "adversarial", pathlib.Path("/nowhere")))
+        self.assertIsNone(self.report.write_last_step(suite, ROOT / "results" / "adversarial",
+                                                      pathlib.Path("/nowhere")))
 
     def test_an_other_suite_that_cannot_be_read_is_an_error_naming_it(self):
         suite = copy.copy(last_step.load_suite(str(ROOT / "results" / "adversarial" / "bc-last")))
         suite.config = dict(suite.config, report={"last_step_base": "none", "last_step_against": ["../nowhere", "x"]})
         with self.assertRaisesRegex(last_step.SuiteError, "nowhere"):
             self.write("results/adversarial/bc-last", suite)
-        suite.config = dict(suite.config, report={"last_step_base": "none", "last_step_against": ["..", "gail_nothing"]})
+        suite.config = dict(suite.config,
+                            report={"last_step_base": "none", "last_step_against": ["..", "gail_nothing"]})
         with self.assertRaisesRegex(last_step.LastStepError, "no finished cells of variant 'gail_nothing'"):
             self.write("results/adversarial/bc-last", suite)
 
