@@ -244,7 +244,7 @@ class ReportLastStepTest(unittest.TestCase):
             return path.name, path.read_text()
 
     def test_the_committed_pages_are_the_reports_own(self):
-        for root in ("results/zoo-modern", "results/adversarial/bc-last"):
+        for root in ("results/zoo-modern", "results/adversarial/bc-last-cheetah", "results/adversarial/bc-last"):
             with self.subTest(root=root):
                 suite = last_step.load_suite(str(ROOT / root))
                 name, text = self.write(root, suite)
