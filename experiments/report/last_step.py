@@ -199,8 +199,8 @@ def rows_of(suite, files, base):
                                            if c.seed in base_by_seed],
                          vs_base=[last_score[id(c)] - base_by_seed[c.seed] for c in with_last
                                   if c.seed in base_by_seed],
-                         routing={c.seed: (routing(c), last_routing[id(c)]) for c in with_last
-                                  if id(c) in last_routing and routing(c) is not None}))
+                         routing={c.seed: (best, last_routing[id(c)]) for c in with_last if id(c) in last_routing
+                                  for best in [routing(c)] if best is not None}))
     for row in rows:
         row["gain_p"] = paired_p(row["gain"])
         row["p"] = paired_p(row["vs_base"])
@@ -250,10 +250,10 @@ def routing_rows(rows, other=None, variant=None):
         seeds = sorted(row["routing"])
         theirs = {}
         if other is not None:
-            theirs = {c.seed: routing(c) for c in other.cells
+            theirs = {c.seed: measured for c in other.cells
                       if (c.set, c.method, c.variant, c.demos, c.subsample) == (row["set"], row["method"], variant,
-                                                                              row["demos"], row["k"])
-                      and c.has_usage and routing(c) is not None}
+                                                                              row["demos"], row["k"]) and c.has_usage
+                      for measured in [routing(c)] if measured is not None}
         paired = [s for s in seeds if s in theirs]
         found.append(dict(set=row["set"], method=row["method"], demos=row["demos"], k=row["k"], seeds=len(seeds),
                           best=[row["routing"][s][0] for s in seeds], last=[row["routing"][s][1] for s in seeds],
